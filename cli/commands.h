@@ -1,0 +1,19 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Subcommands. Each registers its options on the CLI11 app and returns the
+// function that runs it; the function returns the process exit code.
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace cityatlas::cli {
+
+/// Exit codes (documented in README and --help).
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2 };
+
+using RunFn = std::function<int()>;
+
+RunFn addSynthCommand(CLI::App& app);
+
+}  // namespace cityatlas::cli

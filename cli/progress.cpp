@@ -1,0 +1,58 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "cli/progress.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cstdio>
+
+#include <fmt/format.h>
+
+namespace cityatlas::cli {
+
+Progress::Progress(bool enabled)
+    : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0), last_(std::chrono::steady_clock::now()) {}
+
+void Progress::update(const char* step, uint64_t done, uint64_t total) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const bool new_step = last_step_ != step;
+    const bool finished = done >= total;
+    // Terminals get 10 redraws a second; logs a line every 5 s, per new step and at the end of a step.
+    const auto interval = tty_ ? std::chrono::milliseconds(100) : std::chrono::milliseconds(5000);
+    if (!new_step && !finished && now - last_ < interval) return;
+    if (!new_step && finished && !tty_ && done == 0) return;
+    last_ = now;
+    last_step_ = step;
+    const std::string line = total > 1 ? fmt::format("{}: {}/{} ({:.0f} %)", step, done, total, 100.0 * done / total)
+                                       : fmt::format("{}...", step);
+    if (tty_) {
+        std::fprintf(stderr, "\r\033[K%s", line.c_str());
+        open_line_ = true;
+    } else {
+        std::fprintf(stderr, "%s\n", line.c_str());
+    }
+    std::fflush(stderr);
+}
+
+void Progress::finish() {
+    if (enabled_ && tty_ && open_line_) std::fprintf(stderr, "\r\033[K");
+    open_line_ = false;
+}
+
+uint64_t peakRssBytes() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return static_cast<uint64_t>(usage.ru_maxrss) * 1024;  // Linux reports KiB
+}
+
+std::string humanBytes(uint64_t bytes) {
+    if (bytes < 1000) return fmt::format("{} B", bytes);
+    const char* units[] = {"kB", "MB", "GB", "TB"};
+    double v = static_cast<double>(bytes);
+    int u = -1;
+    while (v >= 1000 && u < 3) v /= 1000, ++u;
+    return fmt::format("{:.1f} {}", v, units[u]);
+}
+
+}  // namespace cityatlas::cli

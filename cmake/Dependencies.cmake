@@ -1,0 +1,25 @@
+# Third-party dependencies, found the way ../shared/STACK.md verified on Debian 12.
+# Only what the stages built so far need is looked up here; later stages add theirs.
+
+find_package(PkgConfig REQUIRED)
+find_package(Threads REQUIRED)
+
+# OpenImageIO: Debian's config names /usr/include/opencv4, which does not exist
+# unless libopencv-dev happens to be installed; point the target at /usr/include.
+find_package(OpenImageIO CONFIG REQUIRED)
+set_target_properties(OpenImageIO::OpenImageIO PROPERTIES
+  INTERFACE_INCLUDE_DIRECTORIES "/usr/include"
+  INTERFACE_SYSTEM_INCLUDE_DIRECTORIES "")
+
+find_package(GDAL CONFIG REQUIRED)
+find_package(PROJ CONFIG REQUIRED)
+find_package(CGAL CONFIG REQUIRED)
+find_package(TBB CONFIG REQUIRED)
+find_package(nlohmann_json 3 CONFIG REQUIRED)
+find_package(CLI11 CONFIG REQUIRED)
+find_package(fmt CONFIG REQUIRED)
+
+if(CITYATLAS_BUILD_TESTS)
+  find_package(GTest CONFIG REQUIRED)
+  include(GoogleTest)
+endif()

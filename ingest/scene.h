@@ -1,0 +1,161 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// The Scene: what every reader (CityGML, attributed footprints, synthetic towns)
+/// produces and what the atlas stage consumes. A textured triangle soup.
+///
+/// Frame and units
+/// ---------------
+/// * Positions are double-precision metres in a LOCAL frame centred on
+///   `Georeference::origin_source`: x = east, y = north, z = up, and the
+///   point (0,0,0) is the origin. Keeping coordinates small and in double
+///   until a tile writes them relative to its own centre as float32 is what
+///   keeps millimetre precision at northings of 1e7 m and at ECEF magnitudes.
+/// * For a projected source CRS (UTM, Gauss-Krueger, ...), a local position is
+///   the source coordinate minus the origin: "grid east/north/up". The
+///   rotation and scale from that grid frame to the true tangent (ENU) frame
+///   at the origin and on to Earth-centred coordinates is carried by
+///   `Georeference::local_to_ecef` (a 4x4 column-major matrix, metres), filled
+///   by the georeferencing step when it runs; until then it is empty and the
+///   scene is only locally metric.
+/// * Texture coordinates are (u, v) with v = 0 at the BOTTOM of the image, as
+///   CityGML and OpenGL define them. They may lie far outside [0,1]: repeated
+///   textures (wrap mode) at repeat counts of 1000 and more are legal.
+/// * Areas are square metres, lengths metres, angles radians, unless a name
+///   says otherwise (`_px`, `_deg`).
+///
+/// Textures are REFERENCED here (path, size, channels, wrap), never decoded: the
+/// atlas stage reads pixels on demand through a bounded cache.
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace cityatlas {
+
+struct Vec2d {
+    double x = 0, y = 0;
+    friend bool operator==(const Vec2d&, const Vec2d&) = default;
+};
+
+struct Vec3d {
+    double x = 0, y = 0, z = 0;
+    friend bool operator==(const Vec3d&, const Vec3d&) = default;
+};
+
+inline Vec3d operator-(const Vec3d& a, const Vec3d& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec3d operator+(const Vec3d& a, const Vec3d& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline Vec3d operator*(double s, const Vec3d& a) { return {s * a.x, s * a.y, s * a.z}; }
+inline double dot(const Vec3d& a, const Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline Vec3d cross(const Vec3d& a, const Vec3d& b) {
+    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double length(const Vec3d& a);
+
+/// Axis-aligned box; empty while min > max.
+struct Box3d {
+    Vec3d min{1e300, 1e300, 1e300};
+    Vec3d max{-1e300, -1e300, -1e300};
+    bool empty() const { return min.x > max.x; }
+    void extend(const Vec3d& p);
+};
+
+/// What a surface is, as CityGML's thematic boundary surfaces say it (or as a
+/// reader infers it from the normal for LOD1 solids, which carry no semantics).
+enum class SurfaceSemantic : uint8_t {
+    Unclassified,
+    Wall,
+    Roof,
+    Ground,
+    Closure,
+    OuterFloor,
+    OuterCeiling,
+    Installation,
+};
+inline constexpr int kSurfaceSemanticCount = 8;
+std::string_view semanticName(SurfaceSemantic s);  ///< "wall", "roof", ...
+
+/// CityGML app:wrapMode values.
+enum class WrapMode : uint8_t { None, Wrap, Mirror, Clamp, Border };
+std::string_view wrapModeName(WrapMode w);  ///< "none", "wrap", ...
+
+/// A texture image by reference. Pixels are not loaded at ingest.
+struct TextureRef {
+    std::string path;        ///< absolute, or relative to the current directory
+    int width_px = 0;
+    int height_px = 0;
+    int channels = 0;        ///< 3 = RGB, 4 = RGBA (alpha is meaningful)
+    WrapMode wrap = WrapMode::Wrap;
+};
+
+/// Colour of an untextured surface (app:X3DMaterial): linear RGB in [0,1].
+struct Material {
+    std::array<float, 3> diffuse{0.8f, 0.8f, 0.8f};
+    float transparency = 0.0f;  ///< 0 = opaque, as in X3D
+    friend bool operator==(const Material&, const Material&) = default;
+};
+
+/// A building or building part, with its attributes.
+struct Feature {
+    std::string gml_id;
+    std::string name;
+    std::string source_file;
+    int32_t parent = -1;  ///< index of the parent feature (BuildingPart -> Building), or -1
+    std::optional<double> measured_height_m;
+    std::string roof_type;
+    std::string function;
+    std::map<std::string, std::string> attributes;  ///< generic attributes, as text
+};
+
+/// One triangle with everything the atlas and tile stages need per triangle.
+/// Corners are counter-clockwise seen from the side the surface faces.
+struct Triangle {
+    std::array<Vec3d, 3> position_local;  ///< metres, local frame (see file comment)
+    std::array<Vec2d, 3> uv;              ///< texture coordinates; zero when untextured
+    int32_t texture = -1;                 ///< index into Scene::textures, or -1
+    int32_t material = -1;                ///< index into Scene::materials (used when texture < 0), or -1
+    uint32_t feature = 0;                 ///< index into Scene::features
+    SurfaceSemantic semantic = SurfaceSemantic::Unclassified;
+};
+
+/// Where the local frame sits on Earth.
+struct Georeference {
+    std::string source_crs;   ///< e.g. "EPSG:25832"; compound CRS as "EPSG:25832+7837"
+    Vec3d origin_source;      ///< origin of the local frame, in source CRS units
+    /// Local frame -> ECEF (EPSG:4978), 4x4 column-major, metres. Empty until
+    /// the georeferencing step has run.
+    std::optional<std::array<double, 16>> local_to_ecef;
+};
+
+struct Scene {
+    Georeference georef;
+    std::vector<Triangle> triangles;
+    std::vector<TextureRef> textures;
+    std::vector<Material> materials;
+    std::vector<Feature> features;
+
+    /// Adds a material unless an equal one exists; returns its index.
+    int32_t internMaterial(const Material& m);
+};
+
+/// Summary figures of a scene, computed from the triangles (used by reports,
+/// the CLI and tests).
+struct SceneStats {
+    size_t triangles = 0;
+    size_t textured_triangles = 0;
+    size_t features = 0;
+    size_t textures = 0;
+    std::array<size_t, kSurfaceSemanticCount> triangles_by_semantic{};
+    std::array<double, kSurfaceSemanticCount> area_by_semantic_m2{};
+    Box3d bounds_local;
+};
+SceneStats computeStats(const Scene& scene);
+
+/// Area of a triangle in square metres.
+double triangleArea(const std::array<Vec3d, 3>& p);
+
+}  // namespace cityatlas

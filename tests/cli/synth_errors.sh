@@ -1,0 +1,48 @@
+# Bad options and unusable output locations: one clear line, the documented
+# exit code, and never a half-written output folder.
+source "$(dirname "$0")/lib.sh" "$@"
+
+expect() {  # expect CODE PATTERN -- ARGS...
+  local code="$1" pattern="$2"; shift 3
+  set +e
+  "$CITYATLAS" "$@" > out.txt 2> err.txt
+  local rc=$?
+  set -e
+  [ $rc -eq "$code" ] || { cat err.txt >&2; fail "'$*': exit $rc, expected $code"; }
+  grep -qi -- "$pattern" err.txt || { cat err.txt >&2; fail "'$*': stderr lacks '$pattern'"; }
+  echo "ok: '$*' -> exit $rc: $(head -1 err.txt)"
+}
+
+expect 2 "not a projected CRS" -- synth --crs 4326 -o a
+expect 2 "not a CRS known" -- synth --crs 999999 -o a
+expect 2 "buildings" -- synth --buildings 0 -o a
+expect 2 "lod" -- synth --lod 3 -o a
+expect 2 "give one" -- synth --extreme --origin 1,2 -o a
+expect 2 "output" -- synth
+expect 2 "subcommand" -- frobnicate
+for d in a; do [ ! -e "$d" ] || fail "a rejected command created $d"; done
+echo "ok: rejected commands created nothing"
+
+mkdir keep && echo precious > keep/file
+expect 1 "already exists" -- synth --buildings 2 --texture-size 16 -q -o keep
+check_eq "existing folder untouched" "precious" "$(cat keep/file)"
+"$CITYATLAS" synth --buildings 2 --texture-size 16 -q --overwrite -o keep > /dev/null
+[ -f keep/truth.json ] && [ ! -e keep/file ] || fail "--overwrite did not replace the folder"
+echo "ok: --overwrite replaces the folder"
+
+# A place that cannot be written: a path under a regular file.
+echo x > plainfile
+expect 1 "plainfile" -- synth --buildings 2 --texture-size 16 -q -o plainfile/town
+# Unwritable parent (skip when running as a user who can write anywhere, e.g. root).
+mkdir ro && chmod 500 ro
+if [ ! -w ro ]; then
+  expect 1 "ro/town" -- synth --buildings 2 --texture-size 16 -q -o ro/town
+fi
+chmod 700 ro
+ls -A ro plainfile 2>/dev/null | grep -q partial && fail "a .partial folder was left behind"
+echo "ok: no half-written folders"
+
+"$CITYATLAS" --help | grep -q synth || fail "--help does not list synth"
+"$CITYATLAS" synth --help | grep -q -- "--extreme" || fail "synth --help lacks --extreme"
+"$CITYATLAS" --version | grep -q "^cityatlas [0-9]" || fail "--version"
+echo "ok: --help and --version"
