@@ -20,10 +20,11 @@ void Progress::update(const char* step, uint64_t done, uint64_t total) {
     const bool finished = done >= total;
     // Terminals get 10 redraws a second; logs a line every 5 s, per new step and at the end of a step.
     const auto interval = tty_ ? std::chrono::milliseconds(100) : std::chrono::milliseconds(5000);
+    if (!new_step && done == last_done_) return;  // nothing new to say
     if (!new_step && !finished && now - last_ < interval) return;
-    if (!new_step && finished && !tty_ && done == 0) return;
     last_ = now;
     last_step_ = step;
+    last_done_ = done;
     const std::string line = total > 1 ? fmt::format("{}: {}/{} ({:.0f} %)", step, done, total, 100.0 * done / total)
                                        : fmt::format("{}...", step);
     if (tty_) {

@@ -21,6 +21,7 @@ private:
     bool tty_;
     bool open_line_ = false;
     std::string last_step_;
+    uint64_t last_done_ = 0;
     std::chrono::steady_clock::time_point last_;
 };
 
