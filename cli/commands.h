@@ -15,5 +15,6 @@ enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2 };
 using RunFn = std::function<int()>;
 
 RunFn addSynthCommand(CLI::App& app);
+RunFn addIngestCommand(CLI::App& app);
 
 }  // namespace cityatlas::cli

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
     app.fallthrough(false);
 
     RunFn run_synth = addSynthCommand(app);
+    RunFn run_ingest = addIngestCommand(app);
 
     try {
         app.parse(argc, argv);
@@ -28,6 +29,7 @@ int main(int argc, char** argv) {
     try {
         for (CLI::App* sub : app.get_subcommands()) {
             if (sub->get_name() == "synth") return run_synth();
+            if (sub->get_name() == "ingest") return run_ingest();
         }
     } catch (const std::exception& e) {
         // Library code reports expected failures as Status; reaching this is

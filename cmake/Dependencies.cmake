@@ -18,6 +18,10 @@ find_package(TBB CONFIG REQUIRED)
 find_package(nlohmann_json 3 CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(fmt CONFIG REQUIRED)
+find_package(LibXml2 REQUIRED)
+# GeographicLib ships a Find module, not a config, off CMake's default path.
+list(APPEND CMAKE_MODULE_PATH /usr/share/cmake/geographiclib)
+find_package(GeographicLib REQUIRED)
 
 if(CITYATLAS_BUILD_TESTS)
   find_package(GTest CONFIG REQUIRED)

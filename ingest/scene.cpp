@@ -49,34 +49,32 @@ double triangleArea(const std::array<Vec3d, 3>& p) {
     return 0.5 * length(cross(p[1] - p[0], p[2] - p[0]));
 }
 
-namespace {
 // Neumaier summation: totals over millions of triangles stay within a few ulps,
 // which the 1e-9 relative area checks against generator truth rely on.
-struct CompensatedSum {
-    double sum = 0, correction = 0;
-    void add(double x) {
-        double t = sum + x;
-        correction += std::abs(sum) >= std::abs(x) ? (sum - t) + x : (x - t) + sum;
-        sum = t;
-    }
-    double value() const { return sum + correction; }
-};
-}  // namespace
+void SceneStatsAccumulator::add(const Triangle& t) {
+    const auto k = static_cast<size_t>(t.semantic);
+    stats_.triangles++;
+    stats_.triangles_by_semantic[k]++;
+    const double x = triangleArea(t.position_local);
+    const double sum = sum_[k] + x;
+    correction_[k] += std::abs(sum_[k]) >= std::abs(x) ? (sum_[k] - sum) + x : (x - sum) + sum_[k];
+    sum_[k] = sum;
+    if (t.texture >= 0) stats_.textured_triangles++;
+    for (const Vec3d& p : t.position_local) stats_.bounds_local.extend(p);
+}
+
+SceneStats SceneStatsAccumulator::finish() const {
+    SceneStats s = stats_;
+    for (size_t k = 0; k < sum_.size(); ++k) s.area_by_semantic_m2[k] = sum_[k] + correction_[k];
+    return s;
+}
 
 SceneStats computeStats(const Scene& scene) {
-    SceneStats stats;
-    stats.triangles = scene.triangles.size();
+    SceneStatsAccumulator acc;
+    for (const Triangle& t : scene.triangles) acc.add(t);
+    SceneStats stats = acc.finish();
     stats.features = scene.features.size();
     stats.textures = scene.textures.size();
-    std::array<CompensatedSum, kSurfaceSemanticCount> area;
-    for (const Triangle& t : scene.triangles) {
-        auto k = static_cast<size_t>(t.semantic);
-        stats.triangles_by_semantic[k]++;
-        area[k].add(triangleArea(t.position_local));
-        if (t.texture >= 0) stats.textured_triangles++;
-        for (const Vec3d& p : t.position_local) stats.bounds_local.extend(p);
-    }
-    for (size_t k = 0; k < area.size(); ++k) stats.area_by_semantic_m2[k] = area[k].value();
     return stats;
 }
 

@@ -155,6 +155,18 @@ struct SceneStats {
 };
 SceneStats computeStats(const Scene& scene);
 
+/// Builds SceneStats one triangle at a time (for streaming ingests that never
+/// hold the whole scene).
+class SceneStatsAccumulator {
+public:
+    void add(const Triangle& t);
+    SceneStats finish() const;  ///< features and textures are left for the caller
+
+private:
+    SceneStats stats_;
+    std::array<double, kSurfaceSemanticCount> sum_{}, correction_{};
+};
+
 /// Area of a triangle in square metres.
 double triangleArea(const std::array<Vec3d, 3>& p);
 

@@ -19,7 +19,12 @@ struct FaceInfo {
     int nesting_level = -1;  // -1: not yet visited
     bool inside() const { return nesting_level % 2 == 1; }
 };
-using VertexBase = CGAL::Triangulation_vertex_base_with_info_2<uint32_t, Kernel>;
+// Vertices CGAL creates itself (at constraint crossings) keep kAdded.
+constexpr uint32_t kAdded = UINT32_MAX;
+struct VertexInfo {
+    uint32_t index = kAdded;
+};
+using VertexBase = CGAL::Triangulation_vertex_base_with_info_2<VertexInfo, Kernel>;
 using FaceBaseInfo = CGAL::Triangulation_face_base_with_info_2<FaceInfo, Kernel>;
 using FaceBase = CGAL::Constrained_triangulation_face_base_2<Kernel, FaceBaseInfo>;
 using Tds = CGAL::Triangulation_data_structure_2<VertexBase, FaceBase>;
@@ -123,7 +128,8 @@ PolygonTriangulation triangulatePolygon(const PolygonRings& polygon) {
             const size_t before = cdt.number_of_vertices();
             Cdt::Vertex_handle v = cdt.insert(Kernel::Point_2(dot(d, e1), dot(d, e2)));
             // A point that repeats an earlier one (in 2D) keeps the first index.
-            if (cdt.number_of_vertices() > before) v->info() = index;
+            if (cdt.number_of_vertices() > before) v->info().index = index;
+            else if (handles.empty() || handles.back() != v) result.repeated_vertices++;
             handles.push_back(v);
             ++index;
         }
@@ -132,10 +138,61 @@ PolygonTriangulation triangulatePolygon(const PolygonRings& polygon) {
             if (a != b) cdt.insert_constraint(a, b);
         }
     }
+    // The ring closing onto its first point is not a repeat.
+    for (std::span<const Vec3d> ring : polygon.rings)
+        if (ring.size() > 1 && ring.front() == ring.back() && result.repeated_vertices > 0) result.repeated_vertices--;
+
+    // Points CGAL added at crossings: lift onto the plane, and fit an affine
+    // (u, v) = a + b x + c y to the input's texture coordinates for them.
+    const double plane_offset = dot(centroid, normal);
+    std::array<double, 3> fit_u{}, fit_v{};
+    bool have_fit = false;
+    auto fitAffine = [&]() {
+        // Normal equations of the least-squares fit over all input vertices.
+        double m[3][3] = {}, ru[3] = {}, rv[3] = {};
+        for (size_t r = 0; r < polygon.uv.size() && r < polygon.rings.size(); ++r)
+            for (size_t i = 0; i < polygon.rings[r].size() && i < polygon.uv[r].size(); ++i) {
+                const Vec3d d = polygon.rings[r][i] - origin;
+                const double row[3] = {1.0, dot(d, e1), dot(d, e2)};
+                for (int a = 0; a < 3; ++a) {
+                    for (int b = 0; b < 3; ++b) m[a][b] += row[a] * row[b];
+                    ru[a] += row[a] * polygon.uv[r][i].x;
+                    rv[a] += row[a] * polygon.uv[r][i].y;
+                }
+            }
+        // Cramer's rule on the 3x3 system.
+        auto det3 = [](double a[3][3]) {
+            return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                   a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+        };
+        const double det = det3(m);
+        if (!(std::abs(det) > 1e-12)) return false;
+        for (int k = 0; k < 3; ++k) {
+            double mu[3][3], mv[3][3];
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b) mu[a][b] = mv[a][b] = m[a][b];
+            for (int a = 0; a < 3; ++a) mu[a][k] = ru[a], mv[a][k] = rv[a];
+            fit_u[k] = det3(mu) / det;
+            fit_v[k] = det3(mv) / det;
+        }
+        return true;
+    };
+    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
+        if (v->info().index != kAdded) continue;
+        const double x = v->point().x(), y = v->point().y();
+        v->info().index = index + static_cast<uint32_t>(result.added_points.size());
+        result.added_points.push_back(origin + x * e1 + y * e2 + plane_offset * normal);
+        if (!polygon.uv.empty() && !have_fit) have_fit = fitAffine();
+        result.added_uv.push_back(have_fit ? Vec2d{fit_u[0] + fit_u[1] * x + fit_u[2] * y,
+                                                   fit_v[0] + fit_v[1] * x + fit_v[2] * y}
+                                           : Vec2d{});
+    }
+
     markNestingLevels(cdt);
     for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
         if (!f->info().inside()) continue;
-        result.triangles.push_back({f->vertex(0)->info(), f->vertex(1)->info(), f->vertex(2)->info()});
+        result.triangles.push_back(
+            {f->vertex(0)->info().index, f->vertex(1)->info().index, f->vertex(2)->info().index});
     }
     if (result.triangles.empty()) result.degenerate = true;
     return result;

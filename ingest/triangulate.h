@@ -24,11 +24,23 @@ namespace cityatlas {
 /// from the front, right-hand rule). Hole orientation does not matter.
 struct PolygonRings {
     std::vector<std::span<const Vec3d>> rings;
+    /// Optional texture coordinates per ring (same sizes as `rings`), only
+    /// used to give points added where rings cross a texture coordinate.
+    std::vector<std::span<const Vec2d>> uv;
 };
 
 struct PolygonTriangulation {
-    /// Corner indices into the rings concatenated in order (ring 0 first).
+    /// Corner indices into the rings concatenated in order (ring 0 first);
+    /// indices >= the input vertex count refer to `added_points`.
     std::vector<std::array<uint32_t, 3>> triangles;
+    /// Points CGAL inserted where constraint edges cross (self-intersecting
+    /// rings), lifted back onto the plane, with texture coordinates from an
+    /// affine fit of the input's (zero when no uv was given).
+    std::vector<Vec3d> added_points;
+    std::vector<Vec2d> added_uv;
+    /// Input vertices that coincide with an earlier, non-adjacent vertex
+    /// (a ring touching itself or a hole touching the exterior).
+    uint32_t repeated_vertices = 0;
     Vec3d unit_normal;                 ///< Newell normal of the exterior ring
     double max_plane_deviation_m = 0;  ///< largest distance of a vertex from the fitted plane
     bool degenerate = false;           ///< zero area / collinear: no triangles produced

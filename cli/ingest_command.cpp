@@ -1,0 +1,209 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// `cityatlas ingest`: CityGML files -> Scene, with a debug glTF view and a
+// JSON report.
+#include <glob.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "cli/commands.h"
+#include "cli/progress.h"
+#include "ingest/citygml/citygml_reader.h"
+#include "ingest/ingest_report.h"
+#include "ingest/scene_sink.h"
+#if __has_include("ingest/gltf_debug.h")
+#include "ingest/gltf_debug.h"
+#define CITYATLAS_HAVE_GLB 1
+#endif
+
+namespace cityatlas::cli {
+namespace fs = std::filesystem;
+namespace {
+
+struct IngestCliOptions {
+    std::vector<std::string> inputs;
+    std::string glb;
+    std::string report;
+    std::string lod = "best";
+    std::string theme;
+    std::string crs;
+    bool quiet = false;
+};
+
+bool isCityGmlName(const fs::path& p) {
+    std::string ext = p.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    return ext == ".gml" || ext == ".xml" || ext == ".citygml";
+}
+
+// Files, folders (searched recursively for .gml/.xml/.citygml) and glob
+// patterns (for shells that pass them through), in a stable order.
+Status expandInputs(const std::vector<std::string>& args, std::vector<fs::path>* files) {
+    for (const std::string& arg : args) {
+        std::error_code ec;
+        if (fs::is_directory(arg, ec)) {
+            std::vector<fs::path> found;
+            for (auto it = fs::recursive_directory_iterator(arg, ec); !ec && it != fs::recursive_directory_iterator();
+                 it.increment(ec))
+                if (it->is_regular_file() && isCityGmlName(it->path())) found.push_back(it->path());
+            if (ec) return Status::Fail(fmt::format("io_error: {}: {}", arg, ec.message()));
+            if (found.empty()) return Status::Fail(fmt::format("io_error: {}: no .gml/.xml/.citygml files in this folder", arg));
+            std::sort(found.begin(), found.end());
+            files->insert(files->end(), found.begin(), found.end());
+        } else if (fs::exists(arg, ec)) {
+            files->push_back(arg);
+        } else if (arg.find_first_of("*?[") != std::string::npos) {
+            glob_t g{};
+            if (glob(arg.c_str(), 0, nullptr, &g) != 0 || g.gl_pathc == 0) {
+                globfree(&g);
+                return Status::Fail(fmt::format("io_error: {}: no file matches this pattern", arg));
+            }
+            for (size_t i = 0; i < g.gl_pathc; ++i) files->push_back(g.gl_pathv[i]);
+            globfree(&g);
+        } else {
+            return Status::Fail(fmt::format("io_error: {}: no such file or folder", arg));
+        }
+    }
+    return Status::Ok();
+}
+
+Status writeTextAtomically(const fs::path& path, const std::string& text) {
+    const fs::path tmp = path.string() + ".partial";
+    {
+        std::ofstream os(tmp, std::ios::binary);
+        os << text;
+        if (!os) {
+            std::error_code ec;
+            fs::remove(tmp, ec);
+            return Status::Fail(fmt::format("io_error: {}: cannot write", path.string()));
+        }
+    }
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    if (ec) return Status::Fail(fmt::format("io_error: {}: {}", path.string(), ec.message()));
+    return Status::Ok();
+}
+
+int fail(Progress& progress, const Status& s) {
+    progress.finish();
+    std::fprintf(stderr, "cityatlas ingest: error: %s\n", s.error.c_str());
+    return kExitFailure;
+}
+
+int runIngest(const IngestCliOptions& opt) {
+    Progress progress(!opt.quiet);
+    std::vector<fs::path> files;
+    if (Status s = expandInputs(opt.inputs, &files); !s.ok()) return fail(progress, s);
+#ifndef CITYATLAS_HAVE_GLB
+    if (!opt.glb.empty()) {
+        std::fprintf(stderr, "cityatlas ingest: this build cannot write glTF\n");
+        return kExitUsage;
+    }
+#endif
+
+    IngestState state;
+    state.options.lod = opt.lod == "best" ? 0 : std::stoi(opt.lod);
+    state.options.theme = opt.theme;
+    state.options.fallback_crs = opt.crs;
+    // The debug view needs every triangle; a report alone needs only counts,
+    // so memory stays bounded for inputs of any size.
+    SceneCollector collector;
+    SceneStatsSink stats_sink;
+    state.sink = opt.glb.empty() ? static_cast<SceneSink*>(&stats_sink) : &collector;
+    size_t file_index = 0;
+    state.progress = [&](const char* pass, uint64_t done, uint64_t total) {
+        const std::string step = files.size() > 1 ? fmt::format("{} {}/{} ({})", pass, file_index + 1, files.size(),
+                                                                humanBytes(total))
+                                                  : fmt::format("{} ({})", pass, humanBytes(total));
+        progress.update(step.c_str(), done, total);
+    };
+
+    std::vector<StepTiming> steps;
+    auto t0 = std::chrono::steady_clock::now();
+    for (file_index = 0; file_index < files.size(); ++file_index)
+        if (Status s = readCityGml(files[file_index], state); !s.ok()) return fail(progress, s);
+    steps.push_back({"read", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                     static_cast<double>(peakRssBytes()) / 1e6});
+
+    SceneStats stats;
+    size_t features = 0, textures = 0, materials = 0;
+    if (opt.glb.empty()) {
+        stats = stats_sink.stats.finish();
+        features = stats_sink.features, textures = stats_sink.textures.size(), materials = stats_sink.materials.size();
+    } else {
+        stats = computeStats(collector.scene);
+        features = collector.scene.features.size(), textures = collector.scene.textures.size();
+        materials = collector.scene.materials.size();
+#ifdef CITYATLAS_HAVE_GLB
+        if (!opt.quiet) progress.update("writing glb", 0, 1);
+        t0 = std::chrono::steady_clock::now();
+        if (Status s = writeDebugGlb(collector.scene, opt.glb); !s.ok())
+            return fail(progress, Status::Fail("io_error: " + s.error));
+        steps.push_back({"write_glb", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                         static_cast<double>(peakRssBytes()) / 1e6});
+#endif
+    }
+    progress.finish();
+    if (!opt.report.empty()) {
+        const auto report = makeIngestReport(state, stats, features, textures, materials, steps, opt.glb);
+        if (Status s = writeTextAtomically(opt.report, report.dump(2) + "\n"); !s.ok()) return fail(progress, s);
+    }
+
+    uint64_t buildings = 0;
+    for (const auto& f : state.files) buildings += f.buildings;
+    std::printf("Read %zu file(s): %llu buildings, %zu features, %zu triangles (%zu textured), %zu textures, %zu materials\n",
+                files.size(), static_cast<unsigned long long>(buildings), features, stats.triangles,
+                stats.textured_triangles, textures, materials);
+    for (int k = 0; k < kSurfaceSemanticCount; ++k)
+        if (stats.triangles_by_semantic[k])
+            std::printf("  %-12s %9zu triangles %14.2f m2\n",
+                        std::string(semanticName(static_cast<SurfaceSemantic>(k))).c_str(),
+                        stats.triangles_by_semantic[k], stats.area_by_semantic_m2[k]);
+    for (const auto& [kind, n] : state.counts.objects_skipped)
+        std::printf("  skipped %llu %s\n", static_cast<unsigned long long>(n), kind.c_str());
+    if (state.diagnostics.total()) {
+        std::printf("Warnings: %llu\n", static_cast<unsigned long long>(state.diagnostics.total()));
+        for (const auto& [code, e] : state.diagnostics.entries()) {
+            const auto& ex = e.examples.front();
+            std::printf("  %-24s %6llu  e.g. %s%s%s%s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
+                        ex.file.c_str(), ex.line ? fmt::format(":{}", ex.line).c_str() : "",
+                        ex.gml_id.empty() ? "" : " ", ex.gml_id.c_str(), ex.detail.c_str());
+        }
+    }
+    if (!opt.glb.empty()) std::printf("Debug view: %s\n", opt.glb.c_str());
+    if (!opt.report.empty()) std::printf("Report: %s\n", opt.report.c_str());
+    std::printf("Time %.2f s, peak memory %s\n", steps.front().seconds, humanBytes(peakRssBytes()).c_str());
+    return kExitOk;
+}
+
+}  // namespace
+
+RunFn addIngestCommand(CLI::App& app) {
+    auto opt = std::make_shared<IngestCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "ingest",
+        "Read CityGML 1.0/2.0/3.0 buildings (LOD1/LOD2, with appearances) into a Scene: a textured triangle soup\n"
+        "in local metres. Writes a plain glTF view of it and a JSON report of what was read, skipped and repaired.\n"
+        "Streaming: with --report only, memory stays at about one city object whatever the file size.");
+    cmd->add_option("inputs", opt->inputs, "CityGML files, folders (searched for .gml/.xml/.citygml) or glob patterns")
+        ->required();
+    cmd->add_option("-o,--output", opt->glb, "Debug view as glTF binary (.glb), textures referenced by relative URI");
+    cmd->add_option("--report", opt->report, "Write a JSON report (schema: schemas/ingest_report.schema.json)");
+    cmd->add_option("--lod", opt->lod, "Level of detail per building: best (highest <= 2 present), 1 or 2")
+        ->default_val("best")
+        ->check(CLI::IsMember({"best", "1", "2"}));
+    cmd->add_option("--theme", opt->theme, "Appearance theme to use (default: the first theme with a texture)");
+    cmd->add_option("--crs", opt->crs, "CRS for files that declare none, e.g. EPSG:25832 or urn:ogc:def:crs:EPSG::25832");
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+    return [opt]() { return runIngest(*opt); };
+}
+
+}  // namespace cityatlas::cli

@@ -1,0 +1,942 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "ingest/citygml/citygml_reader.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <optional>
+#include <unordered_map>
+#include <unordered_set>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+
+#include "ingest/citygml/appearance.h"
+#include "ingest/citygml/xml_input.h"
+#include "ingest/triangulate.h"
+
+namespace cityatlas {
+namespace fs = std::filesystem;
+using namespace citygml;
+
+namespace {
+
+// Named tolerances (local metres).
+constexpr double kDuplicatePointTolerance_m = 1e-4;  // consecutive vertices closer than this are one
+constexpr double kNonPlanarTolerance_m = 0.01;        // report polygons bent more than 1 cm
+
+// ---------------------------------------------------------------------------
+// Raw geometry as read, before cleanup and triangulation.
+
+struct RawRing {
+    std::string id;
+    std::vector<Vec3d> points;  // source coordinates in file axis order, closing point as written
+    int64_t line = 0;
+};
+
+struct RawPolygon {
+    std::string id;                       // may be empty
+    std::vector<std::string> surface_ids; // enclosing surfaces with ids, innermost first (appearance targets)
+    std::vector<RawRing> rings;           // exterior first
+    bool reversed = false;                // from OrientableSurface orientation="-"
+    SurfaceSemantic semantic = SurfaceSemantic::Unclassified;
+    std::string solid;                    // id of the solid it bounds, if any
+    int64_t line = 0;
+};
+
+std::string versionOf(const std::string& ns) {
+    if (ns.find("/3.0") != std::string::npos) return "3.0";
+    if (ns.find("/2.0") != std::string::npos) return "2.0";
+    if (ns.find("/1.0") != std::string::npos || ns.find("/1/0") != std::string::npos) return "1.0";
+    return "";
+}
+
+bool isCityGmlNamespace(const std::string& ns) {
+    return ns.find("opengis.net/citygml") != std::string::npos || ns.find("citygml.org/citygml") != std::string::npos;
+}
+
+SurfaceSemantic semanticOf(const char* name) {
+    static const std::pair<const char*, SurfaceSemantic> table[] = {
+        {"WallSurface", SurfaceSemantic::Wall},        {"RoofSurface", SurfaceSemantic::Roof},
+        {"GroundSurface", SurfaceSemantic::Ground},    {"ClosureSurface", SurfaceSemantic::Closure},
+        {"OuterFloorSurface", SurfaceSemantic::OuterFloor}, {"OuterCeilingSurface", SurfaceSemantic::OuterCeiling},
+    };
+    for (const auto& [n, s] : table)
+        if (std::strcmp(name, n) == 0) return s;
+    return SurfaceSemantic::Unclassified;
+}
+
+bool startsWith(const char* s, const char* prefix) { return std::strncmp(s, prefix, std::strlen(prefix)) == 0; }
+
+// Whitespace-separated doubles. Returns false at a token that is not a
+// number (parse error); NaN/inf parse and are caught by the caller.
+bool parseDoubles(const char* p, const char* end, std::vector<double>* out) {
+    while (p < end) {
+        while (p < end && std::isspace(static_cast<unsigned char>(*p))) ++p;
+        if (p == end) break;
+        double v = 0;
+        auto [next, ec] = std::from_chars(p, end, v);
+        if (ec != std::errc() || (next < end && !std::isspace(static_cast<unsigned char>(*next)))) return false;
+        out->push_back(v);
+        p = next;
+    }
+    return true;
+}
+
+// srsDimension declared on the element or its ancestors, else 0.
+int declaredDimension(xmlNodePtr n) {
+    for (; n && n->type == XML_ELEMENT_NODE; n = n->parent) {
+        const std::string d = attribute(n, "srsDimension");
+        if (!d.empty()) return std::atoi(d.c_str());
+    }
+    return 0;
+}
+
+struct ImageInfo {
+    int32_t scene_index = -1;  // -1: failed
+};
+
+// ---------------------------------------------------------------------------
+
+class FileReader {
+public:
+    FileReader(const fs::path& file, IngestState& state) : file_(file), state_(state) {}
+
+    Status run() {
+        if (Status s = indexPass(); !s.ok()) return s;
+        if (Status s = setUpFrame(); !s.ok()) return s;
+        if (Status s = chooseTheme(); !s.ok()) return s;
+        if (!foreign_needed_.empty())
+            if (Status s = foreignPass(); !s.ok()) return s;
+        return readPass();
+    }
+
+private:
+    const fs::path file_;
+    IngestState& state_;
+    InputFileSummary summary_;
+    int file_dimension_ = 0;              // srsDimension from the root envelope
+    std::string srs_name_;
+    std::optional<Vec3d> first_point_;    // origin fallback when there is no envelope
+    bool lat_lon_order_ = false;          // geographic file written as lat, lon
+    SourceCrs crs_;
+    std::unique_ptr<LocalFrame::Mapper> mapper_;
+
+    ThemeCatalogue theme_catalogue_;
+    AppearanceStore global_appearances_;
+    std::string theme_;
+
+    // Cross-object xlinks: (id hash, member) pairs from the index pass.
+    std::vector<std::pair<uint64_t, uint32_t>> id_owner_, href_user_;
+    std::unordered_set<uint64_t> foreign_needed_;
+    std::unordered_map<std::string, std::vector<RawPolygon>> foreign_geometry_;
+
+    // Per member during the read pass.
+    std::unordered_map<std::string, xmlNodePtr> ids_;
+    AppearanceStore local_appearances_;
+    std::unordered_map<std::string, ImageInfo> image_cache_;  // by resolved path
+
+    void warn(const char* code, int64_t line, const std::string& id, std::string detail) {
+        state_.diagnostics.warn(code, {file_.string(), line, id, std::move(detail)});
+    }
+
+    void progress(const char* pass, const XmlInput& in) {
+        if (state_.progress) state_.progress(pass, in.bytesConsumed(), in.fileSize());
+    }
+
+    // ---- pass 1 ---------------------------------------------------------------
+
+    Status openRoot(XmlInput& in) {
+        if (Status s = in.open(file_); !s.ok()) return s;
+        std::string name, ns;
+        if (Status s = in.rootElement(&name, &ns); !s.ok()) return s;
+        if (name != "CityModel" || !isCityGmlNamespace(ns))
+            return Status::Fail(fmt::format("{}: {}: the root element is <{}>{}, not a CityGML CityModel",
+                                            fatal::kNotCityGml, file_.string(), name,
+                                            ns.empty() ? "" : " in namespace " + ns));
+        summary_.citygml_version = versionOf(ns);
+        return Status::Ok();
+    }
+
+    void readEnvelope(xmlNodePtr bounded_by) {
+        xmlNodePtr env = child(bounded_by, "Envelope");
+        if (!env) return;
+        if (srs_name_.empty()) srs_name_ = attribute(env, "srsName");
+        xmlNodePtr lo = child(env, "lowerCorner"), hi = child(env, "upperCorner");
+        if (!file_dimension_) file_dimension_ = declaredDimension(lo ? lo : env);
+        std::vector<double> a, b;
+        const std::string ta = lo ? text(lo) : "", tb = hi ? text(hi) : "";
+        if (lo && hi && parseDoubles(ta.data(), ta.data() + ta.size(), &a) &&
+            parseDoubles(tb.data(), tb.data() + tb.size(), &b) && a.size() >= 2 && a.size() == b.size()) {
+            summary_.has_envelope = true;
+            summary_.envelope_min = {a[0], a[1], a.size() > 2 ? a[2] : 0.0};
+            summary_.envelope_max = {b[0], b[1], b.size() > 2 ? b[2] : 0.0};
+        }
+    }
+
+    static bool isGeometryElement(const char* n) {
+        static const char* names[] = {"Polygon", "CompositeSurface", "MultiSurface", "Solid", "OrientableSurface",
+                                      "Surface", "TriangulatedSurface", "Tin", "Triangle", "Shell", "MultiSolid",
+                                      "CompositeSolid"};
+        for (const char* g : names)
+            if (std::strcmp(n, g) == 0) return true;
+        return false;
+    }
+
+    void indexMember(xmlNodePtr node, uint32_t member) {
+        for (xmlNodePtr c = firstChild(node); c; c = nextSibling(c)) {
+            const char* n = localName(c);
+            if (std::strcmp(n, "appearance") == 0) {
+                theme_catalogue_.note(firstChild(c) ? firstChild(c) : c);
+                continue;
+            }
+            if (srs_name_.empty()) {
+                const std::string srs = attribute(c, "srsName");
+                if (!srs.empty()) srs_name_ = srs;
+            }
+            if (!first_point_ && (std::strcmp(n, "posList") == 0 || std::strcmp(n, "pos") == 0)) {
+                std::vector<double> v;
+                const std::string t = text(c);
+                if (parseDoubles(t.data(), t.data() + t.size(), &v) && v.size() >= 2)
+                    first_point_ = Vec3d{v[0], v[1], v.size() >= 3 && declaredDimension(c) != 2 ? v[2] : 0.0};
+            }
+            if (isGeometryElement(n)) {
+                const std::string id = gmlId(c);
+                if (!id.empty()) id_owner_.emplace_back(std::hash<std::string>{}(id), member);
+            }
+            const std::string href = xlinkHref(c);
+            if (!href.empty()) href_user_.emplace_back(std::hash<std::string>{}(href), member);
+            indexMember(c, member);
+        }
+    }
+
+    Status indexPass() {
+        XmlInput in;
+        if (Status s = openRoot(in); !s.ok()) return s;
+        summary_.path = file_.string();
+        summary_.bytes = in.fileSize();
+        uint32_t member = 0;
+        while (in.nextChild()) {
+            const std::string name = in.currentLocalName();
+            if (name == "boundedBy") {
+                if (xmlNodePtr n = in.expand()) readEnvelope(n);
+            } else if (name == "cityObjectMember" || name == "featureMember") {
+                if (xmlNodePtr n = in.expand()) indexMember(n, member);
+                ++member;
+            } else if (name == "appearanceMember") {
+                if (xmlNodePtr n = in.expand())
+                    if (xmlNodePtr a = firstChild(n)) {
+                        theme_catalogue_.note(a);
+                        global_appearances_.addAppearance(a);
+                    }
+            }
+            if ((member & 255) == 0) progress("index", in);
+        }
+        if (!in.status().ok()) return in.status();
+        progress("index", in);
+
+        // References whose target lives in another city object.
+        std::sort(id_owner_.begin(), id_owner_.end());
+        for (const auto& [hash, user] : href_user_) {
+            auto it = std::lower_bound(id_owner_.begin(), id_owner_.end(), std::make_pair(hash, 0u));
+            if (it != id_owner_.end() && it->first == hash && it->second != user) foreign_needed_.insert(hash);
+        }
+        // Same geometry id in two city objects.
+        for (size_t i = 1; i < id_owner_.size(); ++i)
+            if (id_owner_[i].first == id_owner_[i - 1].first && id_owner_[i].second != id_owner_[i - 1].second)
+                duplicate_across_members_.insert(id_owner_[i].first);
+        href_user_.clear();
+        href_user_.shrink_to_fit();
+        return Status::Ok();
+    }
+    std::unordered_set<uint64_t> duplicate_across_members_;
+
+    Status setUpFrame() {
+        if (srs_name_.empty()) srs_name_ = state_.options.fallback_crs;
+        if (srs_name_.empty())
+            return Status::Fail(fmt::format("{}: {}: no srsName on the envelope or any geometry; give --crs",
+                                            fatal::kCrsMissing, file_.string()));
+        if (Status s = parseSrsName(srs_name_, &crs_); !s.ok())
+            return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
+        summary_.srs_name = srs_name_;
+        summary_.crs = crs_.name;
+        if (crs_.kind == SourceCrs::Kind::LocalEngineering)
+            warn(warn::kCrsNotGeoreferenced, 0, "", fmt::format("{}: coordinates used as local metres", srs_name_));
+
+        // Geographic files follow the CRS's axis order (lat, lon) as GML
+        // says; a file that obviously has longitudes first is taken as it is.
+        if (crs_.kind == SourceCrs::Kind::Geographic) {
+            const Vec3d probe = summary_.has_envelope ? summary_.envelope_min : first_point_.value_or(Vec3d{});
+            lat_lon_order_ = !(std::abs(probe.x) > 90 && std::abs(probe.y) <= 90);
+        }
+        if (!state_.frame) {
+            Vec3d origin;
+            if (summary_.has_envelope) {
+                origin = 0.5 * (summary_.envelope_min + summary_.envelope_max);
+            } else if (first_point_) {
+                origin = *first_point_;
+            }
+            origin = axisOrder(origin);
+            if (crs_.kind != SourceCrs::Kind::Geographic) {
+                // Whole metres keep the origin readable; precision lives in the local doubles.
+                origin = {std::round(origin.x), std::round(origin.y), std::round(origin.z)};
+            }
+            if (Status s = LocalFrame::create(crs_, origin, &state_.frame); !s.ok())
+                return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
+            Georeference g;
+            g.source_crs = crs_.definition.empty() ? crs_.declared : crs_.definition;
+            g.origin_source = origin;
+            state_.sink->setGeoreference(g);
+        }
+        if (Status s = state_.frame->mapperFor(crs_, &mapper_); !s.ok())
+            return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
+        return Status::Ok();
+    }
+
+    Vec3d axisOrder(const Vec3d& p) const { return lat_lon_order_ ? Vec3d{p.y, p.x, p.z} : p; }
+
+    Status chooseTheme() {
+        for (const std::string& t : theme_catalogue_.order)
+            if (std::find(state_.counts.themes.begin(), state_.counts.themes.end(), t) == state_.counts.themes.end())
+                state_.counts.themes.push_back(t);
+        if (!state_.options.theme.empty()) {
+            theme_ = state_.options.theme;
+            if (!theme_catalogue_.order.empty() && !theme_catalogue_.textured.count(theme_)) {
+                std::string all;
+                for (const auto& t : theme_catalogue_.order) all += (all.empty() ? "" : ", ") + ("\"" + t + "\"");
+                return Status::Fail(fmt::format("{}: {}: theme \"{}\" not found; the file has {}", fatal::kThemeUnknown,
+                                                file_.string(), theme_, all));
+            }
+        } else {
+            for (const std::string& t : theme_catalogue_.order)
+                if (theme_catalogue_.textured[t]) {
+                    theme_ = t;
+                    break;
+                }
+            if (theme_.empty() && !theme_catalogue_.order.empty()) theme_ = theme_catalogue_.order.front();
+        }
+        if (state_.counts.theme_used.empty()) state_.counts.theme_used = theme_;
+        return Status::Ok();
+    }
+
+    // ---- pass 1b: geometry referenced from other city objects -----------------
+
+    Status foreignPass() {
+        XmlInput in;
+        if (Status s = openRoot(in); !s.ok()) return s;
+        while (in.nextChild()) {
+            const std::string name = in.currentLocalName();
+            if (name != "cityObjectMember" && name != "featureMember") continue;
+            xmlNodePtr n = in.expand();
+            if (!n) break;
+            ids_.clear();
+            indexIds(n, false);
+            for (const auto& [id, node] : ids_) {
+                if (!foreign_needed_.count(std::hash<std::string>{}(id))) continue;
+                std::vector<RawPolygon> polys;
+                collectGeometry(node, SurfaceSemantic::Unclassified, {}, false, "", polys);
+                foreign_geometry_[id] = std::move(polys);
+            }
+            progress("xlinks", in);
+        }
+        ids_.clear();
+        return in.status();
+    }
+
+    // ---- pass 2 -----------------------------------------------------------------
+
+    void indexIds(xmlNodePtr node, bool report_duplicates) {
+        for (xmlNodePtr c = firstChild(node); c; c = nextSibling(c)) {
+            const std::string id = gmlId(c);
+            if (!id.empty()) {
+                auto [it, inserted] = ids_.emplace(id, c);
+                if (!inserted && report_duplicates)
+                    warn(warn::kDuplicateGmlId, lineOf(c), id, "gml:id used twice in one city object; first kept");
+                else if (inserted && report_duplicates && isGeometryElement(localName(c)) &&
+                         duplicate_across_members_.count(std::hash<std::string>{}(id)))
+                    warn(warn::kDuplicateGmlId, lineOf(c), id, "gml:id also used in another city object");
+            }
+            indexIds(c, report_duplicates);
+        }
+    }
+
+    void collectAppearances(xmlNodePtr node) {
+        for (xmlNodePtr c = firstChild(node); c; c = nextSibling(c)) {
+            if (isNamed(c, "appearance")) {
+                if (xmlNodePtr a = firstChild(c)) local_appearances_.addAppearance(a);
+                continue;
+            }
+            collectAppearances(c);
+        }
+    }
+
+    Status readPass() {
+        XmlInput in;
+        if (Status s = openRoot(in); !s.ok()) return s;
+        uint64_t members = 0;
+        while (in.nextChild()) {
+            const std::string name = in.currentLocalName();
+            if (name != "cityObjectMember" && name != "featureMember") continue;
+            xmlNodePtr member = in.expand();
+            if (!member) break;
+            xmlNodePtr object = firstChild(member);
+            if (!object) continue;
+            if (isNamed(object, "Building")) {
+                ids_.clear();
+                indexIds(member, true);
+                local_appearances_ = AppearanceStore();
+                collectAppearances(member);
+                state_.counts.objects_read["Building"]++;
+                summary_.buildings++;
+                const bool any = readFeature(object, -1);
+                if (!any) {
+                    state_.counts.features_without_geometry++;
+                    warn(warn::kNoLodGeometry, lineOf(object), gmlId(object),
+                         state_.options.lod ? fmt::format("no LOD{} geometry", state_.options.lod)
+                                            : "no LOD1 or LOD2 geometry (LOD0/3/4 only, or none)");
+                }
+            } else {
+                state_.counts.objects_skipped[localName(object)]++;
+            }
+            if ((++members & 63) == 0) progress("read", in);
+        }
+        if (!in.status().ok()) return in.status();
+        progress("read", in);
+        state_.files.push_back(summary_);
+        return Status::Ok();
+    }
+
+    // Attributes of a Building / BuildingPart.
+    Feature makeFeature(xmlNodePtr b, int32_t parent) {
+        Feature f;
+        f.gml_id = gmlId(b);
+        f.source_file = file_.string();
+        f.parent = parent;
+        for (xmlNodePtr c = firstChild(b); c; c = nextSibling(c)) {
+            const char* n = localName(c);
+            if (std::strcmp(n, "name") == 0 && f.name.empty()) f.name = text(c);
+            else if (std::strcmp(n, "measuredHeight") == 0) {
+                const std::string t = text(c);
+                double v = 0;
+                if (std::from_chars(t.data(), t.data() + t.size(), v).ec == std::errc() && std::isfinite(v))
+                    f.measured_height_m = v;
+            } else if (std::strcmp(n, "roofType") == 0) f.roof_type = text(c);
+            else if (std::strcmp(n, "function") == 0) f.function = text(c);
+            else if (std::strstr(n, "Attribute")) {  // gen:stringAttribute, intAttribute, ... (2.0 and 1.0)
+                const std::string key = attribute(c, "name");
+                xmlNodePtr v = child(c, "value");
+                if (!key.empty() && v) f.attributes[key] = text(v);
+            } else if (std::strcmp(n, "genericAttribute") == 0) {  // CityGML 3.0
+                if (xmlNodePtr a = firstChild(c)) {
+                    xmlNodePtr k = child(a, "name"), v = child(a, "value");
+                    if (k && v) f.attributes[text(k)] = text(v);
+                }
+            }
+        }
+        return f;
+    }
+
+    // Reads a Building or BuildingPart; returns whether it or a part had geometry.
+    bool readFeature(xmlNodePtr b, int32_t parent) {
+        const uint32_t feature = state_.sink->addFeature(makeFeature(b, parent));
+        std::vector<RawPolygon> thematic[3], plain[3];
+        bool any = false;
+        for (xmlNodePtr c = firstChild(b); c; c = nextSibling(c)) {
+            const char* n = localName(c);
+            if (std::strcmp(n, "lod1Solid") == 0 || std::strcmp(n, "lod1MultiSurface") == 0) {
+                collectGeometry(c, SurfaceSemantic::Unclassified, {}, false, "", plain[1]);
+            } else if (std::strcmp(n, "lod2Solid") == 0 || std::strcmp(n, "lod2MultiSurface") == 0) {
+                collectGeometry(c, SurfaceSemantic::Unclassified, {}, false, "", plain[2]);
+            } else if (std::strcmp(n, "boundedBy") == 0 || std::strcmp(n, "boundary") == 0) {
+                readThematic(firstChild(c), std::nullopt, thematic);
+            } else if (std::strcmp(n, "outerBuildingInstallation") == 0 || std::strcmp(n, "buildingInstallation") == 0) {
+                if (xmlNodePtr inst = firstChild(c)) readInstallation(inst, thematic);
+            } else if (std::strcmp(n, "consistsOfBuildingPart") == 0 || std::strcmp(n, "buildingPart") == 0) {
+                if (xmlNodePtr part = firstChild(c); part && isNamed(part, "BuildingPart")) {
+                    state_.counts.objects_read["BuildingPart"]++;
+                    any |= readFeature(part, static_cast<int32_t>(feature));
+                }
+            } else if (startsWith(n, "lod0") || startsWith(n, "lod3") || startsWith(n, "lod4") ||
+                       std::strstr(n, "TerrainIntersection") || std::strstr(n, "MultiCurve") ||
+                       std::strcmp(n, "interiorRoom") == 0 || std::strcmp(n, "interiorBuildingInstallation") == 0) {
+                state_.counts.geometry_skipped[n]++;
+            }
+        }
+        int lod = state_.options.lod;
+        auto has = [&](int l) { return !thematic[l].empty() || !plain[l].empty(); };
+        if (lod == 0) lod = has(2) ? 2 : has(1) ? 1 : 0;
+        if (lod == 0 || !has(lod)) return any;
+        (lod == 2 ? state_.counts.features_lod2 : state_.counts.features_lod1)++;
+
+        // Thematic surfaces first; a solid that references the same polygons
+        // (by xlink or by equal geometry) must not add them twice.
+        std::vector<RawPolygon> polygons = std::move(thematic[lod]);
+        std::unordered_set<std::string> seen_ids;
+        std::unordered_set<uint64_t> seen_shapes;
+        auto shapeKey = [](const RawPolygon& p) {
+            uint64_t h = 1469598103934665603ull;
+            for (const Vec3d& q : p.rings.front().points)
+                for (double v : {q.x, q.y, q.z}) h = (h ^ std::hash<double>{}(v)) * 1099511628211ull;
+            return h;
+        };
+        std::unordered_map<std::string, std::string> solid_of;  // polygon id -> solid, for thematic ones
+        for (const RawPolygon& p : polygons) {
+            if (!p.id.empty()) seen_ids.insert(p.id);
+            if (!p.rings.empty()) seen_shapes.insert(shapeKey(p));
+        }
+        for (RawPolygon& p : plain[lod]) {
+            const bool dup = (!p.id.empty() && seen_ids.count(p.id)) || (!p.rings.empty() && seen_shapes.count(shapeKey(p)));
+            if (dup) {
+                if (!p.solid.empty() && !p.id.empty()) solid_of[p.id] = p.solid;
+                continue;
+            }
+            polygons.push_back(std::move(p));
+        }
+        for (RawPolygon& p : polygons)
+            if (p.solid.empty() && !p.id.empty())
+                if (auto it = solid_of.find(p.id); it != solid_of.end()) p.solid = it->second;
+        emitPolygons(polygons, feature);
+        return true;
+    }
+
+    void readThematic(xmlNodePtr surface, std::optional<SurfaceSemantic> forced, std::vector<RawPolygon>* out) {
+        if (!surface) return;
+        const SurfaceSemantic sem = forced ? *forced : semanticOf(localName(surface));
+        for (xmlNodePtr g = firstChild(surface); g; g = nextSibling(g)) {
+            const char* n = localName(g);
+            if (std::strcmp(n, "lod2MultiSurface") == 0) collectGeometry(g, sem, {}, false, "", out[2]);
+            else if (std::strcmp(n, "lod1MultiSurface") == 0) collectGeometry(g, sem, {}, false, "", out[1]);
+            else if (startsWith(n, "lod3") || startsWith(n, "lod4") || std::strcmp(n, "opening") == 0)
+                state_.counts.geometry_skipped[n]++;
+        }
+    }
+
+    void readInstallation(xmlNodePtr inst, std::vector<RawPolygon>* out) {
+        for (xmlNodePtr g = firstChild(inst); g; g = nextSibling(g)) {
+            const char* n = localName(g);
+            if (std::strcmp(n, "lod2Geometry") == 0 || std::strcmp(n, "lod2MultiSurface") == 0)
+                collectGeometry(g, SurfaceSemantic::Installation, {}, false, "", out[2]);
+            else if (std::strcmp(n, "boundedBy") == 0 || std::strcmp(n, "boundary") == 0)
+                readThematic(firstChild(g), SurfaceSemantic::Installation, out);
+            else if (startsWith(n, "lod3") || startsWith(n, "lod4"))
+                state_.counts.geometry_skipped[n]++;
+        }
+    }
+
+    // ---- geometry ---------------------------------------------------------------
+
+    bool readRing(xmlNodePtr ring, RawRing* out) {
+        out->id = gmlId(ring);
+        out->line = lineOf(ring);
+        std::vector<double> v;
+        int dim = 0;
+        bool ok = true;
+        for (xmlNodePtr c = firstChild(ring); c; c = nextSibling(c)) {
+            const char* n = localName(c);
+            if (std::strcmp(n, "posList") == 0 || std::strcmp(n, "coordinates") == 0) {
+                const std::string t = text(c);
+                std::string buf = t;
+                if (std::strcmp(n, "coordinates") == 0) std::replace(buf.begin(), buf.end(), ',', ' ');
+                ok &= parseDoubles(buf.data(), buf.data() + buf.size(), &v);
+                dim = declaredDimension(c);
+            } else if (std::strcmp(n, "pos") == 0) {
+                const std::string t = text(c);
+                const size_t before = v.size();
+                ok &= parseDoubles(t.data(), t.data() + t.size(), &v);
+                if (!dim) dim = declaredDimension(c);
+                if (!dim && v.size() - before == 2) dim = 2;
+            }
+        }
+        if (!ok) {
+            warn(warn::kCoordinateParse, out->line, out->id, "a coordinate is not a number; polygon skipped");
+            return false;
+        }
+        if (!dim) dim = file_dimension_;
+        if (!dim) dim = v.size() % 3 == 0 ? 3 : v.size() % 2 == 0 ? 2 : 3;
+        if (dim != 2 && dim != 3) dim = 3;
+        if (v.size() % static_cast<size_t>(dim) != 0) {
+            warn(warn::kCoordinateParse, out->line, out->id,
+                 fmt::format("{} numbers do not make {}D points; polygon skipped", v.size(), dim));
+            return false;
+        }
+        if (dim == 2) warn(warn::kCoordinates2d, out->line, out->id, "2D coordinates; z = 0");
+        for (size_t i = 0; i + dim <= v.size(); i += dim) {
+            const Vec3d p{v[i], v[i + 1], dim == 3 ? v[i + 2] : 0.0};
+            if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+                warn(warn::kCoordinateNotFinite, out->line, out->id, "NaN or infinite coordinate; polygon skipped");
+                return false;
+            }
+            out->points.push_back(p);
+        }
+        return true;
+    }
+
+    void readPolygonLike(xmlNodePtr poly, SurfaceSemantic sem, const std::vector<std::string>& ancestors,
+                         bool reversed, const std::string& solid, std::vector<RawPolygon>& out) {
+        RawPolygon p;
+        p.id = gmlId(poly);
+        p.surface_ids = ancestors;
+        p.reversed = reversed;
+        p.semantic = sem;
+        p.solid = solid;
+        p.line = lineOf(poly);
+        state_.counts.polygons_read++;
+        for (xmlNodePtr c = firstChild(poly); c; c = nextSibling(c)) {
+            const char* n = localName(c);
+            const bool exterior = std::strcmp(n, "exterior") == 0 || std::strcmp(n, "outerBoundaryIs") == 0;
+            const bool interior = std::strcmp(n, "interior") == 0 || std::strcmp(n, "innerBoundaryIs") == 0;
+            if (!exterior && !interior) continue;
+            xmlNodePtr ring = firstChild(c);
+            if (!ring) continue;
+            RawRing r;
+            if (!readRing(ring, &r)) {
+                state_.counts.polygons_skipped++;
+                return;
+            }
+            if (exterior) p.rings.insert(p.rings.begin(), std::move(r));
+            else p.rings.push_back(std::move(r));
+        }
+        if (p.rings.empty()) {
+            state_.counts.polygons_skipped++;
+            warn(warn::kRingTooFewPoints, p.line, p.id, "polygon without an exterior ring; skipped");
+            return;
+        }
+        out.push_back(std::move(p));
+    }
+
+    void collectGeometry(xmlNodePtr node, SurfaceSemantic sem, std::vector<std::string> ancestors, bool reversed,
+                         const std::string& solid, std::vector<RawPolygon>& out, int depth = 0) {
+        if (depth > 64) return;  // a reference cycle; real geometry is never this deep
+        const std::string href = xlinkHref(node);
+        if (!href.empty() && !firstChild(node)) {
+            auto it = ids_.find(href);
+            if (it != ids_.end()) {
+                state_.counts.xlinks_resolved++;
+                resolveTarget(it->second, sem, ancestors, reversed, solid, out, depth);
+                return;
+            }
+            if (auto f = foreign_geometry_.find(href); f != foreign_geometry_.end()) {
+                state_.counts.xlinks_resolved++;
+                state_.counts.xlinks_cross_object++;
+                for (RawPolygon p : f->second) {
+                    p.semantic = sem;
+                    p.reversed ^= reversed;
+                    if (p.solid.empty()) p.solid = solid;
+                    state_.counts.polygons_read++;
+                    out.push_back(std::move(p));
+                }
+                return;
+            }
+            warn(warn::kXlinkUnresolved, lineOf(node), href, fmt::format("xlink:href=\"#{}\" names no geometry in this file", href));
+            return;
+        }
+        for (xmlNodePtr c = firstChild(node); c; c = nextSibling(c))
+            resolveTarget(c, sem, ancestors, reversed, solid, out, depth + 1);
+    }
+
+    void resolveTarget(xmlNodePtr g, SurfaceSemantic sem, std::vector<std::string> ancestors, bool reversed,
+                       std::string solid, std::vector<RawPolygon>& out, int depth) {
+        const char* n = localName(g);
+        if (std::strcmp(n, "Polygon") == 0 || std::strcmp(n, "Triangle") == 0 || std::strcmp(n, "PolygonPatch") == 0 ||
+            std::strcmp(n, "Rectangle") == 0) {
+            readPolygonLike(g, sem, ancestors, reversed, solid, out);
+            return;
+        }
+        const std::string id = gmlId(g);
+        if (std::strcmp(n, "OrientableSurface") == 0 && attribute(g, "orientation") == "-") reversed = !reversed;
+        if (std::strcmp(n, "Solid") == 0) {
+            solid = id.empty() ? fmt::format("solid@{}", lineOf(g)) : id;
+            // Only the outer shell is visible; interior shells are voids.
+            if (xmlNodePtr ext = child(g, "exterior")) collectGeometry(ext, sem, ancestors, reversed, solid, out, depth + 1);
+            return;
+        }
+        if (std::strcmp(n, "interior") == 0 && g->parent && isNamed(g->parent, "Solid")) return;
+        if (!id.empty() && isGeometryElement(n)) ancestors.insert(ancestors.begin(), id);
+        collectGeometry(g, sem, std::move(ancestors), reversed, solid, out, depth + 1);
+    }
+
+    // ---- appearance lookup -------------------------------------------------------
+
+    template <typename Map>
+    const typename Map::mapped_type* lookup(Map ThemeData::*field, const std::string& key, const AppearanceStore** from) {
+        for (const AppearanceStore* store : {&local_appearances_, &global_appearances_}) {
+            auto t = store->themes.find(theme_);
+            if (t == store->themes.end()) continue;
+            auto it = (t->second.*field).find(key);
+            if (it != (t->second.*field).end()) {
+                *from = store;
+                return &it->second;
+            }
+        }
+        return nullptr;
+    }
+
+    int32_t sceneTexture(const AppearanceStore& store, uint32_t image, int64_t line, const std::string& polygon_id) {
+        const TextureImage& img = store.images[image];
+        const std::string uri = img.uri;
+        const bool remote = uri.find("://") != std::string::npos;
+        const fs::path path = remote ? fs::path() : (file_.parent_path() / fs::path(uri)).lexically_normal();
+        const std::string key = remote ? uri : path.string() + "#" + std::to_string(static_cast<int>(img.wrap));
+        auto it = image_cache_.find(key);
+        if (it != image_cache_.end()) return it->second.scene_index;
+        ImageInfo info;
+        std::error_code ec;
+        if (remote) {
+            warn(warn::kTextureMissing, line, polygon_id, fmt::format("{}: remote images are not fetched", uri));
+        } else if (!fs::is_regular_file(path, ec)) {
+            warn(warn::kTextureMissing, line, polygon_id, fmt::format("{}: no such file", path.string()));
+        } else {
+            auto in = OIIO::ImageInput::open(path.string());
+            if (!in) {
+                OIIO::geterror();  // clear
+                warn(warn::kTextureUnreadable, line, polygon_id, fmt::format("{}: not a readable image", path.string()));
+            } else {
+                const OIIO::ImageSpec& spec = in->spec();
+                TextureRef ref;
+                ref.path = path.string();
+                ref.width_px = spec.width;
+                ref.height_px = spec.height;
+                ref.channels = spec.nchannels;
+                ref.wrap = img.wrap;
+                in->close();
+                info.scene_index = state_.sink->addTexture(ref);
+            }
+        }
+        (info.scene_index >= 0 ? state_.counts.textures_ok : state_.counts.textures_failed)++;
+        image_cache_[key] = info;
+        return info.scene_index;
+    }
+
+    // ---- cleanup, triangulation, output ---------------------------------------------
+
+    struct CleanRing {
+        std::vector<Vec3d> local;
+        std::vector<Vec2d> uv;
+    };
+
+    // Source points -> local frame; closing point, consecutive duplicates
+    // removed with their texture coordinates. False if fewer than 3 remain.
+    bool cleanRing(const RawRing& ring, const std::vector<Vec2d>* uv, const std::string& polygon_id, CleanRing* out) {
+        const auto& pts = ring.points;
+        bool closed_as_written = pts.size() > 1 && pts.front() == pts.back();
+        out->local.clear();
+        out->uv.clear();
+        for (size_t i = 0; i < pts.size(); ++i) {
+            Vec3d q;
+            if (!mapper_->toLocal(axisOrder(pts[i]), &q)) {
+                warn(warn::kCoordinateNotFinite, ring.line, polygon_id, "a point PROJ cannot transform; polygon skipped");
+                return false;
+            }
+            Vec3d src;
+            mapper_->toFrameCrs(axisOrder(pts[i]), &src);
+            state_.bounds_source.extend(src);
+            out->local.push_back(q);
+            if (uv) out->uv.push_back((*uv)[i]);
+        }
+        // Closure: the last point repeats the first (exactly, or within the tolerance).
+        if (out->local.size() > 1 && length(out->local.back() - out->local.front()) <= kDuplicatePointTolerance_m) {
+            out->local.pop_back();
+            if (uv) out->uv.pop_back();
+        } else if (!closed_as_written) {
+            warn(warn::kRingUnclosed, ring.line, ring.id.empty() ? polygon_id : ring.id,
+                 "ring does not end at its first point; closed implicitly");
+        }
+        size_t removed = 0;
+        for (size_t i = 1; i < out->local.size();) {
+            if (length(out->local[i] - out->local[i - 1]) <= kDuplicatePointTolerance_m) {
+                out->local.erase(out->local.begin() + static_cast<long>(i));
+                if (uv) out->uv.erase(out->uv.begin() + static_cast<long>(i));
+                ++removed;
+            } else {
+                ++i;
+            }
+        }
+        while (out->local.size() > 1 && length(out->local.back() - out->local.front()) <= kDuplicatePointTolerance_m) {
+            out->local.pop_back();
+            if (uv) out->uv.pop_back();
+            ++removed;
+        }
+        if (removed)
+            warn(warn::kRingDuplicatePoints, ring.line, ring.id.empty() ? polygon_id : ring.id,
+                 fmt::format("{} repeated consecutive point(s) removed", removed));
+        if (out->local.size() < 3) {
+            warn(warn::kRingTooFewPoints, ring.line, ring.id.empty() ? polygon_id : ring.id,
+                 fmt::format("{} distinct point(s); ring dropped", out->local.size()));
+            return false;
+        }
+        return true;
+    }
+
+    void emitPolygons(std::vector<RawPolygon>& polygons, uint32_t feature) {
+        std::vector<Triangle> tris;
+        std::vector<std::string> tri_solid;  // solid of each triangle, for the orientation check
+        for (RawPolygon& p : polygons) emitPolygon(p, feature, tris, tri_solid);
+
+        // A closed solid whose faces point inward has negative volume: flip it.
+        std::unordered_map<std::string, double> volume;
+        for (size_t i = 0; i < tris.size(); ++i) {
+            if (tri_solid[i].empty()) continue;
+            const auto& q = tris[i].position_local;
+            volume[tri_solid[i]] += dot(q[0], cross(q[1], q[2])) / 6.0;
+        }
+        for (const auto& [solid, v] : volume) {
+            if (v >= 0) continue;
+            warn(warn::kSolidInverted, 0, solid, fmt::format("faces point inward (volume {:.3f} m3); flipped", v));
+            for (size_t i = 0; i < tris.size(); ++i)
+                if (tri_solid[i] == solid) {
+                    std::swap(tris[i].position_local[1], tris[i].position_local[2]);
+                    std::swap(tris[i].uv[1], tris[i].uv[2]);
+                }
+        }
+        state_.sink->addTriangles(tris);
+    }
+
+    void emitPolygon(const RawPolygon& p, uint32_t feature, std::vector<Triangle>& tris, std::vector<std::string>& tri_solid) {
+        const std::string& pid = p.id.empty() ? (p.surface_ids.empty() ? std::string() : p.surface_ids.front()) : p.id;
+        // Appearance: texture coordinates per ring, or a generation matrix on
+        // the polygon or an enclosing surface; a material the same way.
+        const AppearanceStore* tex_store = nullptr;
+        int32_t texture = -1;
+        std::vector<std::vector<Vec2d>> ring_uv;
+        bool textured = false;
+        if (!theme_.empty() || !global_appearances_.themes.empty() || !local_appearances_.themes.empty()) {
+            const RingTexcoords* rt = p.rings.front().id.empty()
+                                          ? nullptr
+                                          : lookup(&ThemeData::ring_texcoords, p.rings.front().id, &tex_store);
+            if (rt) {
+                bool ok = true;
+                for (const RawRing& r : p.rings) {
+                    const AppearanceStore* s2 = nullptr;
+                    const RingTexcoords* t = r.id.empty() ? nullptr : lookup(&ThemeData::ring_texcoords, r.id, &s2);
+                    if (!t || t->uv.size() < r.points.size() || t->uv.size() > r.points.size() + 1) {
+                        ok = false;
+                        warn(warn::kTexcoordsMismatch, r.line, r.id.empty() ? pid : r.id,
+                             fmt::format("{} texture coordinates for {} points; texture dropped", t ? t->uv.size() : 0,
+                                         r.points.size()));
+                        break;
+                    }
+                    std::vector<Vec2d> uv(t->uv.begin(), t->uv.begin() + static_cast<long>(r.points.size()));
+                    ring_uv.push_back(std::move(uv));
+                }
+                if (ok) {
+                    texture = sceneTexture(*tex_store, rt->image, p.line, pid);
+                    textured = texture >= 0;
+                }
+            } else {
+                std::vector<std::string> ids;
+                if (!p.id.empty()) ids.push_back(p.id);
+                ids.insert(ids.end(), p.surface_ids.begin(), p.surface_ids.end());
+                for (const std::string& id : ids) {
+                    const TexGen* g = lookup(&ThemeData::texgen, id, &tex_store);
+                    if (!g) continue;
+                    const auto& m = g->world_to_texture;
+                    for (const RawRing& r : p.rings) {
+                        std::vector<Vec2d> uv;
+                        for (const Vec3d& q : r.points) {
+                            const double s = m[0] * q.x + m[1] * q.y + m[2] * q.z + m[3];
+                            const double t = m[4] * q.x + m[5] * q.y + m[6] * q.z + m[7];
+                            const double w = m[8] * q.x + m[9] * q.y + m[10] * q.z + m[11];
+                            uv.push_back(w != 0 ? Vec2d{s / w, t / w} : Vec2d{});
+                        }
+                        ring_uv.push_back(std::move(uv));
+                    }
+                    texture = sceneTexture(*tex_store, g->image, p.line, pid);
+                    textured = texture >= 0;
+                    break;
+                }
+            }
+        }
+        int32_t material = -1;
+        if (!textured) {
+            ring_uv.clear();
+            std::vector<std::string> ids;
+            if (!p.id.empty()) ids.push_back(p.id);
+            ids.insert(ids.end(), p.surface_ids.begin(), p.surface_ids.end());
+            const AppearanceStore* from = nullptr;
+            for (const std::string& id : ids)
+                if (const Material* m = lookup(&ThemeData::materials, id, &from)) {
+                    material = state_.sink->addMaterial(*m);
+                    break;
+                }
+            if (material < 0 && texture < 0 && tex_store) material = state_.sink->addMaterial(Material{});  // failed texture
+        }
+
+        // Clean every ring; a bad exterior drops the polygon, a bad hole only the hole.
+        std::vector<CleanRing> rings;
+        for (size_t r = 0; r < p.rings.size(); ++r) {
+            CleanRing c;
+            if (!cleanRing(p.rings[r], textured ? &ring_uv[r] : nullptr, pid, &c)) {
+                if (r == 0) {
+                    state_.counts.polygons_skipped++;
+                    return;
+                }
+                continue;
+            }
+            rings.push_back(std::move(c));
+        }
+        PolygonRings input;
+        for (const CleanRing& c : rings) {
+            input.rings.emplace_back(c.local);
+            if (textured) input.uv.emplace_back(c.uv);
+        }
+        const PolygonTriangulation t = triangulatePolygon(input);
+        if (t.degenerate) {
+            state_.counts.polygons_skipped++;
+            warn(warn::kPolygonDegenerate, p.line, pid, "zero area or collinear; skipped");
+            return;
+        }
+        if (t.max_plane_deviation_m > kNonPlanarTolerance_m)
+            warn(warn::kPolygonNonPlanar, p.line, pid,
+                 fmt::format("{:.3f} m off its best-fit plane; triangulated", t.max_plane_deviation_m));
+        state_.counts.max_plane_deviation_m = std::max(state_.counts.max_plane_deviation_m, t.max_plane_deviation_m);
+        if (!t.added_points.empty())
+            warn(warn::kRingSelfIntersection, p.line, pid,
+                 fmt::format("rings cross; {} point(s) added to triangulate", t.added_points.size()));
+        if (t.repeated_vertices)
+            warn(warn::kRingSelfTouching, p.line, pid, fmt::format("{} vertex(es) repeated", t.repeated_vertices));
+        state_.counts.polygons_triangulated++;
+        (textured ? state_.counts.polygons_textured : state_.counts.polygons_coloured)++;
+
+        SurfaceSemantic sem = p.semantic;
+        Vec3d n = t.unit_normal;
+        if (p.reversed) n = -1.0 * n;
+        if (sem == SurfaceSemantic::Unclassified) {
+            // LOD1 solids and bare LOD2 solids: the kind the geometry implies.
+            sem = n.z > 0.5 ? SurfaceSemantic::Roof : n.z < -0.5 ? SurfaceSemantic::Ground : SurfaceSemantic::Wall;
+            state_.counts.polygons_semantic_inferred++;
+        }
+        std::vector<Vec3d> all_pos;
+        std::vector<Vec2d> all_uv;
+        for (const CleanRing& c : rings) {
+            all_pos.insert(all_pos.end(), c.local.begin(), c.local.end());
+            all_uv.insert(all_uv.end(), c.uv.begin(), c.uv.end());
+        }
+        all_pos.insert(all_pos.end(), t.added_points.begin(), t.added_points.end());
+        if (textured) all_uv.insert(all_uv.end(), t.added_uv.begin(), t.added_uv.end());
+        for (const auto& idx : t.triangles) {
+            Triangle tri;
+            for (int k = 0; k < 3; ++k) {
+                const int kk = p.reversed ? (3 - k) % 3 : k;  // reversed: 0, 2, 1
+                tri.position_local[k] = all_pos[idx[kk]];
+                if (textured) tri.uv[k] = all_uv[idx[kk]];
+            }
+            tri.texture = textured ? texture : -1;
+            tri.material = textured ? -1 : material;
+            tri.feature = feature;
+            tri.semantic = sem;
+            tris.push_back(tri);
+            tri_solid.push_back(p.solid);
+        }
+    }
+};
+
+}  // namespace
+
+Status readCityGml(const fs::path& file, IngestState& state) {
+    FileReader reader(file, state);
+    return reader.run();
+}
+
+}  // namespace cityatlas
