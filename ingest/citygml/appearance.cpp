@@ -102,6 +102,7 @@ void AppearanceStore::addAppearance(xmlNodePtr appearance) {
                 if (isNamed(target, "target")) theme.materials.emplace(stripHash(text(target)), mat);
         } else {
             theme.unsupported++;  // GeoreferencedTexture and anything newer
+            unsupported_seen.emplace_back(lineOf(data), localName(data));
         }
     }
 }

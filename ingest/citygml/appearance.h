@@ -44,6 +44,9 @@ struct ThemeData {
 struct AppearanceStore {
     std::vector<TextureImage> images;
     std::map<std::string, ThemeData> themes;   ///< "" for appearances without a theme
+    /// Surface data we do not use (GeoreferencedTexture, ...): (line, element
+    /// name), for the reader to warn about; it clears the list.
+    std::vector<std::pair<int64_t, std::string>> unsupported_seen;
     /// Parses one app:Appearance element into the store.
     void addAppearance(xmlNodePtr appearance);
 

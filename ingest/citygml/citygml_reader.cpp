@@ -142,6 +142,12 @@ private:
         state_.diagnostics.warn(code, {file_.string(), line, id, std::move(detail)});
     }
 
+    void warnUnsupported(AppearanceStore& store) {
+        for (const auto& [line, name] : store.unsupported_seen)
+            warn(warn::kAppearanceUnsupported, line, "", fmt::format("app:{} is not used", name));
+        store.unsupported_seen.clear();
+    }
+
     void progress(const char* pass, const XmlInput& in) {
         if (state_.progress) state_.progress(pass, in.bytesConsumed(), in.fileSize());
     }
@@ -230,6 +236,7 @@ private:
                     if (xmlNodePtr a = firstChild(n)) {
                         theme_catalogue_.note(a);
                         global_appearances_.addAppearance(a);
+                        warnUnsupported(global_appearances_);
                     }
             }
             if ((member & 255) == 0) progress("index", in);
@@ -336,7 +343,7 @@ private:
             for (const auto& [id, node] : ids_) {
                 if (!foreign_needed_.count(std::hash<std::string>{}(id))) continue;
                 std::vector<RawPolygon> polys;
-                collectGeometry(node, SurfaceSemantic::Unclassified, {}, false, "", polys);
+                resolveTarget(node, SurfaceSemantic::Unclassified, {}, false, "", polys, 0);
                 foreign_geometry_[id] = std::move(polys);
             }
             progress("xlinks", in);
@@ -388,6 +395,7 @@ private:
                 indexIds(member, true);
                 local_appearances_ = AppearanceStore();
                 collectAppearances(member);
+                warnUnsupported(local_appearances_);
                 state_.counts.objects_read["Building"]++;
                 summary_.buildings++;
                 const bool any = readFeature(object, -1);

@@ -1,0 +1,315 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The CityGML reader against synthetic towns (exact truth) and small
+// hand-written documents (one feature each).
+#include "ingest/citygml/citygml_reader.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "ingest/synth/town.h"
+#include "ingest/synth/write_town.h"
+
+namespace cityatlas {
+namespace {
+namespace fs = std::filesystem;
+
+fs::path scratch(const std::string& name) {
+    fs::path p = fs::temp_directory_path() / ("cityatlas_test_reader_" + std::to_string(getpid())) / name;
+    fs::remove_all(p);
+    fs::create_directories(p.parent_path());
+    return p;
+}
+
+struct Ingested {
+    Status status;
+    Scene scene;
+    IngestState state;
+};
+
+std::unique_ptr<Ingested> ingest(const fs::path& file, CityGmlOptions options = {}) {
+    auto r = std::make_unique<Ingested>();
+    SceneCollector collector;
+    r->state.options = options;
+    r->state.sink = &collector;
+    r->status = readCityGml(file, r->state);
+    r->scene = std::move(collector.scene);
+    return r;
+}
+
+fs::path writeTown(const std::string& name, int lod, Vec3d origin, int epsg = 25832, uint32_t buildings = 40) {
+    synth::TownSettings s;
+    s.buildings = buildings;
+    s.lod = lod;
+    s.seed = 11;
+    s.texture_size_px = 16;
+    s.crs_epsg = epsg;
+    s.origin_source = origin;
+    const fs::path dir = scratch(name);
+    const Status st = synth::writeTown(synth::generateTown(s), dir, true, nullptr);
+    EXPECT_TRUE(st.ok()) << st.error;
+    return dir;
+}
+
+void expectMatchesTruth(const fs::path& dir) {
+    const auto truth = nlohmann::json::parse(std::ifstream(dir / "truth.json"));
+    const auto r = ingest(dir / "town.gml");
+    ASSERT_TRUE(r->status.ok()) << r->status.error;
+    const SceneStats stats = computeStats(r->scene);
+    EXPECT_EQ(stats.features, truth["buildings"].get<size_t>());
+    EXPECT_EQ(stats.textures, truth["textures"]["count"].get<size_t>());
+    EXPECT_EQ(stats.triangles, truth["triangles"].get<size_t>());
+    for (const auto& [name, tally] : truth["surfaces"].items()) {
+        int k = 0;
+        while (semanticName(static_cast<SurfaceSemantic>(k)) != name) ++k;
+        EXPECT_EQ(stats.triangles_by_semantic[k], tally["triangles"].get<size_t>()) << name;
+        const double a = tally["area_m2"].get<double>();
+        EXPECT_NEAR(stats.area_by_semantic_m2[k], a, 1e-9 * a) << name;
+    }
+    // Building ids, and every textured triangle's texture exists on disk.
+    std::set<std::string> ids, truth_ids;
+    for (const Feature& f : r->scene.features) ids.insert(f.gml_id);
+    for (const auto& b : truth["building_list"]) truth_ids.insert(b["gml_id"].get<std::string>());
+    EXPECT_EQ(ids, truth_ids);
+    size_t textured = 0;
+    for (const Triangle& t : r->scene.triangles) {
+        if (t.texture < 0) continue;
+        ++textured;
+        ASSERT_LT(static_cast<size_t>(t.texture), r->scene.textures.size());
+        ASSERT_TRUE(fs::is_regular_file(r->scene.textures[t.texture].path)) << r->scene.textures[t.texture].path;
+    }
+    EXPECT_GT(textured, 0u);
+    EXPECT_EQ(r->state.diagnostics.total(), 0u) << "a valid synthetic town must ingest without warnings";
+}
+
+TEST(CityGmlReader, Lod2TownReproducesTruth) { expectMatchesTruth(writeTown("lod2", 2, {690000, 5336000, 500})); }
+TEST(CityGmlReader, Lod1TownReproducesTruth) { expectMatchesTruth(writeTown("lod1", 1, {690000, 5336000, 500})); }
+TEST(CityGmlReader, ExtremeTownReproducesTruth) {
+    expectMatchesTruth(writeTown("extreme", 2, {833000, 9900000, 0}, 32733));
+}
+
+// The same town near the origin and at northing 9.9e6 m: local triangles
+// equal within 1 mm (the frame's origin absorbs the offset exactly).
+TEST(CityGmlReader, ExtremeCoordinatesKeepMillimetrePrecision) {
+    const auto near = ingest(writeTown("near", 2, {1000, 1000, 0}, 32733) / "town.gml");
+    const auto far = ingest(writeTown("far", 2, {833000, 9900000, 0}, 32733) / "town.gml");
+    ASSERT_TRUE(near->status.ok() && far->status.ok());
+    ASSERT_EQ(near->scene.triangles.size(), far->scene.triangles.size());
+    double worst = 0;
+    for (size_t i = 0; i < near->scene.triangles.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            worst = std::max(worst, length(near->scene.triangles[i].position_local[k] -
+                                           far->scene.triangles[i].position_local[k]));
+    EXPECT_LT(worst, 1e-3);
+    // The frame's origin is the envelope centre in whole metres: near 9.9e6.
+    EXPECT_NEAR(far->scene.georef.origin_source.y, 9900000.0, 100);
+    EXPECT_EQ(far->scene.georef.origin_source.y, std::round(far->scene.georef.origin_source.y));
+}
+
+// --- small documents -------------------------------------------------------------
+
+constexpr const char* kHeader2 = R"(<?xml version="1.0" encoding="UTF-8"?>
+<core:CityModel xmlns:core="http://www.opengis.net/citygml/2.0" xmlns:bldg="http://www.opengis.net/citygml/building/2.0"
+ xmlns:app="http://www.opengis.net/citygml/appearance/2.0" xmlns:gml="http://www.opengis.net/gml"
+ xmlns:xlink="http://www.w3.org/1999/xlink">
+<gml:boundedBy><gml:Envelope srsName="urn:ogc:def:crs,crs:EPSG::25832,crs:EPSG::5783" srsDimension="3">
+<gml:lowerCorner>100 200 0</gml:lowerCorner><gml:upperCorner>110 210 10</gml:upperCorner></gml:Envelope></gml:boundedBy>
+)";
+
+fs::path writeDoc(const std::string& name, const std::string& body, const char* header = kHeader2,
+                  const char* footer = "</core:CityModel>\n") {
+    const fs::path p = scratch(name + ".gml");
+    std::ofstream(p) << header << body << footer;
+    return p;
+}
+
+// A 10 x 10 square at height z, counter-clockwise seen from above.
+std::string square(const std::string& id, double z, bool reverse = false) {
+    std::string pts = reverse ? "100 200 Z 100 210 Z 110 210 Z 110 200 Z 100 200 Z"
+                              : "100 200 Z 110 200 Z 110 210 Z 100 210 Z 100 200 Z";
+    for (size_t at; (at = pts.find('Z')) != std::string::npos;) pts.replace(at, 1, std::to_string(z));
+    return "<gml:Polygon gml:id=\"" + id + "\"><gml:exterior><gml:LinearRing gml:id=\"" + id +
+           "_r\"><gml:posList>" + pts + "</gml:posList></gml:LinearRing></gml:exterior></gml:Polygon>";
+}
+
+TEST(CityGmlReader, OrientableSurfaceMinusFlipsTheFace) {
+    const auto r = ingest(writeDoc("orientable", R"(<core:cityObjectMember><bldg:Building gml:id="b1"><bldg:lod2MultiSurface><gml:MultiSurface>
+<gml:surfaceMember><gml:OrientableSurface orientation="-"><gml:baseSurface>)" + square("p1", 5) +
+                                                      R"(</gml:baseSurface></gml:OrientableSurface></gml:surfaceMember>
+</gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>)"));
+    ASSERT_TRUE(r->status.ok()) << r->status.error;
+    ASSERT_EQ(r->scene.triangles.size(), 2u);
+    for (const Triangle& t : r->scene.triangles) {
+        const auto& p = t.position_local;
+        EXPECT_LT(cross(p[1] - p[0], p[2] - p[0]).z, 0) << "orientation=\"-\" must face down";
+        EXPECT_EQ(t.semantic, SurfaceSemantic::Ground) << "a bare downward polygon is inferred as ground";
+    }
+    // Compound CRS: horizontal EPSG:25832, origin at the envelope centre.
+    EXPECT_EQ(r->scene.georef.source_crs, "EPSG:25832+5783");
+    EXPECT_EQ(r->scene.georef.origin_source, (Vec3d{105, 205, 5}));
+}
+
+TEST(CityGmlReader, ForwardXlinkToAnotherCityObjectIsResolved) {
+    // Building b1's solid references a polygon that only appears later, in b2.
+    const auto r = ingest(writeDoc("xlink", R"(<core:cityObjectMember><bldg:Building gml:id="b1"><bldg:lod2Solid><gml:Solid><gml:exterior><gml:CompositeSurface>
+<gml:surfaceMember xlink:href="#shared"/></gml:CompositeSurface></gml:exterior></gml:Solid></bldg:lod2Solid></bldg:Building></core:cityObjectMember>
+<core:cityObjectMember><bldg:Building gml:id="b2"><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>)" +
+                                                square("shared", 3) +
+                                                R"(</gml:surfaceMember></gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>)"));
+    ASSERT_TRUE(r->status.ok()) << r->status.error;
+    EXPECT_EQ(r->state.counts.xlinks_cross_object, 1u);
+    std::map<uint32_t, int> per_feature;
+    for (const Triangle& t : r->scene.triangles) per_feature[t.feature]++;
+    EXPECT_EQ(per_feature[0], 2) << "b1 gets the referenced square";
+    EXPECT_EQ(per_feature[1], 2);
+    EXPECT_EQ(r->state.diagnostics.count(warn::kXlinkUnresolved), 0u);
+}
+
+TEST(CityGmlReader, UnresolvedXlinkIsACountedWarning) {
+    const auto r = ingest(writeDoc("dangling", R"(<core:cityObjectMember><bldg:Building gml:id="b1"><bldg:lod2MultiSurface><gml:MultiSurface>
+<gml:surfaceMember xlink:href="#nowhere"/><gml:surfaceMember>)" + square("p", 1) +
+                                                  R"(</gml:surfaceMember></gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>)"));
+    ASSERT_TRUE(r->status.ok());
+    EXPECT_EQ(r->state.diagnostics.count(warn::kXlinkUnresolved), 1u);
+    EXPECT_EQ(r->scene.triangles.size(), 2u);
+}
+
+TEST(CityGmlReader, BuildingPartsAreFeaturesWithTheirParent) {
+    const auto r = ingest(writeDoc("parts", R"(<core:cityObjectMember><bldg:Building gml:id="b"><bldg:consistsOfBuildingPart><bldg:BuildingPart gml:id="part">
+<bldg:lod1Solid><gml:Solid><gml:exterior><gml:CompositeSurface><gml:surfaceMember>)" + square("q", 2) +
+                                               R"(</gml:surfaceMember></gml:CompositeSurface></gml:exterior></gml:Solid></bldg:lod1Solid>
+</bldg:BuildingPart></bldg:consistsOfBuildingPart></bldg:Building></core:cityObjectMember>)"));
+    ASSERT_TRUE(r->status.ok());
+    ASSERT_EQ(r->scene.features.size(), 2u);
+    EXPECT_EQ(r->scene.features[1].gml_id, "part");
+    EXPECT_EQ(r->scene.features[1].parent, 0);
+    EXPECT_EQ(r->state.counts.features_without_geometry, 0u) << "geometry in a part counts for the building";
+    for (const Triangle& t : r->scene.triangles) EXPECT_EQ(t.feature, 1u);
+}
+
+TEST(CityGmlReader, BestLodPrefersLod2AndLodOptionSelects) {
+    const std::string body = R"(<core:cityObjectMember><bldg:Building gml:id="b"><bldg:lod1MultiSurface><gml:MultiSurface><gml:surfaceMember>)" +
+                             square("l1", 4) + R"(</gml:surfaceMember></gml:MultiSurface></bldg:lod1MultiSurface>
+<bldg:boundedBy><bldg:RoofSurface gml:id="rs"><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>)" +
+                             square("l2", 8) + R"(</gml:surfaceMember></gml:MultiSurface></bldg:lod2MultiSurface></bldg:RoofSurface></bldg:boundedBy>
+</bldg:Building></core:cityObjectMember>)";
+    const fs::path doc = writeDoc("lods", body);
+    const auto best = ingest(doc);
+    ASSERT_EQ(best->scene.triangles.size(), 2u);
+    EXPECT_NEAR(best->scene.triangles[0].position_local[0].z, 8 - 5, 1e-12);
+    EXPECT_EQ(best->scene.triangles[0].semantic, SurfaceSemantic::Roof);
+    CityGmlOptions lod1;
+    lod1.lod = 1;
+    const auto one = ingest(doc, lod1);
+    ASSERT_EQ(one->scene.triangles.size(), 2u);
+    EXPECT_NEAR(one->scene.triangles[0].position_local[0].z, 4 - 5, 1e-12);
+}
+
+TEST(CityGmlReader, TexCoordGenAndThemesAndMaterialFallback) {
+    // Two themes; the first has only a material, the second a texture: the
+    // default is the first TEXTURED theme. The texture file is missing in
+    // theme "night", so that theme falls back to a colour.
+    const fs::path dir = scratch("texgen");
+    fs::create_directories(dir);
+    const std::string png = (dir / "t.png").string();
+    {
+        // A real 2x2 PNG via the synthetic texture writer's library (OIIO).
+        std::ofstream(dir / "make.txt") << "";
+    }
+    std::string body = R"(<core:cityObjectMember><bldg:Building gml:id="b"><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>)" +
+                       square("p", 0) + R"(</gml:surfaceMember></gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>
+<app:appearanceMember><app:Appearance><app:theme>plain</app:theme><app:surfaceDataMember><app:X3DMaterial>
+<app:diffuseColor>1 0 0</app:diffuseColor><app:target>#p</app:target></app:X3DMaterial></app:surfaceDataMember></app:Appearance></app:appearanceMember>
+<app:appearanceMember><app:Appearance><app:theme>day</app:theme><app:surfaceDataMember><app:ParameterizedTexture>
+<app:imageURI>IMAGE</app:imageURI><app:wrapMode>wrap</app:wrapMode><app:target uri="#p"><app:TexCoordGen>
+<app:worldToTexture>0.1 0 0 -10 0 0.1 0 -20 0 0 0 1</app:worldToTexture></app:TexCoordGen></app:target>
+</app:ParameterizedTexture></app:surfaceDataMember></app:Appearance></app:appearanceMember>)";
+    auto docFor = [&](const std::string& image) {
+        std::string b = body;
+        b.replace(b.find("IMAGE"), 5, image);
+        const fs::path p = dir / (image + ".gml");
+        std::ofstream(p) << kHeader2 << b << "</core:CityModel>\n";
+        return p;
+    };
+    // Any readable image will do: write one with the synth texture writer.
+    synth::TownSettings s;
+    s.buildings = 1;
+    s.texture_size_px = 16;
+    ASSERT_TRUE(synth::writeTown(synth::generateTown(s), dir / "town", true, nullptr).ok());
+    fs::copy_file(dir / "town" / "textures" / "paving.png", png);
+
+    const auto r = ingest(docFor("t.png"));
+    ASSERT_TRUE(r->status.ok()) << r->status.error;
+    EXPECT_EQ(r->state.counts.theme_used, "day");
+    EXPECT_EQ(r->state.counts.themes, (std::vector<std::string>{"plain", "day"}));
+    ASSERT_EQ(r->scene.triangles.size(), 2u);
+    for (const Triangle& t : r->scene.triangles) {
+        ASSERT_EQ(t.texture, 0);
+        for (int k = 0; k < 3; ++k) {
+            // u = 0.1 x - 10, v = 0.1 y - 20 on the file's coordinates (x = 105 + local x, ...).
+            EXPECT_NEAR(t.uv[k].x, 0.1 * (105 + t.position_local[k].x) - 10, 1e-9);
+            EXPECT_NEAR(t.uv[k].y, 0.1 * (205 + t.position_local[k].y) - 20, 1e-9);
+        }
+    }
+    CityGmlOptions plain;
+    plain.theme = "plain";
+    const auto red = ingest(docFor("t.png"), plain);
+    ASSERT_EQ(red->scene.materials.size(), 1u);
+    EXPECT_EQ(red->scene.materials[0].diffuse[0], 1.0f);
+    EXPECT_EQ(red->scene.triangles[0].texture, -1);
+
+    const auto missing = ingest(docFor("gone.png"));
+    ASSERT_TRUE(missing->status.ok());
+    EXPECT_EQ(missing->state.diagnostics.count(warn::kTextureMissing), 1u);
+    EXPECT_EQ(missing->scene.triangles[0].texture, -1);
+    EXPECT_GE(missing->scene.triangles[0].material, 0) << "a failed texture falls back to a colour";
+
+    CityGmlOptions bad;
+    bad.theme = "nope";
+    EXPECT_FALSE(ingest(docFor("t.png"), bad)->status.ok());
+}
+
+TEST(CityGmlReader, CityGml1NamespaceAndPosElementsAnd2dCoordinates) {
+    constexpr const char* header1 = R"(<?xml version="1.0"?>
+<CityModel xmlns="http://www.opengis.net/citygml/1.0" xmlns:bldg="http://www.opengis.net/citygml/building/1.0"
+ xmlns:gml="http://www.opengis.net/gml">
+)";
+    const auto r = ingest(writeDoc("v1", R"(<cityObjectMember><bldg:Building gml:id="b"><bldg:lod1MultiSurface><gml:MultiSurface srsName="EPSG:25833"><gml:surfaceMember>
+<gml:Polygon><gml:exterior><gml:LinearRing><gml:pos srsDimension="2">0 0</gml:pos><gml:pos srsDimension="2">4 0</gml:pos>
+<gml:pos srsDimension="2">4 4</gml:pos><gml:pos srsDimension="2">0 0</gml:pos></gml:LinearRing></gml:exterior></gml:Polygon>
+</gml:surfaceMember></gml:MultiSurface></bldg:lod1MultiSurface></bldg:Building></cityObjectMember>)",
+                                   header1, "</CityModel>\n"));
+    ASSERT_TRUE(r->status.ok()) << r->status.error;
+    ASSERT_EQ(r->state.files.size(), 1u);
+    EXPECT_EQ(r->state.files.at(0).citygml_version, "1.0");
+    EXPECT_EQ(r->scene.georef.source_crs, "EPSG:25833");
+    EXPECT_EQ(r->scene.triangles.size(), 1u);
+    EXPECT_EQ(r->state.diagnostics.count(warn::kCoordinates2d), 1u);
+}
+
+TEST(CityGmlReader, FatalErrorsNameTheFile) {
+    const fs::path nocrs = writeDoc("nocrs", "", R"(<?xml version="1.0"?>
+<core:CityModel xmlns:core="http://www.opengis.net/citygml/2.0">
+)");
+    const auto missing_crs = ingest(nocrs);
+    EXPECT_FALSE(missing_crs->status.ok());
+    EXPECT_NE(missing_crs->status.error.find("crs_missing"), std::string::npos) << missing_crs->status.error;
+    EXPECT_NE(missing_crs->status.error.find("nocrs.gml"), std::string::npos);
+    CityGmlOptions with_crs;
+    with_crs.fallback_crs = "EPSG:25832";
+    EXPECT_TRUE(ingest(nocrs, with_crs)->status.ok());
+
+    const fs::path trunc = scratch("trunc.gml");
+    std::ofstream(trunc) << kHeader2 << "<core:cityObjectMember><bldg:Building gml:id=\"b\"><bldg:lod2MultiSurface>";
+    const auto t = ingest(trunc);
+    EXPECT_FALSE(t->status.ok());
+    EXPECT_EQ(t->status.error.rfind("xml_malformed", 0), 0u) << t->status.error;
+    EXPECT_TRUE(t->scene.triangles.empty()) << "nothing is emitted from a file that is not well-formed";
+}
+
+}  // namespace
+}  // namespace cityatlas
