@@ -19,10 +19,7 @@
 #include "ingest/citygml/citygml_reader.h"
 #include "ingest/ingest_report.h"
 #include "ingest/scene_sink.h"
-#if __has_include("ingest/gltf_debug.h")
 #include "ingest/gltf_debug.h"
-#define CITYATLAS_HAVE_GLB 1
-#endif
 
 namespace cityatlas::cli {
 namespace fs = std::filesystem;
@@ -102,12 +99,6 @@ int runIngest(const IngestCliOptions& opt) {
     Progress progress(!opt.quiet);
     std::vector<fs::path> files;
     if (Status s = expandInputs(opt.inputs, &files); !s.ok()) return fail(progress, s);
-#ifndef CITYATLAS_HAVE_GLB
-    if (!opt.glb.empty()) {
-        std::fprintf(stderr, "cityatlas ingest: this build cannot write glTF\n");
-        return kExitUsage;
-    }
-#endif
 
     IngestState state;
     state.options.lod = opt.lod == "best" ? 0 : std::stoi(opt.lod);
@@ -120,10 +111,9 @@ int runIngest(const IngestCliOptions& opt) {
     state.sink = opt.glb.empty() ? static_cast<SceneSink*>(&stats_sink) : &collector;
     size_t file_index = 0;
     state.progress = [&](const char* pass, uint64_t done, uint64_t total) {
-        const std::string step = files.size() > 1 ? fmt::format("{} {}/{} ({})", pass, file_index + 1, files.size(),
-                                                                humanBytes(total))
-                                                  : fmt::format("{} ({})", pass, humanBytes(total));
-        progress.update(step.c_str(), done, total);
+        const std::string step =
+            files.size() > 1 ? fmt::format("{} file {}/{}", pass, file_index + 1, files.size()) : std::string(pass);
+        progress.update(step.c_str(), done, total, true);
     };
 
     std::vector<StepTiming> steps;
@@ -142,14 +132,12 @@ int runIngest(const IngestCliOptions& opt) {
         stats = computeStats(collector.scene);
         features = collector.scene.features.size(), textures = collector.scene.textures.size();
         materials = collector.scene.materials.size();
-#ifdef CITYATLAS_HAVE_GLB
         if (!opt.quiet) progress.update("writing glb", 0, 1);
         t0 = std::chrono::steady_clock::now();
         if (Status s = writeDebugGlb(collector.scene, opt.glb); !s.ok())
             return fail(progress, Status::Fail("io_error: " + s.error));
         steps.push_back({"write_glb", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          static_cast<double>(peakRssBytes()) / 1e6});
-#endif
     }
     progress.finish();
     if (!opt.report.empty()) {

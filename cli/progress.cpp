@@ -13,7 +13,7 @@ namespace cityatlas::cli {
 Progress::Progress(bool enabled)
     : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0), last_(std::chrono::steady_clock::now()) {}
 
-void Progress::update(const char* step, uint64_t done, uint64_t total) {
+void Progress::update(const char* step, uint64_t done, uint64_t total, bool bytes) {
     if (!enabled_) return;
     const auto now = std::chrono::steady_clock::now();
     const bool new_step = last_step_ != step;
@@ -25,8 +25,20 @@ void Progress::update(const char* step, uint64_t done, uint64_t total) {
     last_ = now;
     last_step_ = step;
     last_done_ = done;
-    const std::string line = total > 1 ? fmt::format("{}: {}/{} ({:.0f} %)", step, done, total, 100.0 * done / total)
-                                       : fmt::format("{}...", step);
+    std::string line;
+    if (total <= 1) {
+        line = fmt::format("{}...", step);
+    } else {
+        const double fraction = static_cast<double>(done) / static_cast<double>(total);
+        const std::string amount = bytes ? fmt::format("{} of {}", humanBytes(done), humanBytes(total))
+                                         : fmt::format("{}/{}", done, total);
+        std::string bar;
+        if (tty_) {
+            const int width = 24, filled = static_cast<int>(fraction * width + 0.5);
+            bar = "[" + std::string(filled, '#') + std::string(width - filled, '.') + "] ";
+        }
+        line = fmt::format("{}: {}{} ({:.0f} %)", step, bar, amount, 100.0 * fraction);
+    }
     if (tty_) {
         std::fprintf(stderr, "\r\033[K%s", line.c_str());
         open_line_ = true;

@@ -13,7 +13,8 @@ namespace cityatlas::cli {
 class Progress {
 public:
     explicit Progress(bool enabled);
-    void update(const char* step, uint64_t done, uint64_t total);
+    /// `bytes`: done/total are byte counts (shown as MB, with a bar on a terminal).
+    void update(const char* step, uint64_t done, uint64_t total, bool bytes = false);
     void finish();  ///< ends a redrawn line
 
 private:

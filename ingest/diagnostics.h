@@ -46,6 +46,7 @@ inline constexpr const char* kSolidInverted = "solid_inverted";              // 
 inline constexpr const char* kNoLodGeometry = "no_lod_geometry";             // building without LOD <= 2
 inline constexpr const char* kAppearanceUnsupported = "appearance_unsupported";  // e.g. GeoreferencedTexture
 inline constexpr const char* kCrsNotGeoreferenced = "crs_not_georeferenced";  // local engineering CRS
+inline constexpr const char* kCrsVerticalIgnored = "crs_vertical_ignored";    // unusable height part of a compound CRS
 }  // namespace warn
 
 struct DiagnosticExample {

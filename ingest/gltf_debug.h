@@ -27,7 +27,7 @@ inline constexpr const char* kGltfFeatureIdAttribute = "_FEATURE_ID_0";
 ///   A triangle whose texture index is out of range or whose texture has an
 ///   empty path counts as untextured. Primitives are non-indexed triangle lists.
 /// * Positions are float32 in the Scene's local frame (east, north, up). The mesh
-///   hangs under a root node whose rotation (-90 degrees about x) turns the
+///   sits on the single root node, whose rotation (-90 degrees about x) turns the
 ///   Scene's z-up into glTF's y-up: glTF (x, y, z) = (east, up, -north).
 /// * Texture coordinates: v is flipped (v' = 1 - v), since glTF's v = 0 is the
 ///   image top and the Scene's the bottom. Samplers follow TextureRef::wrap:
@@ -40,8 +40,11 @@ inline constexpr const char* kGltfFeatureIdAttribute = "_FEATURE_ID_0";
 ///   (channels == 4) and materials with transparency > 0 get alphaMode BLEND.
 ///   Untextured primitives carry the material's diffuse colour (clamped to
 ///   [0,1], alpha = 1 - transparency) as baseColorFactor.
-/// * Per vertex, kGltfFeatureIdAttribute holds Triangle::feature as FLOAT
-///   (exact up to 2^24; see gltf_debug.cpp for larger indices).
+/// * Per vertex, kGltfFeatureIdAttribute holds Triangle::feature as a FLOAT
+///   SCALAR (exact up to 2^24). glTF forbids UNSIGNED_INT vertex attributes, so
+///   when some written triangle's feature exceeds 2^24 the attribute becomes a
+///   VEC2 UNSIGNED_SHORT (low 16 bits, high 16 bits) for the whole file;
+///   asset.extras.feature_id_encoding says which ("float" or "uint16 pair (low, high)").
 /// * asset.generator names cityatlas and its version; asset.extras records the
 ///   source CRS, the local origin and how many triangles were dropped.
 /// * Triangles with a non-finite position, or one that does not fit a float32,

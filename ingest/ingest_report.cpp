@@ -44,6 +44,7 @@ nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneSta
     j["polygons"] = {{"read", c.polygons_read}, {"triangulated", c.polygons_triangulated},
                      {"skipped", c.polygons_skipped}, {"textured", c.polygons_textured},
                      {"coloured", c.polygons_coloured}, {"semantic_inferred", c.polygons_semantic_inferred},
+                     {"shared_between_parts", c.polygons_shared},
                      {"max_plane_deviation_m", c.max_plane_deviation_m}};
     j["xlinks"] = {{"resolved", c.xlinks_resolved}, {"cross_object", c.xlinks_cross_object}};
     json by_semantic = json::object();

@@ -89,7 +89,9 @@ Status parseSrsName(const std::string& srs_name, SourceCrs* crs) {
     // Only the text we built from digits reaches GDAL, and with file and
     // network access forbidden all the same.
     OGRErr err = srs.SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS);
+    crs->vertical_ignored.clear();
     if (err != OGRERR_NONE && codes.size() > 1) {  // an unusable vertical part: keep the horizontal one
+        crs->vertical_ignored = fmt::format("EPSG:{}", codes[1]);
         definition = fmt::format("EPSG:{}", codes[0]);
         err = srs.SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS);
     }

@@ -33,6 +33,7 @@ struct SourceCrs {
     std::string name;           ///< PROJ's name for it
     double linear_unit_m = 1;   ///< projected: metres per unit
     double semi_major_m = 6378137, inverse_flattening = 298.257223563;  ///< geographic: the ellipsoid
+    std::string vertical_ignored;  ///< a compound CRS's height part PROJ could not use (e.g. a datum code), or empty
 };
 
 /// Parses an srsName: EPSG URNs (also versioned and compound:

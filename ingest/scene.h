@@ -105,6 +105,7 @@ struct Feature {
     std::string name;
     std::string source_file;
     int32_t parent = -1;  ///< index of the parent feature (BuildingPart -> Building), or -1
+    int8_t lod = 0;       ///< LOD of the geometry taken (1 or 2); 0 when it has none of its own
     std::optional<double> measured_height_m;
     std::string roof_type;
     std::string function;

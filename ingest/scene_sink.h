@@ -17,6 +17,8 @@ public:
     virtual int32_t addTexture(const TextureRef& texture) = 0;   ///< returns its index
     virtual int32_t addMaterial(const Material& material) = 0;   ///< interned; returns its index
     virtual uint32_t addFeature(Feature feature) = 0;            ///< returns its index
+    /// Records which LOD a feature's geometry came from (known after its parts are read).
+    virtual void setFeatureLod(uint32_t feature, int8_t lod) { (void)feature, (void)lod; }
     /// Takes the triangles (the vector is left empty).
     virtual void addTriangles(std::vector<Triangle>& triangles) = 0;
 };
@@ -35,6 +37,7 @@ public:
         scene.features.push_back(std::move(f));
         return static_cast<uint32_t>(scene.features.size() - 1);
     }
+    void setFeatureLod(uint32_t feature, int8_t lod) override { scene.features[feature].lod = lod; }
     void addTriangles(std::vector<Triangle>& t) override {
         scene.triangles.insert(scene.triangles.end(), t.begin(), t.end());
         t.clear();

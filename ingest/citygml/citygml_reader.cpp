@@ -135,6 +135,7 @@ private:
 
     // Per member during the read pass.
     std::unordered_map<std::string, xmlNodePtr> ids_;
+    std::unordered_set<std::string> emitted_ids_;  // polygons already emitted for this city object
     AppearanceStore local_appearances_;
     std::unordered_map<std::string, ImageInfo> image_cache_;  // by resolved path
 
@@ -269,6 +270,10 @@ private:
             return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
         summary_.srs_name = srs_name_;
         summary_.crs = crs_.name;
+        if (!crs_.vertical_ignored.empty())
+            warn(warn::kCrsVerticalIgnored, 0, "",
+                 fmt::format("{} in \"{}\" is not a vertical CRS PROJ knows; heights are used as written with {}",
+                             crs_.vertical_ignored, srs_name_, crs_.name));
         if (crs_.kind == SourceCrs::Kind::LocalEngineering)
             warn(warn::kCrsNotGeoreferenced, 0, "", fmt::format("{}: coordinates used as local metres", srs_name_));
 
@@ -392,6 +397,7 @@ private:
             if (!object) continue;
             if (isNamed(object, "Building")) {
                 ids_.clear();
+                emitted_ids_.clear();
                 indexIds(member, true);
                 local_appearances_ = AppearanceStore();
                 collectAppearances(member);
@@ -477,6 +483,7 @@ private:
         if (lod == 0) lod = has(2) ? 2 : has(1) ? 1 : 0;
         if (lod == 0 || !has(lod)) return any;
         (lod == 2 ? state_.counts.features_lod2 : state_.counts.features_lod1)++;
+        state_.sink->setFeatureLod(feature, static_cast<int8_t>(lod));
 
         // Thematic surfaces first; a solid that references the same polygons
         // (by xlink or by equal geometry) must not add them twice.
@@ -505,6 +512,15 @@ private:
         for (RawPolygon& p : polygons)
             if (p.solid.empty() && !p.id.empty())
                 if (auto it = solid_of.find(p.id); it != solid_of.end()) p.solid = it->second;
+        // A polygon that another part of the same building already used (by
+        // xlink, often reversed: the wall between a house and its garage)
+        // is one face, emitted once.
+        std::erase_if(polygons, [&](const RawPolygon& p) {
+            if (p.id.empty()) return false;
+            const bool repeat = !emitted_ids_.insert(p.id).second;
+            state_.counts.polygons_shared += repeat;
+            return repeat;
+        });
         emitPolygons(polygons, feature);
         return true;
     }

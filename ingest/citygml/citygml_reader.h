@@ -45,6 +45,7 @@ struct IngestCounts {
     uint64_t features_lod1 = 0, features_lod2 = 0, features_without_geometry = 0;
     uint64_t polygons_read = 0, polygons_triangulated = 0, polygons_skipped = 0;
     uint64_t polygons_textured = 0, polygons_coloured = 0, polygons_semantic_inferred = 0;
+    uint64_t polygons_shared = 0;  ///< used again by another part of the same building: emitted once
     uint64_t xlinks_resolved = 0, xlinks_cross_object = 0;
     double max_plane_deviation_m = 0;
     std::vector<std::string> themes;   ///< all themes found, in document order

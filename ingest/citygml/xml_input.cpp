@@ -53,14 +53,15 @@ void XmlInput::fail(const char* code, int64_t line, const std::string& message) 
                                     : fmt::format("{}: {}: {}", code, file_.string(), message));
 }
 
-static void collectError(void* arg, const char* msg, xmlParserSeverities severity, xmlTextReaderLocatorPtr locator) {
+// libxml2's structured errors carry the line where the parser stood (for a
+// mismatched end tag: that tag), not the line of the node being built.
+static void collectError(void* arg, xmlErrorPtr error) {
     auto* impl = static_cast<XmlInput::Impl*>(arg);
-    if (severity != XML_PARSER_SEVERITY_ERROR && severity != XML_PARSER_SEVERITY_VALIDITY_ERROR) return;
-    if (!impl->first_error.empty()) return;
-    std::string m = msg ? msg : "parse error";
+    if (!error || error->level < XML_ERR_ERROR || !impl->first_error.empty()) return;
+    std::string m = error->message ? error->message : "parse error";
     while (!m.empty() && std::isspace(static_cast<unsigned char>(m.back()))) m.pop_back();
     impl->first_error = m;
-    impl->first_error_line = locator ? xmlTextReaderLocatorLineNumber(locator) : 0;
+    impl->first_error_line = error->line;
 }
 
 Status XmlInput::open(const std::filesystem::path& file) {
@@ -104,7 +105,7 @@ Status XmlInput::open(const std::filesystem::path& file) {
         fail(fatal::kIoError, 0, "cannot open for reading");
         return status_;
     }
-    xmlTextReaderSetErrorHandler(impl_->reader, collectError, impl_);
+    xmlTextReaderSetStructuredErrorHandler(impl_->reader, collectError, impl_);
     return status_;
 }
 

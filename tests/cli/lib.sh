@@ -13,3 +13,19 @@ check_eq() {  # check_eq WHAT EXPECTED ACTUAL
 json() { "$PY" -c "import json,sys; j=json.load(open(sys.argv[1])); print($2)" "$1"; }
 # XPath count over a CityGML file, namespace-agnostic
 xcount() { xmllint --xpath "count($2)" "$1"; }
+
+# Makes the Khronos glTF validator (npm gltf-validator, pinned in
+# tests/tools/gltf/package-lock.json) available; exits 77 (skipped) without
+# node >= 18. The first run installs it with `npm ci` (needs the npm registry).
+ensure_gltf_validator() {
+  GLTF_TOOLS="$SRC/tests/tools/gltf"
+  command -v node > /dev/null || { echo "SKIPPED: node is not installed (Debian: apt-get install nodejs npm)"; exit 77; }
+  node -e 'process.exit(parseInt(process.versions.node) >= 18 ? 0 : 1)' ||
+    { echo "SKIPPED: node $(node --version) is too old for the glTF validator (needs >= 18)"; exit 77; }
+  if [ ! -f "$GLTF_TOOLS/node_modules/gltf-validator/package.json" ]; then
+    command -v npm > /dev/null || { echo "SKIPPED: npm is not installed (Debian: apt-get install npm)"; exit 77; }
+    echo "installing the glTF validator: npm ci --prefix $GLTF_TOOLS"
+    npm ci --prefix "$GLTF_TOOLS" --no-audit --no-fund --loglevel=error > npm.log 2>&1 ||
+      { tail -20 npm.log >&2; fail "npm ci in $GLTF_TOOLS failed (the first run needs the npm registry)"; }
+  fi
+}
