@@ -35,7 +35,7 @@ void Progress::update(const char* step, uint64_t done, uint64_t total, bool byte
         std::string bar;
         if (tty_) {
             const int width = 24, filled = static_cast<int>(fraction * width + 0.5);
-            bar = "[" + std::string(filled, '#') + std::string(width - filled, '.') + "] ";
+            bar = fmt::format("[{:#<{}}{:.<{}}] ", "", filled, "", width - filled);
         }
         line = fmt::format("{}: {}{} ({:.0f} %)", step, bar, amount, 100.0 * fraction);
     }

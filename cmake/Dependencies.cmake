@@ -19,7 +19,8 @@ find_package(nlohmann_json 3 CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(fmt CONFIG REQUIRED)
 find_package(LibXml2 REQUIRED)
-# Debian's tinygltf (writing only: it has no Draco; see ../shared/STACK.md).
+# Debian's tinygltf: the tests read our glTF back with it (it has no Draco;
+# keep it out of libraries that link Draco, see ../shared/STACK.md).
 find_package(TinyGLTF CONFIG REQUIRED)
 # GeographicLib ships a Find module, not a config, off CMake's default path.
 list(APPEND CMAKE_MODULE_PATH /usr/share/cmake/geographiclib)

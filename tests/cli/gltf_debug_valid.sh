@@ -6,20 +6,10 @@
 # needed once; offline afterwards).
 # The helper that writes the glb comes from the environment: SCENE_TO_GLB.
 source "$(dirname "$0")/lib.sh" "$@"
-TOOLS="$SRC/tests/tools/gltf"
 [ -n "${SCENE_TO_GLB:-}" ] || fail "SCENE_TO_GLB is not set (path of the scene_to_glb helper)"
 [ -x "$SCENE_TO_GLB" ] || fail "SCENE_TO_GLB=$SCENE_TO_GLB is not an executable"
-
-skip() { echo "SKIPPED: $*"; exit 77; }
-command -v node > /dev/null || skip "node is not installed (Debian: apt-get install nodejs npm)"
-node -e 'process.exit(parseInt(process.versions.node) >= 18 ? 0 : 1)' ||
-  skip "node $(node --version) is too old for the glTF validator (needs >= 18)"
-if [ ! -f "$TOOLS/node_modules/gltf-validator/package.json" ]; then
-  command -v npm > /dev/null || skip "npm is not installed (Debian: apt-get install npm)"
-  echo "installing the glTF validator: npm ci --prefix $TOOLS"
-  npm ci --prefix "$TOOLS" --no-audit --no-fund --loglevel=error > npm.log 2>&1 ||
-    { tail -20 npm.log >&2; fail "npm ci in $TOOLS failed (the first run needs the npm registry)"; }
-fi
+ensure_gltf_validator
+TOOLS="$GLTF_TOOLS"
 
 # validate FILE: runs the validator, leaves its output in validate.txt, returns its exit status.
 validate() {
