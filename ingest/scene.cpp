@@ -27,6 +27,12 @@ std::string_view semanticName(SurfaceSemantic s) {
     return "unclassified";
 }
 
+std::optional<SurfaceSemantic> semanticFromName(std::string_view name) {
+    for (int k = 0; k < kSurfaceSemanticCount; ++k)
+        if (semanticName(static_cast<SurfaceSemantic>(k)) == name) return static_cast<SurfaceSemantic>(k);
+    return std::nullopt;
+}
+
 std::string_view wrapModeName(WrapMode w) {
     switch (w) {
         case WrapMode::None: return "none";

@@ -78,6 +78,8 @@ enum class SurfaceSemantic : uint8_t {
 };
 inline constexpr int kSurfaceSemanticCount = 8;
 std::string_view semanticName(SurfaceSemantic s);  ///< "wall", "roof", ...
+/// The inverse of semanticName; empty for an unknown name.
+std::optional<SurfaceSemantic> semanticFromName(std::string_view name);
 
 /// CityGML app:wrapMode values.
 enum class WrapMode : uint8_t { None, Wrap, Mirror, Clamp, Border };

@@ -13,6 +13,7 @@
 
 #include "ingest/synth/town.h"
 #include "ingest/synth/write_town.h"
+#include "truth_check.h"
 
 namespace cityatlas {
 namespace {
@@ -59,17 +60,7 @@ void expectMatchesTruth(const fs::path& dir) {
     const auto truth = nlohmann::json::parse(std::ifstream(dir / "truth.json"));
     const auto r = ingest(dir / "town.gml");
     ASSERT_TRUE(r->status.ok()) << r->status.error;
-    const SceneStats stats = computeStats(r->scene);
-    EXPECT_EQ(stats.features, truth["buildings"].get<size_t>());
-    EXPECT_EQ(stats.textures, truth["textures"]["count"].get<size_t>());
-    EXPECT_EQ(stats.triangles, truth["triangles"].get<size_t>());
-    for (const auto& [name, tally] : truth["surfaces"].items()) {
-        int k = 0;
-        while (semanticName(static_cast<SurfaceSemantic>(k)) != name) ++k;
-        EXPECT_EQ(stats.triangles_by_semantic[k], tally["triangles"].get<size_t>()) << name;
-        const double a = tally["area_m2"].get<double>();
-        EXPECT_NEAR(stats.area_by_semantic_m2[k], a, 1e-9 * a) << name;
-    }
+    expectStatsMatchTruth(computeStats(r->scene), truth);
     // Building ids, and every textured triangle's texture exists on disk.
     std::set<std::string> ids, truth_ids;
     for (const Feature& f : r->scene.features) ids.insert(f.gml_id);

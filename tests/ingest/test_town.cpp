@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "truth_check.h"
+
 #include <cmath>
 #include <map>
 #include <set>
@@ -218,17 +220,7 @@ TEST(SynthTown, SceneAgreesWithTruth) {
         const Town town = makeTown(200, lod);
         const Scene scene = townToScene(town, "/out");
         const auto truth = makeTruth(town);
-        const SceneStats stats = computeStats(scene);
-        EXPECT_EQ(stats.triangles, truth["triangles"].get<size_t>());
-        EXPECT_EQ(stats.features, truth["buildings"].get<size_t>());
-        EXPECT_EQ(stats.textures, truth["textures"]["count"].get<size_t>());
-        for (const auto& [name, tally] : truth["surfaces"].items()) {
-            int k = 0;
-            while (semanticName(static_cast<SurfaceSemantic>(k)) != name) ++k;
-            EXPECT_EQ(stats.triangles_by_semantic[k], tally["triangles"].get<size_t>()) << name;
-            const double a = tally["area_m2"].get<double>();
-            EXPECT_NEAR(stats.area_by_semantic_m2[k], a, 1e-9 * a) << name;
-        }
+        expectStatsMatchTruth(computeStats(scene), truth);
         // Every textured triangle points at a texture the town writes.
         for (const Triangle& t : scene.triangles)
             if (t.texture >= 0) {
