@@ -10,11 +10,11 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
 #include "ingest/citygml/appearance.h"
 #include "ingest/citygml/xml_input.h"
+#include "ingest/texture_resolver.h"
 #include "ingest/triangulate.h"
 
 namespace cityatlas {
@@ -94,10 +94,6 @@ int declaredDimension(xmlNodePtr n) {
     return 0;
 }
 
-struct ImageInfo {
-    int32_t scene_index = -1;  // -1: failed
-};
-
 // ---------------------------------------------------------------------------
 
 class FileReader {
@@ -137,7 +133,7 @@ private:
     std::unordered_map<std::string, xmlNodePtr> ids_;
     std::unordered_set<std::string> emitted_ids_;  // polygons already emitted for this city object
     AppearanceStore local_appearances_;
-    std::unordered_map<std::string, ImageInfo> image_cache_;  // by resolved path
+    TextureResolver textures_{*state_.sink, state_.diagnostics};
 
     void warn(const char* code, int64_t line, const std::string& id, std::string detail) {
         state_.diagnostics.warn(code, {file_.string(), line, id, std::move(detail)});
@@ -418,6 +414,8 @@ private:
         }
         if (!in.status().ok()) return in.status();
         progress("read", in);
+        state_.counts.textures_ok += textures_.resolved();
+        state_.counts.textures_failed += textures_.failed();
         state_.files.push_back(summary_);
         return Status::Ok();
     }
@@ -699,38 +697,7 @@ private:
 
     int32_t sceneTexture(const AppearanceStore& store, uint32_t image, int64_t line, const std::string& polygon_id) {
         const TextureImage& img = store.images[image];
-        const std::string uri = img.uri;
-        const bool remote = uri.find("://") != std::string::npos;
-        const fs::path path = remote ? fs::path() : (file_.parent_path() / fs::path(uri)).lexically_normal();
-        const std::string key = remote ? uri : path.string() + "#" + std::to_string(static_cast<int>(img.wrap));
-        auto it = image_cache_.find(key);
-        if (it != image_cache_.end()) return it->second.scene_index;
-        ImageInfo info;
-        std::error_code ec;
-        if (remote) {
-            warn(warn::kTextureMissing, line, polygon_id, fmt::format("{}: remote images are not fetched", uri));
-        } else if (!fs::is_regular_file(path, ec)) {
-            warn(warn::kTextureMissing, line, polygon_id, fmt::format("{}: no such file", path.string()));
-        } else {
-            auto in = OIIO::ImageInput::open(path.string());
-            if (!in) {
-                OIIO::geterror();  // clear
-                warn(warn::kTextureUnreadable, line, polygon_id, fmt::format("{}: not a readable image", path.string()));
-            } else {
-                const OIIO::ImageSpec& spec = in->spec();
-                TextureRef ref;
-                ref.path = path.string();
-                ref.width_px = spec.width;
-                ref.height_px = spec.height;
-                ref.channels = spec.nchannels;
-                ref.wrap = img.wrap;
-                in->close();
-                info.scene_index = state_.sink->addTexture(ref);
-            }
-        }
-        (info.scene_index >= 0 ? state_.counts.textures_ok : state_.counts.textures_failed)++;
-        image_cache_[key] = info;
-        return info.scene_index;
+        return textures_.resolve(file_.parent_path(), img.uri, img.wrap, {file_.string(), line, polygon_id, ""});
     }
 
     // ---- cleanup, triangulation, output ---------------------------------------------
