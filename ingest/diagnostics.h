@@ -23,6 +23,7 @@ inline constexpr const char* kNotCityGml = "not_citygml";          // XML, but n
 inline constexpr const char* kCrsMissing = "crs_missing";          // no srsName and no --crs
 inline constexpr const char* kCrsUnknown = "crs_unknown";          // srsName PROJ cannot interpret
 inline constexpr const char* kThemeUnknown = "theme_unknown";      // --theme names no theme of the file
+inline constexpr const char* kNotFootprints = "not_footprints";    // not a polygon dataset GDAL/OGR opens
 }  // namespace fatal
 
 /// Warning codes.
@@ -47,6 +48,16 @@ inline constexpr const char* kNoLodGeometry = "no_lod_geometry";             // 
 inline constexpr const char* kAppearanceUnsupported = "appearance_unsupported";  // e.g. GeoreferencedTexture
 inline constexpr const char* kCrsNotGeoreferenced = "crs_not_georeferenced";  // local engineering CRS
 inline constexpr const char* kCrsVerticalIgnored = "crs_vertical_ignored";    // unusable height part of a compound CRS
+// Footprints:
+inline constexpr const char* kFootprintRepaired = "footprint_repaired";        // invalid polygon fixed by MakeValid
+inline constexpr const char* kFootprintUnrepairable = "footprint_unrepairable";  // MakeValid gave nothing: skipped
+inline constexpr const char* kFootprintDegenerate = "footprint_degenerate";    // no geometry / sliver part: skipped
+inline constexpr const char* kFootprintNoHeight = "footprint_no_height";       // height <= 0: skipped
+inline constexpr const char* kHeightDefaulted = "height_defaulted";            // no height or storeys: default used
+inline constexpr const char* kRoofTypeUnknown = "roof_type_unknown";           // unknown roof type: flat
+inline constexpr const char* kRoofHeightDefaulted = "roof_height_defaulted";   // pitched roof without its height
+inline constexpr const char* kRoofFallback = "roof_fallback";                  // shape not possible on this footprint
+inline constexpr const char* kTerrainMissing = "terrain_missing";              // footprint off the DEM: base 0
 }  // namespace warn
 
 struct DiagnosticExample {

@@ -47,6 +47,9 @@ nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneSta
                      {"shared_between_parts", c.polygons_shared},
                      {"max_plane_deviation_m", c.max_plane_deviation_m}};
     j["xlinks"] = {{"resolved", c.xlinks_resolved}, {"cross_object", c.xlinks_cross_object}};
+    j["footprints"] = {{"read", c.footprints_read}, {"repaired", c.footprints_repaired},
+                       {"skipped", c.footprints_skipped}, {"party_walls", c.party_walls},
+                       {"roof_fallbacks", c.roof_fallbacks}, {"roof_shapes", c.roof_shapes}};
     json by_semantic = json::object();
     for (int k = 0; k < kSurfaceSemanticCount; ++k) {
         if (!stats.triangles_by_semantic[k]) continue;

@@ -51,6 +51,11 @@ struct IngestCounts {
     std::vector<std::string> themes;   ///< all themes found, in document order
     std::string theme_used;
     uint64_t textures_ok = 0, textures_failed = 0;
+    // Footprint inputs:
+    uint64_t footprints_read = 0, footprints_repaired = 0, footprints_skipped = 0;
+    uint64_t party_walls = 0;       ///< shared edges between touching footprints (pairs)
+    uint64_t roof_fallbacks = 0;
+    std::map<std::string, uint64_t> roof_shapes;
 };
 
 struct InputFileSummary {
