@@ -19,6 +19,7 @@
 #include "cli/progress.h"
 #include "ingest/citygml/citygml_reader.h"
 #include "ingest/footprints/footprint_reader.h"
+#include "ingest/georef.h"
 #include "ingest/ingest_report.h"
 #include "ingest/scene_sink.h"
 #include "ingest/gltf_debug.h"
@@ -218,6 +219,24 @@ int runIngest(const IngestCliOptions& opt) {
         stats = computeStats(collector.scene);
         features = collector.scene.features.size(), textures = collector.scene.textures.size();
         materials = collector.scene.materials.size();
+    }
+
+    // The link to the Earth, and how far one matrix is from the real transformation over this scene.
+    std::optional<GeorefSummary> georef;
+    if (state.frame && state.frame->crs().kind != SourceCrs::Kind::LocalEngineering) {
+        GeorefSummary g;
+        if (Status s = summarizeGeoreference(*state.frame, stats.bounds_local, &g); s.ok()) {
+            georef = g;
+            Georeference ref = opt.glb.empty() ? stats_sink.georef : collector.scene.georef;
+            ref.local_to_ecef = g.local_to_ecef;
+            ref.enu_to_ecef = g.earth.enu_to_ecef;
+            ref.grid_frame = g.earth.grid;
+            state.sink->setGeoreference(ref);
+        } else {
+            state.diagnostics.warn(warn::kCrsNotGeoreferenced, {files.front().string(), 0, "", s.error});
+        }
+    }
+    if (!opt.glb.empty()) {
         if (!opt.quiet) progress.update("writing glb", 0, 1);
         t0 = std::chrono::steady_clock::now();
         if (Status s = writeDebugGlb(collector.scene, opt.glb); !s.ok())
@@ -227,7 +246,8 @@ int runIngest(const IngestCliOptions& opt) {
     }
     progress.finish();
     if (!opt.report.empty()) {
-        const auto report = makeIngestReport(state, stats, features, textures, materials, steps, opt.glb);
+        const auto report =
+            makeIngestReport(state, stats, features, textures, materials, steps, opt.glb, georef ? &*georef : nullptr);
         if (Status s = writeTextAtomically(opt.report, report.dump(2) + "\n"); !s.ok()) return fail(progress, s);
     }
 

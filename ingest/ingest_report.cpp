@@ -7,7 +7,7 @@ namespace cityatlas {
 
 nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneStats& stats, size_t features,
                                         size_t textures, size_t materials, const std::vector<StepTiming>& steps,
-                                        const std::string& glb_path) {
+                                        const std::string& glb_path, const GeorefSummary* georef) {
     using json = nlohmann::ordered_json;
     auto xyz = [](const Vec3d& p) { return json::array({p.x, p.y, p.z}); };
     auto box = [&](const Box3d& b) {
@@ -33,6 +33,18 @@ nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneSta
                                                                            : state.frame->crs().definition},
                              {"crs_name", state.frame->crs().name},
                              {"origin", xyz(state.frame->originSource())}};
+        if (georef) {
+            json& g = j["georeference"];
+            g["frame"] = georef->earth.grid ? "grid" : "enu";
+            g["origin_wgs84"] = {{"lat_deg", georef->earth.origin_lat_deg}, {"lon_deg", georef->earth.origin_lon_deg},
+                                 {"h_m", georef->earth.origin_h_m}};
+            g["enu_to_ecef"] = georef->earth.enu_to_ecef;
+            g["local_to_ecef"] = georef->local_to_ecef;
+            g["operation"] = georef->earth.operation;
+            g["planar_error"] = {{"horizontal_m", georef->planar_error_horizontal_m},
+                                 {"vertical_m", georef->planar_error_vertical_m},
+                                 {"extent_m", georef->extent_m}};
+        }
     } else {
         j["georeference"] = nullptr;
     }

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ingest/citygml/citygml_reader.h"
+#include "ingest/georef.h"
 
 namespace cityatlas {
 
@@ -19,6 +20,6 @@ struct StepTiming {
 
 nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneStats& stats, size_t features,
                                         size_t textures, size_t materials, const std::vector<StepTiming>& steps,
-                                        const std::string& glb_path);
+                                        const std::string& glb_path, const GeorefSummary* georef = nullptr);
 
 }  // namespace cityatlas

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "ingest/local_frame.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <map>
@@ -54,12 +55,15 @@ std::vector<int> epsgCodes(const std::string& srs) {
         }
         return codes;
     }
-    // Compound URNs list their parts after commas; OGC compound URLs use "&".
+    // Compound URNs list their parts after commas; OGC compound URLs use "&";
+    // PROJ's own short form is "EPSG:25832+7837".
     size_t start = 0;
     while (start <= srs.size()) {
-        size_t end = srs.find_first_of(",&", start);
+        size_t end = srs.find_first_of(",&+", start);
         std::string part = srs.substr(start, end == std::string::npos ? std::string::npos : end - start);
-        if (part.find("EPSG") != std::string::npos || part.find("epsg") != std::string::npos) {
+        const bool plus_part = start > 0 && srs[start - 1] == '+' && !part.empty() &&
+                               std::all_of(part.begin(), part.end(), [](unsigned char c) { return std::isdigit(c); });
+        if (plus_part || part.find("EPSG") != std::string::npos || part.find("epsg") != std::string::npos) {
             int c = trailingCode(part);
             if (c > 0) codes.push_back(c);
         }

@@ -129,9 +129,18 @@ struct Triangle {
 struct Georeference {
     std::string source_crs;   ///< e.g. "EPSG:25832"; compound CRS as "EPSG:25832+7837"
     Vec3d origin_source;      ///< origin of the local frame, in source CRS units
-    /// Local frame -> ECEF (EPSG:4978), 4x4 column-major, metres. Empty until
-    /// the georeferencing step has run.
+    /// Local frame -> ECEF (EPSG:4978), 4x4 column-major, metres: exact for
+    /// ENU frames; for grid frames the tangent-linear map at the origin, which
+    /// cannot follow the Earth's curvature (7.8 m of drop 10 km out; the
+    /// ingest report states the error over the scene). Renderers of large
+    /// scenes should place tiles with enu_to_ecef and per-vertex exact
+    /// positions (ingest/georef.h, LocalToEcef::toEnu). Empty when the scene
+    /// is not georeferenced (local engineering CRS) or not yet computed.
     std::optional<std::array<double, 16>> local_to_ecef;
+    /// East/north/up tangent frame at the origin -> ECEF, 4x4 column-major:
+    /// the 3D Tiles root transform.
+    std::optional<std::array<double, 16>> enu_to_ecef;
+    bool grid_frame = false;  ///< local coordinates are grid offsets of a projected CRS
 };
 
 struct Scene {

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <exception>
 #include <numbers>
+#include <unordered_map>
 
 namespace cityatlas::footprints {
 namespace {
@@ -25,6 +26,8 @@ constexpr double kLinearTolM = 1e-9;
 // A gable roof side whose far ridge end lies further than this from the plane
 // of its eave and near ridge end is split into two planar polygons.
 constexpr double kPlanarSplitTolM = 1e-10;
+// Straight-skeleton nodes closer than this are one node (simultaneous events).
+constexpr double kNodeMergeTolM = 1e-9;
 
 bool isFinite(const Vec2d& p) { return std::isfinite(p.x) && std::isfinite(p.y); }
 Vec2d sub(const Vec2d& a, const Vec2d& b) { return {a.x - b.x, a.y - b.y}; }
@@ -337,33 +340,70 @@ std::optional<Roof> hipRoof(const std::vector<Ring>& rings, double eave, double 
         const auto skeleton = CGAL::create_interior_straight_skeleton_2(pwh, Kernel());
         if (!skeleton) return std::nullopt;
         if (skeleton->size_of_faces() != contour.size()) return std::nullopt;
+        // Skeleton nodes. Simultaneous events can come out as two nodes joined
+        // by a (near) zero-length skeleton edge whose rounded times differ in
+        // the last bit; such clusters become one node (mean position and time),
+        // so that every face meeting there gets the same corner.
+        std::unordered_map<const void*, size_t> node_index;
+        std::vector<Vec2d> node_xy;
+        std::vector<double> node_t;
         double t_max = 0;
         for (auto v = skeleton->vertices_begin(); v != skeleton->vertices_end(); ++v) {
             const double t = v->time();
             if (!std::isfinite(t) || !std::isfinite(v->point().x()) || !std::isfinite(v->point().y()) || t < 0)
                 return std::nullopt;
             t_max = std::max(t_max, t);
+            if (v->is_contour()) continue;
+            node_index.emplace(&*v, node_xy.size());
+            node_xy.push_back({v->point().x(), v->point().y()});
+            node_t.push_back(t);
         }
         if (!(t_max > 0)) return std::nullopt;
-        Roof roof = emptyRoof(rings, RoofShape::Hip, eave);
+        std::vector<size_t> parent(node_xy.size());
+        for (size_t i = 0; i < parent.size(); ++i) parent[i] = i;
+        auto find = [&](size_t i) {
+            while (parent[i] != i) i = parent[i] = parent[parent[i]];
+            return i;
+        };
+        for (auto h = skeleton->halfedges_begin(); h != skeleton->halfedges_end(); ++h) {
+            const auto a = h->vertex(), b = h->opposite()->vertex();
+            if (a->is_contour() || b->is_contour()) continue;
+            const size_t ia = node_index.at(&*a), ib = node_index.at(&*b);
+            if (len2(sub(node_xy[ia], node_xy[ib])) <= kNodeMergeTolM) parent[find(ia)] = find(ib);
+        }
+        std::vector<Vec2d> sum_xy(node_xy.size());
+        std::vector<double> sum_t(node_xy.size(), 0.0), count(node_xy.size(), 0.0);
+        for (size_t i = 0; i < node_xy.size(); ++i) {
+            const size_t c = find(i);
+            sum_xy[c] = {sum_xy[c].x + node_xy[i].x, sum_xy[c].y + node_xy[i].y};
+            sum_t[c] += node_t[i];
+            count[c] += 1;
+        }
         const double height = ridge - eave;
+        std::vector<Vec3d> node_out(node_xy.size());
+        for (size_t i = 0; i < node_xy.size(); ++i) {
+            const size_t c = find(i);
+            const double x = count[c] == 1 ? node_xy[c].x : sum_xy[c].x / count[c];
+            const double y = count[c] == 1 ? node_xy[c].y : sum_xy[c].y / count[c];
+            const double t = count[c] == 1 ? node_t[c] : sum_t[c] / count[c];
+            node_out[i] = {x + origin.x, y + origin.y, t >= t_max ? ridge : eave + height * (t / t_max)};
+        }
+        Roof roof = emptyRoof(rings, RoofShape::Hip, eave);
         for (auto f = skeleton->faces_begin(); f != skeleton->faces_end(); ++f) {
             std::vector<Vec3d> ring;
             auto h = f->halfedge();
             const auto start = h;
             do {
                 const auto v = h->vertex();
-                const double x = v->point().x(), y = v->point().y();
                 Vec3d p;
                 if (v->is_contour()) {
-                    const std::pair<double, double> k{x, y};
+                    const std::pair<double, double> k{v->point().x(), v->point().y()};
                     const auto it = std::lower_bound(contour.begin(), contour.end(), k,
                                                      [](const auto& e, const auto& key) { return e.first < key; });
                     if (it == contour.end() || it->first != k) return std::nullopt;
                     p = {it->second.x, it->second.y, eave};
                 } else {
-                    const double t = v->time();
-                    p = {x + origin.x, y + origin.y, t >= t_max ? ridge : eave + height * (t / t_max)};
+                    p = node_out[node_index.at(&*v)];
                 }
                 if (ring.empty() || !(ring.back() == p)) ring.push_back(p);
                 h = h->next();

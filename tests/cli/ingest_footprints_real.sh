@@ -48,3 +48,13 @@ done
 check_eq "Zug both layers: features" "$(( $(json zug_zone.json "j['features']['total']") + $(json zug_surroundings.json "j['features']['total']") ))" \
   "$(json zug_both.json "j['features']['total']")"
 check_eq "Zug both layers: one origin" "$(json zug_zone.json "j['georeference']['origin']")" "$(json zug_both.json "j['georeference']['origin']")"
+# Georeference through PROJ: Zug's "UTM 32S" with +10,000 km northings is in
+# Switzerland (47.17 N, 8.52 E); lower Manhattan is at 40.71 N, 74.01 W.
+"$PY" -c "
+import json
+z = json.load(open('zug_zone.json'))['georeference']['origin_wgs84']
+n = json.load(open('nyc.json'))['georeference']['origin_wgs84']
+assert abs(z['lat_deg'] - 47.17) < 0.02 and abs(z['lon_deg'] - 8.51) < 0.02, z
+assert abs(n['lat_deg'] - 40.71) < 0.03 and abs(n['lon_deg'] + 74.01) < 0.03, n
+print('ok: Zug at', round(z['lat_deg'], 4), round(z['lon_deg'], 4), '- NYC at', round(n['lat_deg'], 4), round(n['lon_deg'], 4))" \
+  || fail "origins are not where the datasets are"

@@ -11,6 +11,8 @@
 #include <set>
 
 #include <fmt/format.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
 
 #include "ingest/synth/town.h"
 #include "ingest/synth/write_town.h"
@@ -232,6 +234,50 @@ TEST(FootprintReader, HeightsFromStoreysAndDefaultsAndFeet) {
     EXPECT_NEAR(s.at("d").ridge, 10.0, 1e-9) << "--default-height is metres, whatever the attribute unit";
     EXPECT_NEAR(s.at("ft").ridge, 30.48, 1e-9);
     EXPECT_EQ(r->state.diagnostics.count(warn::kHeightDefaulted), 1u);
+}
+
+// A 100 x 100 m DEM, 1 m pixels, in EPSG:25832 with its corner at (690000,
+// 5336000): a plane rising 0.5 m per column (west to east).
+fs::path writeDem() {
+    GDALAllRegister();
+    const fs::path p = scratch("dem.tif");
+    GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+    GDALDataset* ds = gtiff->Create(p.string().c_str(), 100, 100, 1, GDT_Float32, nullptr);
+    double gt[6] = {690000, 1, 0, 5336100, 0, -1};
+    ds->SetGeoTransform(gt);
+    OGRSpatialReference srs;
+    srs.importFromEPSG(25832);
+    ds->SetSpatialRef(&srs);
+    std::vector<float> row(100);
+    for (int c = 0; c < 100; ++c) row[c] = 100.0f + 0.5f * c;
+    for (int r = 0; r < 100; ++r)
+        EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, r, 100, 1, row.data(), 100, 1, GDT_Float32, 0, 0), CE_None);
+    GDALClose(ds);
+    return p;
+}
+
+TEST(FootprintReader, BaseHeightFromConstantAndTerrainMinOrMean) {
+    // A 10 m square whose vertices fall in pixel columns 10 and 20 (values 105 and 110).
+    const fs::path fp = geojson("terrain", {feature("t", 6, square(690010.5, 5336040.5, 10))});
+    FootprintOptions terrain;
+    terrain.base = FootprintOptions::Base::Terrain;
+    terrain.terrain_dem = writeDem().string();
+    const auto lo = read({fp}, terrain);
+    ASSERT_TRUE(lo->status.ok()) << lo->status.error;
+    EXPECT_NEAR(summarize(lo->scene).at("t").eave, 105 + 6, 1e-9) << "minimum under the footprint";
+    terrain.terrain_mean = true;
+    const auto mean = read({fp}, terrain);
+    EXPECT_NEAR(summarize(mean->scene).at("t").eave, 107.5 + 6, 1e-9) << "mean of the 4 vertex samples";
+    FootprintOptions constant;
+    constant.base = FootprintOptions::Base::Constant;
+    constant.base_constant_m = 42;
+    EXPECT_NEAR(summarize(read({fp}, constant)->scene).at("t").eave, 48, 1e-9);
+    // Off the DEM: a counted warning and base 0.
+    const fs::path off = geojson("off", {feature("o", 6, square(700000, 5336000, 10))});
+    terrain.terrain_mean = false;
+    const auto r = read({off}, terrain);
+    EXPECT_EQ(r->state.diagnostics.count(warn::kTerrainMissing), 1u);
+    EXPECT_NEAR(summarize(r->scene).at("o").eave, 6, 1e-9);
 }
 
 }  // namespace
