@@ -87,23 +87,26 @@ Status parseSrsName(const std::string& srs_name, SourceCrs* crs) {
     if (codes.empty()) return Status::Fail(fmt::format("srsName \"{}\" names no CRS that PROJ knows", srs_name));
     std::string definition = fmt::format("EPSG:{}", codes[0]);
     if (codes.size() > 1) definition += fmt::format("+{}", codes[1]);
+    crs->vertical_ignored.clear();
+    Status s = sourceCrsFromDefinition(definition, crs);
+    if (!s.ok() && codes.size() > 1) {  // an unusable vertical part: keep the horizontal one
+        crs->vertical_ignored = fmt::format("EPSG:{}", codes[1]);
+        s = sourceCrsFromDefinition(fmt::format("EPSG:{}", codes[0]), crs);
+    }
+    if (!s.ok()) return Status::Fail(fmt::format("srsName \"{}\": {}", srs_name, s.error));
+    return Status::Ok();
+}
 
+Status sourceCrsFromDefinition(const std::string& definition, SourceCrs* crs) {
     OGRSpatialReference srs;
     CPLPushErrorHandler(CPLQuietErrorHandler);
-    // Only the text we built from digits reaches GDAL, and with file and
-    // network access forbidden all the same.
-    OGRErr err = srs.SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS);
-    crs->vertical_ignored.clear();
-    if (err != OGRERR_NONE && codes.size() > 1) {  // an unusable vertical part: keep the horizontal one
-        crs->vertical_ignored = fmt::format("EPSG:{}", codes[1]);
-        definition = fmt::format("EPSG:{}", codes[0]);
-        err = srs.SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS);
-    }
+    // File and network access forbidden: only a code or WKT is accepted.
+    const OGRErr err = srs.SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS);
     CPLPopErrorHandler();
-    if (err != OGRERR_NONE)
-        return Status::Fail(fmt::format("srsName \"{}\" ({}) is not a CRS known to PROJ's database", srs_name, definition));
+    const std::string shown = definition.size() <= 64 ? definition : definition.substr(0, 61) + "...";
+    if (err != OGRERR_NONE) return Status::Fail(fmt::format("{} is not a CRS known to PROJ's database", shown));
     crs->definition = definition;
-    crs->name = srs.GetName() ? srs.GetName() : definition;
+    crs->name = srs.GetName() ? srs.GetName() : shown;
     if (srs.IsProjected()) {
         crs->kind = SourceCrs::Kind::Projected;
         crs->linear_unit_m = srs.GetLinearUnits();
@@ -112,7 +115,7 @@ Status parseSrsName(const std::string& srs_name, SourceCrs* crs) {
         crs->semi_major_m = srs.GetSemiMajor();
         crs->inverse_flattening = srs.GetInvFlattening();
     } else {
-        return Status::Fail(fmt::format("srsName \"{}\" ({}) is neither projected nor geographic", srs_name, crs->name));
+        return Status::Fail(fmt::format("{} ({}) is neither projected nor geographic", shown, crs->name));
     }
     return Status::Ok();
 }

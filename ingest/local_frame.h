@@ -43,6 +43,11 @@ struct SourceCrs {
 /// an in-file engineering CRS. Fails with a message naming the text.
 Status parseSrsName(const std::string& srs_name, SourceCrs* crs);
 
+/// A SourceCrs from a definition PROJ reads ("EPSG:25832", "EPSG:25832+7837"
+/// or WKT; never a file name or URL): its kind, units and ellipsoid. Keeps
+/// crs->declared as it is.
+Status sourceCrsFromDefinition(const std::string& definition, SourceCrs* crs);
+
 class LocalFrame {
 public:
     /// The frame is defined by the first input: its CRS and an origin in it

@@ -198,7 +198,8 @@ std::optional<Roof> gableRoof(const std::vector<Ring>& rings, double eave, doubl
             if (std::abs(cross2(sub(ring.p[q], a), in)) / li > kLinearTolM) return std::nullopt;
     }
     // The ridge runs along the longer axis: sides 0 and 2 (c0->c1, c2->c3) are the long ones.
-    if (side_len[1] + side_len[3] > side_len[0] + side_len[2]) std::rotate(corners.begin(), corners.begin() + 1, corners.end());
+    if (side_len[1] + side_len[3] > side_len[0] + side_len[2])
+        std::rotate(corners.begin(), corners.begin() + 1, corners.end());
     size_t c[4];
     for (int j = 0; j < 4; ++j) c[j] = corners[j];
 
@@ -520,7 +521,8 @@ ExtrusionResult extrudeFootprint(const Footprint2d& footprint, const ExtrusionPa
     const double ridge = params.ridge_z;
     RoofShape want = params.roof;
     if (want != RoofShape::Flat && !(ridge > eave)) {
-        addReason(notes, ridge < eave ? "ridge_z below eave_z; built flat" : "no roof height (ridge_z == eave_z); built flat");
+        addReason(notes, ridge < eave ? "ridge_z below eave_z; built flat"
+                                      : "no roof height (ridge_z == eave_z); built flat");
         want = RoofShape::Flat;
     }
     std::optional<Roof> roof;
@@ -592,7 +594,9 @@ ExtrusionResult extrudeFootprint(const Footprint2d& footprint, const ExtrusionPa
             for (const ProfilePoint& q : clean) {
                 pts.push_back(q.p);
                 if (wall_uv) {
-                    const double s = q.lam <= 0 ? along[k] : q.lam >= 1 ? along[k + 1] : along[k] + q.lam * (along[k + 1] - along[k]);
+                    const double s = q.lam <= 0   ? along[k]
+                                     : q.lam >= 1 ? along[k + 1]
+                                                  : along[k] + q.lam * (along[k + 1] - along[k]);
                     uv.push_back({s * inv_pw, (q.p.z - base) * inv_wall_h});
                 }
             }

@@ -67,20 +67,8 @@ Status crsFromOgr(const OGRSpatialReference& layer_srs, SourceCrs* crs) {
     char* wkt = nullptr;
     srs.exportToWkt(&wkt);
     crs->declared = wkt ? wkt : "";
-    crs->definition = crs->declared;
     CPLFree(wkt);
-    crs->name = srs.GetName() ? srs.GetName() : "unnamed CRS";
-    if (srs.IsProjected()) {
-        crs->kind = SourceCrs::Kind::Projected;
-        crs->linear_unit_m = srs.GetLinearUnits();
-    } else if (srs.IsGeographic()) {
-        crs->kind = SourceCrs::Kind::Geographic;
-        crs->semi_major_m = srs.GetSemiMajor();
-        crs->inverse_flattening = srs.GetInvFlattening();
-    } else {
-        return Status::Fail(fmt::format("{} is neither projected nor geographic", crs->name));
-    }
-    return Status::Ok();
+    return sourceCrsFromDefinition(crs->declared, crs);
 }
 
 double signedArea(const std::vector<Vec2d>& r) {
@@ -533,8 +521,11 @@ private:
             params.roof_texture_size_m = r.roof_texture >= 0 ? options_.roof_texture_size_m : 0.0;
             params.wall_bottom_z = r.wall_bottom[p];
             const footprints::ExtrusionResult ex = footprints::extrudeFootprint(r.parts[p], params);
-            if (!ex.fallback.empty()) {
-                state_.counts.roof_fallbacks++;
+            // `fallback` explains any change: nothing built, another roof shape, ignored holes.
+            if (ex.polygons.empty()) {
+                warn(warn::kFootprintDegenerate, r.fid, r.feature.gml_id, ex.fallback);
+            } else if (!ex.fallback.empty()) {
+                if (ex.built != r.roof) state_.counts.roof_fallbacks++;
                 warn(warn::kRoofFallback, r.fid, r.feature.gml_id, ex.fallback);
             }
             for (const ExtrudedPolygon& poly : ex.polygons) {

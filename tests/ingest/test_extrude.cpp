@@ -414,7 +414,9 @@ TEST(Extrude, UShapeClosedForms) {
         }
         if (shape == RoofShape::Gable || shape == RoofShape::Pyramid || shape == RoofShape::Hip) {
             EXPECT_EQ(res.built, RoofShape::Hip);
-            if (shape != RoofShape::Hip) { EXPECT_NE(res.fallback.find("built hip"), std::string::npos) << res.fallback; }
+            if (shape != RoofShape::Hip) {
+                EXPECT_NE(res.fallback.find("built hip"), std::string::npos) << res.fallback;
+            }
             const double v = A * h + hipRoofVolume(fp, a / 2, r);
             EXPECT_NEAR(fig.volume, v, rel(v));
             const double roof = A * std::sqrt(1 + tan_pitch * tan_pitch);
@@ -540,8 +542,12 @@ TEST(Extrude, LShapeUnequalArmsHip) {
     const Footprint2d fp{{{0, 0}, {W, 0}, {W, a1}, {a2, a1}, {a2, D}, {0, D}}, {}};
     const double A = W * a1 + a2 * (D - a1);
     ASSERT_DOUBLE_EQ(footprintArea(fp), A);
-    auto area = [&](double t) { return t <= a1 / 2 ? (W - 2 * t) * (a1 - 2 * t) + (a2 - 2 * t) * (D - a1) : (a2 - 2 * t) * (D - 2 * t); };
-    auto simpson = [&](double t0, double t1) { return (t1 - t0) / 6 * (area(t0) + 4 * area((t0 + t1) / 2) + area(t1)); };
+    auto area = [&](double t) {
+        return t <= a1 / 2 ? (W - 2 * t) * (a1 - 2 * t) + (a2 - 2 * t) * (D - a1) : (a2 - 2 * t) * (D - 2 * t);
+    };
+    auto simpson = [&](double t0, double t1) {
+        return (t1 - t0) / 6 * (area(t0) + 4 * area((t0 + t1) / 2) + area(t1));
+    };
     // The first piece is the generic mitred offset too (before any event).
     EXPECT_NEAR(mitredOffsetArea(fp, a1 / 4), area(a1 / 4), 1e-9);
     const double t_max = a2 / 2, tan_pitch = r / t_max;
@@ -559,7 +565,8 @@ TEST(Extrude, LShapeUnequalArmsHip) {
         bool narrow_ridge = false;
         for (const auto& poly : res.polygons)
             for (const Vec3d& q : poly.rings[0])
-                narrow_ridge |= poly.semantic == SurfaceSemantic::Roof && std::abs(q.z - (p.eave_z + r * a1 / a2)) < 1e-9;
+                narrow_ridge |=
+                    poly.semantic == SurfaceSemantic::Roof && std::abs(q.z - (p.eave_z + r * a1 / a2)) < 1e-9;
         EXPECT_TRUE(narrow_ridge);
     }
 }
