@@ -288,7 +288,8 @@ RunFn addIngestCommand(CLI::App& app) {
         "(any polygon layer GDAL/OGR opens; extruded, with roofs from a roof-type attribute) into one Scene: a\n"
         "textured triangle soup in local metres; all inputs share the first one's frame. Writes a plain glTF view\n"
         "and a JSON report of what was read, skipped and repaired.\n"
-        "Streaming: with --report only, memory stays at about one city object whatever the file size.");
+        "CityGML streams: with --report only, its memory stays at about one city object whatever the file size\n"
+        "(footprint layers are held while read: party walls need the neighbours).");
     cmd->add_option("inputs", opt->inputs,
                     "CityGML files, footprint datasets, folders (searched for .gml/.xml/.citygml/.shp/.gpkg/.geojson/"
                     ".fgb) or glob patterns")
