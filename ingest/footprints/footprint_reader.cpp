@@ -293,10 +293,9 @@ private:
     }
 
     // Ring in local metres, consecutive duplicates removed; source points kept for terrain.
-    std::vector<Vec2d> ringToLocal(const OGRLinearRing& ring, bool has_z, std::vector<Vec3d>* all_source, double* z_min) {
+    std::vector<Vec2d> ringToLocal(const OGRLinearRing& ring, bool has_z, std::vector<Vec3d>* samples, double* z_min) {
         std::vector<Vec2d> out;
-        std::vector<Vec3d> src_kept;
-        std::vector<Vec3d>* source = &src_kept;
+        std::vector<Vec3d> source;  // kept in step with `out`
         for (int i = 0; i < ring.getNumPoints(); ++i) {
             const Vec3d src{ring.getX(i), ring.getY(i), has_z ? ring.getZ(i) : 0.0};
             Vec3d local;
@@ -304,14 +303,14 @@ private:
             const Vec2d p{local.x, local.y};
             if (!out.empty() && std::hypot(p.x - out.back().x, p.y - out.back().y) <= kDuplicatePointTolerance_m) continue;
             out.push_back(p);
-            source->push_back(src);
+            source.push_back(src);
             if (has_z) *z_min = std::min(*z_min, src.z);
         }
         while (out.size() > 1 && std::hypot(out.back().x - out.front().x, out.back().y - out.front().y) <= kDuplicatePointTolerance_m) {
             out.pop_back();
-            src_kept.pop_back();  // the closing point is not a second sample
+            source.pop_back();  // the closing point is not a second sample
         }
-        all_source->insert(all_source->end(), src_kept.begin(), src_kept.end());
+        samples->insert(samples->end(), source.begin(), source.end());
         return out;
     }
 

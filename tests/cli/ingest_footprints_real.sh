@@ -9,15 +9,11 @@ if [ ! -d "$DATA" ]; then echo "SKIP: $DATA is absent (the team's shared data fo
 sql() {  # sql FILE "SELECT COUNT(*) AS n ..." -> n
   ogrinfo -ro -q -dialect sqlite -sql "$2" "$1" | sed -n 's/^ *n (Integer) = //p'
 }
-validate_report() {
-  "$PY" -c "import json,jsonschema,sys; jsonschema.validate(json.load(open(sys.argv[1])), json.load(open(sys.argv[2])), cls=jsonschema.Draft202012Validator)" \
-    "$1" "$SRC/schemas/ingest_report.schema.json" || fail "$1 does not match its schema"
-}
 
 # New York: heights in feet, WGS 84 lon/lat, one "ground" feature of height 0.
 NYC="$DATA/shp_nyc_lower_manhattan_buildings/buildings.shp"
 "$CITYATLAS" ingest "$NYC" --height-unit ft -q --report nyc.json > /dev/null || fail "NYC: ingest failed"
-validate_report nyc.json
+validate_json nyc.json "$SRC/schemas/ingest_report.schema.json"
 check_eq "NYC footprints read" "$(sql "$NYC" "SELECT COUNT(*) AS n FROM buildings")" "$(json nyc.json "j['footprints']['read']")"
 check_eq "NYC footprints repaired (ST_IsValid)" "$(sql "$NYC" "SELECT COUNT(*) AS n FROM buildings WHERE NOT ST_IsValid(geometry)")" \
   "$(json nyc.json "j['footprints']['repaired']")"
@@ -35,7 +31,7 @@ print('ok: NYC local frame is metric:', round(dx), 'x', round(dy), 'm, top', rou
 for layer in zone surroundings; do
   Z="$DATA/shp_zug_cea_buildings/$layer.shp"
   "$CITYATLAS" ingest "$Z" -q --report "zug_$layer.json" > /dev/null || fail "Zug $layer: ingest failed"
-  validate_report "zug_$layer.json"
+  validate_json "zug_$layer.json" "$SRC/schemas/ingest_report.schema.json"
   check_eq "Zug $layer read" "$(sql "$Z" "SELECT COUNT(*) AS n FROM $layer")" "$(json "zug_$layer.json" "j['footprints']['read']")"
   check_eq "Zug $layer repaired" "$(sql "$Z" "SELECT COUNT(*) AS n FROM $layer WHERE NOT ST_IsValid(geometry)")" \
     "$(json "zug_$layer.json" "j['footprints']['repaired']")"

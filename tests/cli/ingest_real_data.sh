@@ -12,8 +12,7 @@ for f in "$DATA"/citygml*/*.gml; do
   rep="report_$n.json"; n=$((n + 1))
   set +e; "$CITYATLAS" ingest "$f" -q --report "$rep" > out.txt 2> err.txt; rc=$?; set -e
   [ $rc -eq 0 ] || { cat err.txt >&2; fail "$name: exit $rc"; }
-  "$PY" -c "import json,jsonschema,sys; jsonschema.validate(json.load(open(sys.argv[1])), json.load(open(sys.argv[2])), cls=jsonschema.Draft202012Validator)" \
-    "$rep" "$SRC/schemas/ingest_report.schema.json" || fail "$name: report does not match its schema"
+  validate_json "$rep" "$SRC/schemas/ingest_report.schema.json"
   check_eq "$name buildings (xpath)" "$(xcount "$f" '//*[local-name()="Building"]')" "$(json "$rep" "j['inputs'][0]['buildings']")"
   check_eq "$name building parts (xpath)" "$(xcount "$f" '//*[local-name()="BuildingPart"]')" \
     "$(json "$rep" "j['objects_read'].get('BuildingPart', 0)")"

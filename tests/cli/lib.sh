@@ -11,6 +11,11 @@ check_eq() {  # check_eq WHAT EXPECTED ACTUAL
 }
 # json FILE EXPR: evaluates a Python expression over the parsed file as j
 json() { "$PY" -c "import json,sys; j=json.load(open(sys.argv[1])); print($2)" "$1"; }
+# validate_json FILE SCHEMA: FILE matches the JSON Schema (draft 2020-12)
+validate_json() {
+  "$PY" -c "import json,jsonschema,sys; jsonschema.validate(json.load(open(sys.argv[1])), json.load(open(sys.argv[2])), cls=jsonschema.Draft202012Validator)" \
+    "$1" "$2" || fail "$1 does not match $(basename "$2")"
+}
 # XPath count over a CityGML file, namespace-agnostic
 xcount() { xmllint --xpath "count($2)" "$1"; }
 

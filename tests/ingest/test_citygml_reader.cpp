@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -19,12 +21,7 @@ namespace cityatlas {
 namespace {
 namespace fs = std::filesystem;
 
-fs::path scratch(const std::string& name) {
-    fs::path p = fs::temp_directory_path() / ("cityatlas_test_reader_" + std::to_string(getpid())) / name;
-    fs::remove_all(p);
-    fs::create_directories(p.parent_path());
-    return p;
-}
+fs::path scratch(const std::string& name) { return test::scratchPath("cityatlas_test_reader", name); }
 
 struct Ingested {
     Status status;
