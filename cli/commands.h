@@ -16,5 +16,6 @@ using RunFn = std::function<int()>;
 
 RunFn addSynthCommand(CLI::App& app);
 RunFn addIngestCommand(CLI::App& app);
+RunFn addAtlasCommand(CLI::App& app);
 
 }  // namespace cityatlas::cli

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
 
     RunFn run_synth = addSynthCommand(app);
     RunFn run_ingest = addIngestCommand(app);
+    RunFn run_atlas = addAtlasCommand(app);
 
     try {
         app.parse(argc, argv);
@@ -30,6 +31,7 @@ int main(int argc, char** argv) {
         for (CLI::App* sub : app.get_subcommands()) {
             if (sub->get_name() == "synth") return run_synth();
             if (sub->get_name() == "ingest") return run_ingest();
+            if (sub->get_name() == "atlas") return run_atlas();
         }
     } catch (const std::exception& e) {
         // Library code reports expected failures as Status; reaching this is

@@ -5,6 +5,17 @@
 
 namespace cityatlas {
 
+nlohmann::ordered_json warningsJson(const Diagnostics& diagnostics) {
+    nlohmann::ordered_json warnings = nlohmann::ordered_json::object();
+    for (const auto& [code, e] : diagnostics.entries()) {
+        nlohmann::ordered_json ex = nlohmann::ordered_json::array();
+        for (const DiagnosticExample& d : e.examples)
+            ex.push_back({{"file", d.file}, {"line", d.line}, {"gml_id", d.gml_id}, {"detail", d.detail}});
+        warnings[code] = {{"count", e.count}, {"examples", ex}};
+    }
+    return warnings;
+}
+
 nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneStats& stats, size_t features,
                                         size_t textures, size_t materials, const std::vector<StepTiming>& steps,
                                         const std::string& glb_path, const GeorefSummary* georef) {
@@ -75,14 +86,7 @@ nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneSta
                    {"available", c.themes}};
     j["bbox_local"] = box(stats.bounds_local);
     j["bbox_source"] = box(state.bounds_source);
-    json warnings = json::object();
-    for (const auto& [code, e] : state.diagnostics.entries()) {
-        json ex = json::array();
-        for (const DiagnosticExample& d : e.examples)
-            ex.push_back({{"file", d.file}, {"line", d.line}, {"gml_id", d.gml_id}, {"detail", d.detail}});
-        warnings[code] = {{"count", e.count}, {"examples", ex}};
-    }
-    j["warnings"] = std::move(warnings);
+    j["warnings"] = warningsJson(state.diagnostics);
     j["warnings_total"] = state.diagnostics.total();
     json st = json::array();
     for (const StepTiming& s : steps)

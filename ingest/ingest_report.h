@@ -18,6 +18,9 @@ struct StepTiming {
     double peak_rss_mb = 0;  ///< process peak so far, at the end of the step
 };
 
+/// Warnings by code, with their examples: {"code": {"count": n, "examples": [...]}}.
+nlohmann::ordered_json warningsJson(const Diagnostics& diagnostics);
+
 nlohmann::ordered_json makeIngestReport(const IngestState& state, const SceneStats& stats, size_t features,
                                         size_t textures, size_t materials, const std::vector<StepTiming>& steps,
                                         const std::string& glb_path, const GeorefSummary* georef = nullptr);

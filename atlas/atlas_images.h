@@ -1,0 +1,31 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// The atlas images of a finished tree structure: leaves resampled from the
+/// original textures, inner nodes as their children halved and tiled 2 x 2.
+/// Internal to the atlas stage (buildAtlasTree calls it); exposed for tests.
+
+#include <filesystem>
+#include <set>
+#include <vector>
+
+#include "atlas/atlas_tree.h"
+
+namespace cityatlas::atlas {
+
+/// sRGB transfer functions (IEC 61966-2-1), exact formulas.
+double linearFromSrgb(double encoded);
+double srgbFromLinear(double linear);
+
+struct RenderResult {
+    std::set<int32_t> unreadable_textures;  ///< their regions were filled with mid grey
+    uint64_t original_texture_bytes = 0;    ///< of the textures read, 8 bits per channel
+};
+
+/// Renders and writes `tree`'s atlases (node.layers[l].atlas_path must be set
+/// for every present layer) under `output_dir`, in parallel on the current
+/// TBB arena. Memory in flight is a few atlases per tree level and thread;
+/// source textures go through one ImageCache of `params.cache_mb`.
+Status renderAtlases(const Scene& scene, const AtlasTree& tree, const std::filesystem::path& output_dir,
+                     const AtlasProgressFn& progress, RenderResult* result);
+
+}  // namespace cityatlas::atlas

@@ -1,0 +1,170 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "atlas/texel_estimate.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cityatlas::atlas {
+
+namespace {
+
+double len2(const Vec2d& a) { return a.x * a.x + a.y * a.y; }
+Vec2d sub(const Vec2d& a, const Vec2d& b) { return {a.x - b.x, a.y - b.y}; }
+
+int roundUpToBlock(double texels) {
+    // 1e-9 absorbs products like 0.1 * 40 that land a hair above an integer.
+    const double t = std::ceil(texels - 1e-9);
+    return static_cast<int>((std::max(4.0, t) + 3.0) / 4.0) * 4;
+}
+
+}  // namespace
+
+TexelDensity texelDensity(const Triangle& t) {
+    TexelDensity d;
+    const auto& uv = t.uv;
+    d.uv_min = {std::min({uv[0].x, uv[1].x, uv[2].x}), std::min({uv[0].y, uv[1].y, uv[2].y})};
+    d.uv_max = {std::max({uv[0].x, uv[1].x, uv[2].x}), std::max({uv[0].y, uv[1].y, uv[2].y})};
+    const Vec2d t1 = sub(uv[1], uv[0]), t2 = sub(uv[2], uv[0]);
+    const double det = t1.x * t2.y - t1.y * t2.x;
+    const double scale2 = std::max({len2(t1), len2(t2), len2(sub(uv[2], uv[1]))});
+    if (scale2 == 0) {
+        d.kind = TexelDensity::Kind::SingleColour;
+        return d;
+    }
+    // Relative test: the uv triangle's area against its longest edge squared.
+    if (std::abs(det) <= 1e-12 * scale2) {
+        d.kind = TexelDensity::Kind::Collinear;
+        int best = 0;
+        double best_len2 = -1;
+        for (int e = 0; e < 3; ++e) {
+            const double l2 = len2(sub(uv[(e + 1) % 3], uv[e]));
+            if (l2 > best_len2) best_len2 = l2, best = e;
+        }
+        const double stretch = length(t.position_local[(best + 1) % 3] - t.position_local[best]) / std::sqrt(best_len2);
+        d.s_world = d.t_world = stretch;
+        return d;
+    }
+    // P_T(Tex_T^-1(e)): solve a*t1 + b*t2 = e, then map a*v1 + b*v2.
+    const Vec3d v1 = t.position_local[1] - t.position_local[0], v2 = t.position_local[2] - t.position_local[0];
+    const double a_u = t2.y / det, b_u = -t1.y / det;  // e = (1, 0)
+    const double a_v = -t2.x / det, b_v = t1.x / det;  // e = (0, 1)
+    d.s_world = length(a_u * v1 + b_u * v2);
+    d.t_world = length(a_v * v1 + b_v * v2);
+    return d;
+}
+
+RegionSize regionSize(double texels_per_u, double texels_per_v, Vec2d uv_min, Vec2d uv_max, int border) {
+    RegionSize r;
+    const double du = uv_max.x - uv_min.x, dv = uv_max.y - uv_min.y;
+    const double content_w = std::max(1.0, texels_per_u * du), content_h = std::max(1.0, texels_per_v * dv);
+    r.w = roundUpToBlock(content_w + 2.0 * border);
+    r.h = roundUpToBlock(content_h + 2.0 * border);
+    // Grow the box about its centre so that the border texels show the
+    // texture around the region (papers/000 §4.5.2, f_hor and f_vert), at the
+    // content's actual (rounded-up) resolution.
+    auto grow = [&](double lo, double hi, int total, double* out_lo, double* out_hi) {
+        const double span = hi - lo;
+        if (span <= 0) {
+            *out_lo = *out_hi = lo;
+            return;
+        }
+        const double per_texel = span / (total - 2.0 * border);
+        *out_lo = lo - border * per_texel;
+        *out_hi = hi + border * per_texel;
+    };
+    grow(uv_min.x, uv_max.x, r.w, &r.uv_min.x, &r.uv_max.x);
+    grow(uv_min.y, uv_max.y, r.h, &r.uv_min.y, &r.uv_max.y);
+    return r;
+}
+
+namespace {
+
+// Texels the triangle alone needs along u and v at F pixels per metre, border excluded.
+std::pair<double, double> contentTexels(const TexelDensity& d, double f) {
+    if (d.kind == TexelDensity::Kind::SingleColour) return {1.0, 1.0};
+    return {std::max(1.0, d.s_world * f * (d.uv_max.x - d.uv_min.x)),
+            std::max(1.0, d.t_world * f * (d.uv_max.y - d.uv_min.y))};
+}
+
+bool isCritical(const Triangle& t, double f, int atlas_size, int border) {
+    if (t.texture < 0) return false;
+    const auto [w, h] = contentTexels(texelDensity(t), f);
+    return w + 2.0 * border > atlas_size || h + 2.0 * border > atlas_size;
+}
+
+// Splits at the midpoint of the edge whose texel extent is largest, until
+// every piece fits. The density is the same affine map for every piece, so
+// each halving shrinks the pieces' texel boxes and the recursion ends.
+void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, int depth, std::vector<Triangle>& out) {
+    if (depth >= 60 || !isCritical(t, f, atlas_size, border)) {
+        out.push_back(t);
+        return;
+    }
+    const TexelDensity d = texelDensity(t);
+    int edge = 0;
+    double best = -1;
+    for (int e = 0; e < 3; ++e) {
+        const Vec2d duv = sub(t.uv[(e + 1) % 3], t.uv[e]);
+        const double ext = std::max(std::abs(duv.x) * d.s_world, std::abs(duv.y) * d.t_world);
+        if (ext > best) best = ext, edge = e;
+    }
+    const int a = edge, b = (edge + 1) % 3, c = (edge + 2) % 3;
+    const Vec3d pm = 0.5 * (t.position_local[a] + t.position_local[b]);
+    const Vec2d tm{0.5 * (t.uv[a].x + t.uv[b].x), 0.5 * (t.uv[a].y + t.uv[b].y)};
+    Triangle first = t, second = t;  // (a, m, c) and (m, b, c): orientation kept
+    first.position_local[b] = pm, first.uv[b] = tm;
+    second.position_local[a] = pm, second.uv[a] = tm;
+    (void)c;
+    splitUntilFits(first, f, atlas_size, border, depth + 1, out);
+    splitUntilFits(second, f, atlas_size, border, depth + 1, out);
+}
+
+}  // namespace
+
+CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
+                                        double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
+                                        int border, double critical_fraction) {
+    CriticalResult r;
+    r.d_min_used_m = d_min_requested_m;
+    // The distance from which each triangle stops being critical: its content
+    // is inversely proportional to d_min, the border is not.
+    const double room = atlas_size - 2.0 * border;
+    std::vector<double> fits_from;
+    uint64_t textured = 0;
+    for (const Triangle& t : triangles) {
+        if (t.texture < 0) continue;
+        ++textured;
+        const auto [w, h] = contentTexels(texelDensity(t), pixels_per_metre_at_1m / d_min_requested_m);
+        const double worst = std::max(w, h);
+        if (worst > room) fits_from.push_back(d_min_requested_m * worst / room);
+    }
+    r.critical_at_requested = fits_from.size();
+    const auto allowed = static_cast<uint64_t>(std::floor(critical_fraction * static_cast<double>(textured)));
+    if (fits_from.size() > allowed) {
+        // Keep exactly `allowed` critical: d_min becomes the (allowed+1)-th largest distance.
+        std::sort(fits_from.begin(), fits_from.end(), std::greater<>());
+        r.d_min_used_m = fits_from[allowed] * (1.0 + 1e-12);
+    }
+    const double f = pixels_per_metre_at_1m / r.d_min_used_m;
+    std::vector<Triangle> out;
+    std::vector<uint32_t> out_sources;
+    out.reserve(triangles.size());
+    out_sources.reserve(triangles.size());
+    for (size_t i = 0; i < triangles.size(); ++i) {
+        const size_t before = out.size();
+        if (isCritical(triangles[i], f, atlas_size, border)) {
+            ++r.critical_after_enlarge;
+            splitUntilFits(triangles[i], f, atlas_size, border, 0, out);
+            ++r.triangles_split;
+            r.triangles_added += out.size() - before - 1;
+        } else {
+            out.push_back(triangles[i]);
+        }
+        out_sources.insert(out_sources.end(), out.size() - before, sources.empty() ? uint32_t(i) : sources[i]);
+    }
+    triangles = std::move(out);
+    sources = std::move(out_sources);
+    return r;
+}
+
+}  // namespace cityatlas::atlas

@@ -1,0 +1,219 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// `cityatlas atlas`: city data -> texture-atlas tree (atlas images + report).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "atlas/atlas_report.h"
+#include "atlas/atlas_tree.h"
+#include "cli/commands.h"
+#include "cli/progress.h"
+#include "cli/scene_input.h"
+
+namespace cityatlas::cli {
+namespace fs = std::filesystem;
+namespace {
+
+struct AtlasCliOptions {
+    SceneInputOptions input;
+    std::string output;
+    std::string d_min = "D/72";
+    std::string screen = "1920x1080";
+    std::string filter = "lanczos3";
+    std::string packing = "maxrects";
+    double critical_percent = 10;
+    atlas::AtlasParams params;
+    bool overwrite = false;
+    bool quiet = false;
+};
+
+Status parseAtlasOptions(const AtlasCliOptions& opt, atlas::AtlasParams* p) {
+    *p = opt.params;
+    const std::string& d = opt.d_min;
+    char* end = nullptr;
+    if (d.rfind("D/", 0) == 0) {
+        const double n = std::strtod(d.c_str() + 2, &end);
+        if (*end || !(n >= 1)) return Status::Fail(fmt::format("--d-min {}: expected metres or D/N with N >= 1", d));
+        p->d_min_m.reset();
+        p->d_min_diagonal_fraction = 1.0 / n;
+    } else {
+        const double m = std::strtod(d.c_str(), &end);
+        if (*end || end == d.c_str() || !(m > 0)) return Status::Fail(fmt::format("--d-min {}: expected metres or D/N", d));
+        p->d_min_m = m;
+    }
+    int w = 0, h = 0;
+    if (std::sscanf(opt.screen.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1)
+        return Status::Fail(fmt::format("--screen {}: expected WIDTHxHEIGHT in pixels", opt.screen));
+    p->screen_width_px = w, p->screen_height_px = h;
+    const auto f = atlas::filterFromName(opt.filter);
+    if (!f) return Status::Fail(fmt::format("--filter {}: expected box, triangle, mitchell or lanczos3", opt.filter));
+    p->filter = *f;
+    const auto m = atlas::packingMethodFromName(opt.packing);
+    if (!m) return Status::Fail(fmt::format("--packing {}: expected maxrects or igarashi-cosgrove", opt.packing));
+    p->packing = *m;
+    p->critical_fraction = opt.critical_percent / 100.0;
+    return atlas::validateParams(*p);
+}
+
+int fail(Progress& progress, const std::string& message) {
+    progress.finish();
+    std::fprintf(stderr, "cityatlas atlas: error: %s\n", message.c_str());
+    return kExitFailure;
+}
+
+int runAtlas(const AtlasCliOptions& opt) {
+    atlas::AtlasParams params;
+    if (Status s = parseAtlasOptions(opt, &params); !s.ok()) {
+        std::fprintf(stderr, "cityatlas atlas: %s\n", s.error.c_str());
+        return kExitUsage;
+    }
+    const fs::path target = fs::path(opt.output).lexically_normal();
+    std::error_code ec;
+    if (target.empty() || target == "." || target == "/")
+        return fail(*std::make_unique<Progress>(false), fmt::format("{}: refusing to use this as the output folder", opt.output));
+    if (fs::exists(target, ec) && !opt.overwrite)
+        return fail(*std::make_unique<Progress>(false),
+                    fmt::format("{}: already exists (use --overwrite to replace it)", target.string()));
+
+    Progress progress(!opt.quiet);
+    const auto t_start = std::chrono::steady_clock::now();
+    IngestState state;
+    SceneCollector collector;
+    state.sink = &collector;
+    std::vector<fs::path> files;
+    bool usage = false;
+    if (Status s = readInputs(opt.input, progress, state, &files, &usage); !s.ok()) {
+        if (!usage) return fail(progress, s.error);
+        progress.finish();
+        std::fprintf(stderr, "cityatlas atlas: %s\n", s.error.c_str());
+        return kExitUsage;
+    }
+    Scene& scene = collector.scene;
+    attachGeoreference(state, computeStats(scene).bounds_local, scene.georef, files.front());
+    const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+
+    // Everything goes to a sibling working folder renamed into place at the
+    // end: a failed or interrupted run never leaves a half-written tree.
+    const fs::path tmp = target.parent_path() / (target.filename().string() + ".partial");
+    fs::remove_all(tmp, ec);
+    fs::create_directories(tmp, ec);
+    if (ec) return fail(progress, fmt::format("{}: cannot create the working folder: {}", tmp.string(), ec.message()));
+    auto abandon = [&](const std::string& message) {
+        std::error_code ignored;
+        fs::remove_all(tmp, ignored);
+        return fail(progress, message);
+    };
+
+    atlas::AtlasTree tree;
+    Diagnostics& diagnostics = state.diagnostics;
+    const Status built = atlas::buildAtlasTree(
+        scene, params, tmp, diagnostics,
+        [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &tree);
+    if (!built.ok()) return abandon(built.error);
+    tree.stats.steps.insert(tree.stats.steps.begin(),
+                            {"read", read_seconds, static_cast<double>(peakRssBytes()) / 1e6});
+    const auto report = atlas::makeAtlasReport(tree, scene, diagnostics);
+    if (Status s = writeTextAtomically(tmp / "atlas_report.json", report.dump(2) + "\n"); !s.ok())
+        return abandon(s.error);
+    if (fs::exists(target, ec)) {
+        fs::remove_all(target, ec);
+        if (ec) return abandon(fmt::format("{}: cannot replace: {}", target.string(), ec.message()));
+    }
+    fs::rename(tmp, target, ec);
+    if (ec) return abandon(fmt::format("{}: cannot move into place: {}", target.string(), ec.message()));
+    progress.finish();
+
+    const atlas::AtlasStats& s = tree.stats;
+    std::printf("Atlas tree: %llu nodes (%llu leaves), depth %d, %llu atlases of %d x %d\n",
+                static_cast<unsigned long long>(s.nodes), static_cast<unsigned long long>(s.leaves), s.depth,
+                static_cast<unsigned long long>(s.atlases), params.atlas_size_px, params.atlas_size_px);
+    std::printf("  d_min %.3f m%s (scene diagonal %.1f m; d_full %.3f m)\n", s.d_min_used_m,
+                s.d_min_used_m > s.d_min_requested_m
+                    ? fmt::format(", enlarged from {:.3f} m for critical triangles", s.d_min_requested_m).c_str()
+                    : "",
+                s.scene_diagonal_m, s.d_full_m);
+    std::printf("  critical triangles: %llu at the requested d_min, %llu split into %llu more\n",
+                static_cast<unsigned long long>(s.critical_triangles),
+                static_cast<unsigned long long>(s.triangles_split),
+                static_cast<unsigned long long>(s.triangles_added_by_split));
+    std::printf("  leaf coverage %.1f %%; texels: originals %s, atlases %s (uncompressed)\n",
+                s.leaf_atlas_texels ? 100.0 * static_cast<double>(s.packed_texels) / s.leaf_atlas_texels : 0.0,
+                humanBytes(s.original_texture_bytes).c_str(), humanBytes(s.atlas_texture_bytes).c_str());
+    if (diagnostics.total()) {
+        std::printf("Warnings: %llu\n", static_cast<unsigned long long>(diagnostics.total()));
+        for (const auto& [code, e] : diagnostics.entries())
+            std::printf("  %-24s %6llu  e.g. %s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
+                        e.examples.front().file.c_str(), e.examples.front().detail.c_str());
+    }
+    if (s.d_full_m > 0 && s.d_min_used_m < s.d_full_m)
+        std::printf("Note: d_min is below d_full: every leaf atlas stores its textures above their original "
+                    "resolution; a larger --d-min gives the same images with fewer nodes.\n");
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    std::printf("Output: %s (report: atlas_report.json)\nTime %.2f s, peak memory %s\n", target.string().c_str(),
+                seconds, humanBytes(peakRssBytes()).c_str());
+    return kExitOk;
+}
+
+}  // namespace
+
+RunFn addAtlasCommand(CLI::App& app) {
+    auto opt = std::make_shared<AtlasCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "atlas",
+        "Build the multiresolution texture-atlas tree (Buchholz & Doellner 2005) of city data: nodes split until\n"
+        "each node's textures, at the resolution a camera d_min away can resolve, pack into one A x A atlas; inner\n"
+        "atlases are their children halved. Writes atlas/<opaque|alpha>/<node>.png (8-bit sRGB) and\n"
+        "atlas_report.json (schema: schemas/atlas_report.schema.json) into a new folder, atomically.\n"
+        "Guarantee: from at least a node's min_distance_m, no atlas texel covers more than one pixel anywhere on\n"
+        "the assumed screen (frustum corners included).");
+    addSceneInputOptions(cmd, &opt->input);
+    cmd->add_option("-o,--output", opt->output, "Output folder (created; must not exist unless --overwrite)")->required();
+    cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing output folder");
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+    auto* g = "Atlas tree";
+    cmd->add_option("--d-min", opt->d_min,
+                    "Minimum camera distance for leaf atlases: metres, or D/N for the scene's bounding-box diagonal "
+                    "divided by N (the papers use D/72)")
+        ->default_val("D/72")
+        ->group(g);
+    cmd->add_option("--atlas-size", opt->params.atlas_size_px, "Atlas size A in texels: a power of two, 64..4096")
+        ->default_val(512)
+        ->group(g);
+    cmd->add_option("--border", opt->params.border_px,
+                    "Border of real texture content around each packed region, texels (regions are rounded up to "
+                    "4x4 S3TC blocks)")
+        ->default_val(8)
+        ->group(g);
+    cmd->add_option("--screen", opt->screen, "Assumed viewport, WIDTHxHEIGHT pixels")->default_val("1920x1080")->group(g);
+    cmd->add_option("--fov", opt->params.vertical_fov_deg, "Assumed vertical field of view, degrees")
+        ->default_val(60)
+        ->group(g);
+    cmd->add_option("--filter", opt->filter,
+                    "Resampling kernel for leaf atlases, in linear light: box, triangle, mitchell, lanczos3")
+        ->default_val("lanczos3")
+        ->group(g);
+    cmd->add_option("--packing", opt->packing,
+                    "Packing heuristic: maxrects (best short side fit) or igarashi-cosgrove (the papers')")
+        ->default_val("maxrects")
+        ->group(g);
+    cmd->add_option("--critical-percent", opt->critical_percent,
+                    "If more textured triangles than this are critical (too large for one atlas), d_min is enlarged "
+                    "until this many are; the rest are split")
+        ->default_val(10)
+        ->check(CLI::Range(0.0, 100.0))
+        ->group(g);
+    cmd->add_option("--threads", opt->params.threads, "Worker threads (0 = all cores); the output does not depend on it")
+        ->default_val(0)
+        ->group(g);
+    cmd->add_option("--cache-mb", opt->params.cache_mb, "Memory for decoded original textures (OpenImageIO ImageCache), MB")
+        ->default_val(256)
+        ->group(g);
+    return [opt]() { return runAtlas(*opt); };
+}
+
+}  // namespace cityatlas::cli

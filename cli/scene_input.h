@@ -1,0 +1,50 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// What every command that reads city data shares: the input options, reading
+// CityGML and footprint files into one sink, and tying the frame to the Earth.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "cli/progress.h"
+#include "ingest/citygml/citygml_reader.h"
+#include "ingest/georef.h"
+#include "ingest/scene_sink.h"
+
+namespace cityatlas::cli {
+
+struct SceneInputOptions {
+    std::vector<std::string> inputs;
+    std::string lod = "best";
+    std::string theme;
+    std::string crs;
+    // Footprints:
+    std::vector<std::string> maps;  // ROLE=FIELD
+    std::string height_unit = "m";
+    double default_height_m = 10, storey_height_m = 3;
+    std::string base = "auto";
+};
+
+/// Registers the positional inputs and the reading options on `cmd`.
+void addSceneInputOptions(CLI::App* cmd, SceneInputOptions* opt);
+
+/// Reads every input into `state.sink` (set by the caller), all in the frame
+/// the first one defines. On failure `*usage` tells a usage error (exit 2)
+/// from a failed read (exit 1).
+Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState& state,
+                  std::vector<std::filesystem::path>* files, bool* usage);
+
+/// Computes the link to the Earth for a scene with these local bounds and
+/// hands it to `state.sink` (starting from `current`); a local CRS, or a CRS
+/// PROJ cannot place, is a counted warning, not an error.
+std::optional<GeorefSummary> attachGeoreference(IngestState& state, const Box3d& bounds_local,
+                                                Georeference current, const std::filesystem::path& first_file);
+
+/// Writes `text` to `path` through a sibling temporary file and a rename.
+Status writeTextAtomically(const std::filesystem::path& path, const std::string& text);
+
+}  // namespace cityatlas::cli
