@@ -40,7 +40,9 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
                   {"used_m", s.d_min_used_m},
                   {"enlarged", s.d_min_used_m > s.d_min_requested_m},
                   {"scene_diagonal_m", s.scene_diagonal_m},
-                  {"d_full_m", s.d_full_m}};
+                  {"d_full_m", s.d_full_m},
+                  {"d_first_upsampled_m", s.d_first_upsampled_m},
+                  {"textures_upsampled", s.textures_upsampled}};
     j["critical_triangles"] = {{"at_requested_d_min", s.critical_triangles},
                                {"allowed_fraction", p.critical_fraction},
                                {"at_used_d_min", s.critical_after_enlarge},

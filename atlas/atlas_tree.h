@@ -143,7 +143,12 @@ struct AtlasStats {
     double scene_diagonal_m = 0;
     double d_min_requested_m = 0;  ///< from --d-min or the diagonal fraction
     double d_min_used_m = 0;       ///< after enlargement for critical triangles
-    double d_full_m = 0;           ///< below it some texture would be stored above its original resolution (papers/000 §6.1.2)
+    /// papers/000 §6.1.2: d_full, the smallest over textures of the distance at which a texture needs
+    /// exactly its original resolution; below it EVERY texture is stored above its original resolution.
+    double d_full_m = 0;
+    /// The largest such distance: below it SOME texture is stored above its original resolution.
+    double d_first_upsampled_m = 0;
+    uint64_t textures_upsampled = 0;        ///< textures stored above their original resolution at d_min_used
     uint64_t critical_triangles = 0;        ///< at the requested d_min
     uint64_t critical_after_enlarge = 0;    ///< left at d_min_used, then split
     uint64_t triangles_split = 0;           ///< scene triangles split for being critical

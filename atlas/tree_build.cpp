@@ -28,7 +28,7 @@ namespace {
 double peakRssMb() {
     rusage u{};
     getrusage(RUSAGE_SELF, &u);
-    return static_cast<double>(u.ru_maxrss) / 1024.0;  // Linux: kilobytes
+    return static_cast<double>(u.ru_maxrss) * 1024.0 / 1e6;  // Linux reports KiB; MB as the CLI prints them
 }
 
 Layer layerOf(const Triangle& t, const Scene& scene) {
@@ -331,9 +331,9 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
         return Status::Fail("the scene has zero extent: give --d-min in metres");
     const double ppm = tree->projection.pixelsPerMetreAt1m();
 
-    // d_full (papers/000 §6.1.2): the largest d_min at which some texture
-    // would need its full original resolution; below it every atlas texel is
-    // finer than the textures it shows.
+    // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
+    // exactly its original resolution on its more demanding axis.
+    std::vector<double> native_distance(scene.textures.size(), 0);
     {
         std::vector<double> s_max(scene.textures.size(), 0), t_max(scene.textures.size(), 0);
         for (const Triangle& t : scene.triangles) {
@@ -344,13 +344,15 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
             stats.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
             ++stats.textured_triangles;
         }
-        double d_full = 1e300;
+        double lo = 1e300, hi = 0;
         for (size_t i = 0; i < scene.textures.size(); ++i) {
             const TextureRef& r = scene.textures[i];
-            if (r.width_px > 0 && s_max[i] > 0) d_full = std::min(d_full, s_max[i] * ppm / r.width_px);
-            if (r.height_px > 0 && t_max[i] > 0) d_full = std::min(d_full, t_max[i] * ppm / r.height_px);
+            if (r.width_px > 0) native_distance[i] = std::max(native_distance[i], s_max[i] * ppm / r.width_px);
+            if (r.height_px > 0) native_distance[i] = std::max(native_distance[i], t_max[i] * ppm / r.height_px);
+            if (native_distance[i] > 0) lo = std::min(lo, native_distance[i]), hi = std::max(hi, native_distance[i]);
         }
-        stats.d_full_m = d_full < 1e300 ? d_full : 0;
+        stats.d_full_m = lo < 1e300 ? lo : 0;
+        stats.d_first_upsampled_m = hi;
     }
 
     std::vector<Triangle> tris = scene.triangles;
@@ -364,6 +366,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     stats.triangles_split = critical.triangles_split;
     stats.triangles_added_by_split = critical.triangles_added;
     const double f = ppm / stats.d_min_used_m;
+    for (double d : native_distance) stats.textures_upsampled += d > stats.d_min_used_m;
 
     std::vector<TriangleInfo> info(tris.size());
     std::vector<double> weight(tris.size());

@@ -96,6 +96,7 @@ int runAtlas(const AtlasCliOptions& opt) {
     Scene& scene = collector.scene;
     attachGeoreference(state, computeStats(scene).bounds_local, scene.georef, files.front());
     const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    const double read_peak_mb = static_cast<double>(peakRssBytes()) / 1e6;
 
     // Everything goes to a sibling working folder renamed into place at the
     // end: a failed or interrupted run never leaves a half-written tree.
@@ -115,8 +116,7 @@ int runAtlas(const AtlasCliOptions& opt) {
         scene, params, tmp, diagnostics,
         [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &tree);
     if (!built.ok()) return abandon(built.error);
-    tree.stats.steps.insert(tree.stats.steps.begin(),
-                            {"read", read_seconds, static_cast<double>(peakRssBytes()) / 1e6});
+    tree.stats.steps.insert(tree.stats.steps.begin(), {"read", read_seconds, read_peak_mb});
     const auto report = atlas::makeAtlasReport(tree, scene, diagnostics);
     if (Status s = writeTextAtomically(tmp / "atlas_report.json", report.dump(2) + "\n"); !s.ok())
         return abandon(s.error);
@@ -132,11 +132,11 @@ int runAtlas(const AtlasCliOptions& opt) {
     std::printf("Atlas tree: %llu nodes (%llu leaves), depth %d, %llu atlases of %d x %d\n",
                 static_cast<unsigned long long>(s.nodes), static_cast<unsigned long long>(s.leaves), s.depth,
                 static_cast<unsigned long long>(s.atlases), params.atlas_size_px, params.atlas_size_px);
-    std::printf("  d_min %.3f m%s (scene diagonal %.1f m; d_full %.3f m)\n", s.d_min_used_m,
+    std::printf("  d_min %.3f m%s (scene diagonal %.1f m)\n", s.d_min_used_m,
                 s.d_min_used_m > s.d_min_requested_m
                     ? fmt::format(", enlarged from {:.3f} m for critical triangles", s.d_min_requested_m).c_str()
                     : "",
-                s.scene_diagonal_m, s.d_full_m);
+                s.scene_diagonal_m);
     std::printf("  critical triangles: %llu at the requested d_min, %llu split into %llu more\n",
                 static_cast<unsigned long long>(s.critical_triangles),
                 static_cast<unsigned long long>(s.triangles_split),
@@ -150,9 +150,10 @@ int runAtlas(const AtlasCliOptions& opt) {
             std::printf("  %-24s %6llu  e.g. %s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
                         e.examples.front().file.c_str(), e.examples.front().detail.c_str());
     }
-    if (s.d_full_m > 0 && s.d_min_used_m < s.d_full_m)
-        std::printf("Note: d_min is below d_full: every leaf atlas stores its textures above their original "
-                    "resolution; a larger --d-min gives the same images with fewer nodes.\n");
+    if (s.textures_upsampled)
+        std::printf("Note: %llu texture(s) are stored in leaf atlases above their original resolution at this d_min "
+                    "(all of them below d_full %.3f m, none above %.3f m); a larger --d-min costs them nothing.\n",
+                    static_cast<unsigned long long>(s.textures_upsampled), s.d_full_m, s.d_first_upsampled_m);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("Output: %s (report: atlas_report.json)\nTime %.2f s, peak memory %s\n", target.string().c_str(),
                 seconds, humanBytes(peakRssBytes()).c_str());

@@ -1,0 +1,286 @@
+# `cityatlas atlas` end to end on a synthetic town: the report matches its
+# schema and the files on disk, its numbers agree with each other, with
+# `cityatlas ingest` and with the formulas of atlas/atlas_tree.h; the output
+# does not depend on --threads; bad options, missing inputs, existing output
+# folders and corrupt textures get the documented exit codes and messages.
+source "$(dirname "$0")/lib.sh" "$@"
+SCHEMA="$SRC/schemas/atlas_report.schema.json"
+
+no_partial() {
+  local left
+  left=$(find . -name '*.partial')
+  [ -z "$left" ] || fail "$1 left a working folder behind: $left"
+}
+
+# Everything a tree folder must satisfy on its own. The PNGs are checked with a
+# few lines of independent decoding (signature, chunk CRCs, IHDR, inflated
+# size) rather than with OpenImageIO, the library that wrote them.
+check_tree() {  # check_tree DIR
+  validate_json "$1/atlas_report.json" "$SCHEMA"
+  local pngs
+  pngs=$(find "$1/atlas" -name '*.png' | wc -l)
+  check_eq "$1: PNG files = tree.atlases" "$(json "$1/atlas_report.json" "j['tree']['atlases']")" "$pngs"
+  "$PY" - "$1" <<'PY' || fail "$1: the tree is inconsistent"
+import json, os, struct, sys, zlib
+d = sys.argv[1]
+r = json.load(open(os.path.join(d, "atlas_report.json")))
+A = r["parameters"]["atlas_size_px"]
+paths = [(name, l["atlas"]) for n in r["nodes"] for name, l in n["layers"].items() if l["atlas"] is not None]
+assert len(paths) == r["tree"]["atlases"], (len(paths), r["tree"]["atlases"])
+on_disk = {os.path.relpath(os.path.join(root, f), d) for root, _, fs in os.walk(d) for f in fs}
+assert on_disk == {"atlas_report.json"} | {p for _, p in paths}, sorted(on_disk ^ ({"atlas_report.json"} | {p for _, p in paths}))[:5]
+
+def png_shape(path):
+    b = open(path, "rb").read()
+    assert b[:8] == b"\x89PNG\r\n\x1a\n", path
+    pos, idat, ihdr, chunks = 8, b"", None, []
+    while pos < len(b):
+        n, kind = struct.unpack(">I4s", b[pos:pos + 8])
+        data = b[pos + 8:pos + 8 + n]
+        assert struct.unpack(">I", b[pos + 8 + n:pos + 12 + n])[0] == zlib.crc32(kind + data), (path, kind)
+        chunks.append(kind)
+        if kind == b"IHDR": ihdr = struct.unpack(">IIBBBBB", data)
+        if kind == b"IDAT": idat += data
+        pos += 12 + n
+    assert chunks[0] == b"IHDR" and chunks[-1] == b"IEND", (path, chunks)
+    w, h, depth, colour, _, _, interlace = ihdr
+    channels = {2: 3, 6: 4}[colour]
+    assert depth == 8 and interlace == 0, (path, ihdr)
+    assert len(zlib.decompress(idat)) == h * (1 + w * channels), path
+    return w, h, channels
+
+for layer, p in paths:
+    w, h, c = png_shape(os.path.join(d, p))
+    assert (w, h) == (A, A), (p, w, h)
+    assert c == {"opaque": 3, "alpha": 4}[layer], (p, c)
+print(f"ok: {d}: {len(paths)} atlases, all {A} x {A} PNGs (RGB opaque, RGBA alpha), no other files")
+PY
+}
+
+"$CITYATLAS" synth --buildings 60 --texture-size 128 -o town -q > /dev/null
+"$CITYATLAS" atlas town/town.gml -o tree -q --d-min 150 > atlas.log || fail "atlas exited with $?"
+no_partial "a successful run"
+check_tree tree
+# The schema is not vacuous: small breakages of a real report are rejected.
+"$PY" - "$SCHEMA" <<'PY' || fail "the schema accepts broken reports"
+import copy, json, jsonschema, sys
+v = jsonschema.Draft202012Validator(json.load(open(sys.argv[1])))
+r = json.load(open("tree/atlas_report.json"))
+def rejects(change):
+    x = copy.deepcopy(r)
+    change(x)
+    return not v.is_valid(x)
+assert rejects(lambda x: x["nodes"][0]["children"].pop())
+assert rejects(lambda x: x["nodes"][0].update(extra=1))
+assert rejects(lambda x: x["nodes"][0]["layers"]["opaque"].update(atlas="atlas/alpha/0.png"))
+assert rejects(lambda x: next(l for n in x["nodes"] for l in n["layers"].values() if "coverage" in l).pop("coverage"))
+assert rejects(lambda x: x["tree"]["coverage"].update(overall=1.5))
+assert rejects(lambda x: x["parameters"].update(atlas_size_px=100))
+assert rejects(lambda x: x.pop("texels"))
+print("ok: the schema rejects broken copies of the report")
+PY
+"$CITYATLAS" ingest town/town.gml --report ingest.json -q > /dev/null
+check_eq "scene.triangles = ingest's triangles.total" "$(json ingest.json "j['triangles']['total']")" \
+  "$(json tree/atlas_report.json "j['scene']['triangles']")"
+
+# The report's numbers against each other and against atlas_tree.h's
+# definitions; expected values come from those definitions and from the town
+# (truth.json, the texture files), never from the report itself.
+"$PY" - <<'PY' || fail "tree/atlas_report.json is inconsistent"
+import glob, json, math, struct
+r = json.load(open("tree/atlas_report.json"))
+truth = json.load(open("town/truth.json"))
+P, nodes, T = r["parameters"], r["nodes"], r["tree"]
+A = P["atlas_size_px"]
+close = lambda a, b: math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12)
+
+assert T["nodes"] == len(nodes) and [n["id"] for n in nodes] == list(range(len(nodes)))
+is_leaf = lambda n: n["children"] == [-1, -1, -1, -1]
+assert T["leaves"] == sum(map(is_leaf, nodes)), T
+assert T["depth"] == max(n["level"] for n in nodes), T
+assert T["triangles"] == r["scene"]["triangles"] + r["critical_triangles"]["triangles_added"], T
+
+root = nodes[0]
+assert root["parent"] == -1 and root["level"] == 0 and root["offset"] == [0, 0], root
+L = root["layers"]
+opaque, alpha = L.get("opaque", {"first": 0, "count": 0}), L.get("alpha", {"first": 0, "count": 0})
+assert opaque["count"] + alpha["count"] == T["triangles"], (opaque, alpha, T)
+assert opaque["first"] == 0 and (alpha["count"] == 0 or alpha["first"] == opaque["count"]), (opaque, alpha)
+assert alpha["count"] > 0, "the town has RGBA textures, so an alpha layer"
+
+d_used = r["d_min"]["used_m"]
+seen_as_child = set()
+for n in nodes:
+    if is_leaf(n):
+        assert n["min_distance_m"] == d_used, n["id"]
+        continue
+    kids = [(q, c) for q, c in enumerate(n["children"]) if c >= 0]
+    for q, c in kids:
+        k = nodes[c]
+        assert c > n["id"] and c not in seen_as_child, (n["id"], c)
+        seen_as_child.add(c)
+        assert k["parent"] == n["id"] and k["level"] == n["level"] + 1, (n["id"], c)
+        assert k["offset"] == [2 * n["offset"][0] + q % 2, 2 * n["offset"][1] + q // 2], (n["id"], q, k["offset"])
+        for ax in range(3):
+            assert n["bounds"]["min"][ax] <= k["bounds"]["min"][ax] and k["bounds"]["max"][ax] <= n["bounds"]["max"][ax]
+    assert n["min_distance_m"] == 2 * max(nodes[c]["min_distance_m"] for _, c in kids), n["id"]
+    # Each layer's range is exactly its children's ranges laid end to end, and
+    # its image exists exactly when one of theirs does (it is made of them).
+    for name in ("opaque", "alpha"):
+        parts = sorted((nodes[c]["layers"][name]["first"], nodes[c]["layers"][name]["count"])
+                       for _, c in kids if name in nodes[c]["layers"])
+        mine = n["layers"].get(name)
+        if mine is None:
+            assert not parts, (n["id"], name)
+            continue
+        at = mine["first"]
+        for first, count in parts:
+            assert first == at, (n["id"], name, parts, mine)
+            at += count
+        assert at == mine["first"] + mine["count"], (n["id"], name, parts, mine)
+        has_child_atlas = any(nodes[c]["layers"].get(name, {}).get("atlas") for _, c in kids)
+        assert (mine["atlas"] is not None) == has_child_atlas, (n["id"], name)
+assert seen_as_child == set(range(1, len(nodes))), "every node but the root is exactly one node's child"
+
+for n in nodes:
+    for name, l in n["layers"].items():
+        if l["atlas"] is not None:
+            assert l["atlas"] == f"atlas/{name}/{n['id']}.png", l["atlas"]
+        assert ("regions" in l) == (is_leaf(n) and l["atlas"] is not None), (n["id"], name)
+
+# Regions are whole 4 x 4 blocks, so every leaf's packed area is a multiple of 16.
+leaf_layers = [l for n in nodes if is_leaf(n) for l in n["layers"].values() if "coverage" in l]
+areas = [l["coverage"] * A * A for l in leaf_layers]
+assert all(a == round(a) and round(a) % 16 == 0 and a > 0 for a in areas), areas[:5]
+X, C = r["texels"], T["coverage"]
+assert X["packed_texels"] == sum(round(a) for a in areas), X
+assert X["leaf_atlas_texels"] == len(leaf_layers) * A * A, X
+assert X["atlas_texture_bytes"] == sum(A * A * {"opaque": 3, "alpha": 4}[name]
+                                       for n in nodes for name, l in n["layers"].items() if l["atlas"]), X
+assert close(C["overall"], X["packed_texels"] / X["leaf_atlas_texels"]), C
+assert close(C["leaf_min"], min(l["coverage"] for l in leaf_layers)), C
+assert close(C["leaf_mean"], sum(l["coverage"] for l in leaf_layers) / len(leaf_layers)), C
+
+# Every texture of the town is used; bytes = width * height * channels from the PNG headers.
+orig = 0
+for f in glob.glob("town/textures/*.png"):
+    w, h, _, colour = struct.unpack(">IIBB", open(f, "rb").read()[16:26])
+    orig += w * h * {2: 3, 6: 4}[colour]
+assert X["original_texture_bytes"] == orig, (X, orig)
+assert X["textures_unreadable"] == 0 and r["warnings"] == {} and r["warnings_total"] == 0, r["warnings"]
+assert r["scene"]["textures"] == truth["textures"]["count"], r["scene"]
+
+# The defaults --help announces (checked separately) are the ones used.
+want = {"d_min_m": 150.0, "atlas_size_px": 512, "border_px": 8, "screen_width_px": 1920, "screen_height_px": 1080,
+        "vertical_fov_deg": 60.0, "filter": "lanczos3", "packing": "maxrects", "critical_fraction": 0.1,
+        "threads": 0, "cache_mb": 256}
+assert {k: P[k] for k in want} == want, P
+
+f = (1080 / 2) / math.tan(math.radians(60) / 2)
+cf = 1 + ((1920 / 2) ** 2 + (1080 / 2) ** 2) / f ** 2
+pr, dm = r["projection"], r["d_min"]
+assert close(pr["focal_px"], f) and close(pr["corner_factor"], cf), pr
+assert close(pr["pixels_per_metre_at_d_min"], f * cf / dm["used_m"]), pr
+assert dm["requested_m"] == 150 and dm["used_m"] >= 150 and dm["enlarged"] == (dm["used_m"] > 150), dm
+ct = r["critical_triangles"]
+assert ct["at_used_d_min"] <= ct["at_requested_d_min"] and ct["split"] == ct["at_used_d_min"], ct
+assert (ct["triangles_added"] > 0) == (ct["split"] > 0), ct
+print(f"ok: {len(nodes)} nodes, {T['leaves']} leaves, depth {T['depth']}: structure, ranges, offsets, distances, "
+      "coverage, byte counts and projection agree")
+PY
+
+# The output must not depend on the thread count: same files, same report
+# apart from timings and the threads parameter itself.
+for t in 1 2; do
+  "$CITYATLAS" atlas town/town.gml -o "threads$t" -q --d-min 300 --threads "$t" > /dev/null ||
+    fail "--threads $t exited with $?"
+  (cd "threads$t" && find . -type f ! -name atlas_report.json -print0 | sort -z | xargs -0 sha256sum) > "threads$t.sha"
+  json "threads$t/atlas_report.json" \
+    "[j.pop('steps'), j['parameters'].pop('threads'), json.dumps(j, indent=1)][-1]" > "threads$t.json"
+done
+[ "$(wc -l < threads1.sha)" -gt 10 ] || fail "--d-min 300 made too few files to compare"
+cmp -s threads1.sha threads2.sha || { diff threads1.sha threads2.sha | head >&2 || true; fail "--threads 1 and 2 wrote different files"; }
+cmp -s threads1.json threads2.json || { diff threads1.json threads2.json | head >&2 || true; fail "--threads 1 and 2 reports differ"; }
+echo "ok: --threads 1 and --threads 2 give identical files ($(wc -l < threads1.sha)) and reports"
+
+"$CITYATLAS" atlas --help > help.txt
+for opt_default in "d-min D/72" "atlas-size 512" "border 8" "screen 1920x1080" "fov 60" "filter lanczos3" \
+                   "packing maxrects" "critical-percent 10" "threads 0" "cache-mb 256"; do
+  read -r opt default <<< "$opt_default"
+  grep -Eq -- "^ *--$opt [^ ]*.*=$default( |$)" help.txt || fail "atlas --help does not give --$opt with default $default"
+done
+echo "ok: --help lists the atlas options with their defaults"
+
+expect() {  # expect CODE PATTERN -- ARGS...: exit CODE, one line on stderr matching PATTERN, no output folder
+  local code="$1" pattern="$2"; shift 3
+  set +e
+  "$CITYATLAS" "$@" > out.txt 2> err.txt
+  local rc=$?
+  set -e
+  [ $rc -eq "$code" ] || { cat err.txt >&2; fail "'$*': exit $rc, expected $code"; }
+  check_eq "'$*': stderr lines" 1 "$(wc -l < err.txt)"
+  grep -Eqi -- "$pattern" err.txt || { cat err.txt >&2; fail "'$*': stderr lacks '$pattern'"; }
+  [ ! -e out ] || fail "'$*' created its output folder"
+  echo "ok: '$*' -> exit $rc: $(cat err.txt)"
+}
+# validateParams names the parameter ("atlas size"), the CLI parser the option.
+expect 2 "atlas[- ]size" -- atlas town/town.gml -o out -q --atlas-size 100
+expect 2 "--d-min" -- atlas town/town.gml -o out -q --d-min -3
+expect 2 "--filter.*bogus" -- atlas town/town.gml -o out -q --filter bogus
+expect 1 "nothere\.gml" -- atlas nothere.gml -o out -q
+no_partial "a rejected command"
+
+mkdir keep && echo precious > keep/marker
+expect 1 "keep.*already exists" -- atlas town/town.gml -o keep -q --d-min 600
+check_eq "existing folder untouched" "precious" "$(cat keep/marker)"
+check_eq "existing folder's files" "marker" "$(ls -A keep)"
+"$CITYATLAS" atlas town/town.gml -o keep -q --d-min 600 --overwrite > /dev/null || fail "--overwrite exited with $?"
+[ ! -e keep/marker ] || fail "--overwrite kept the old folder's files"
+check_tree keep
+no_partial "--overwrite"
+echo "ok: --overwrite replaces the folder"
+
+# Corrupt textures never stop the build. Garbage is caught when ingest opens
+# the file (the texture is dropped, colour fallback); a truncated PNG whose
+# header is intact only fails when the atlas stage decodes it (mid grey).
+# Either way each one is reported exactly once.
+corrupt_run() {  # corrupt_run NAME HOW: HOW = garbage | truncate
+  rm -rf "$1"; cp -r town "$1"
+  for i in 000007 000023; do
+    local f="$1/textures/facade_$i.png"
+    local orig="town/textures/facade_$i.png"
+    if [ "$2" = garbage ]; then printf 'not a png %d\n' $(seq 300) > "$f"
+    else head -c "$(($(stat -c %s "$orig") / 2))" "$orig" > "$f"; fi
+  done
+  local rc=0
+  "$CITYATLAS" atlas "$1/town.gml" -o "$1.tree" -q --d-min 600 > /dev/null 2> "$1.err" || rc=$?
+  [ $rc -eq 0 ] || { cat "$1.err" >&2; fail "atlas with $2 textures exited with $rc"; }
+  check_tree "$1.tree"
+}
+corrupt_run garbage garbage
+corrupt_run truncated truncate
+"$PY" - <<'PY' || fail "corrupt textures are misreported"
+import json
+n = json.load(open("town/truth.json"))["textures"]["count"]
+for name, dropped_at_ingest in (("garbage", 2), ("truncated", 0)):
+    r = json.load(open(f"{name}.tree/atlas_report.json"))
+    w = r["warnings"].get("texture_unreadable")
+    assert w and w["count"] == 2, (name, r["warnings"])
+    assert r["warnings_total"] == 2, (name, r["warnings"])
+    files = sorted(e["detail"] + " " + e["file"] for e in w["examples"])
+    assert all("facade_000007.png" in f or "facade_000023.png" in f for f in files), files
+    assert r["scene"]["textures"] == n - dropped_at_ingest, (name, r["scene"])
+    assert r["texels"]["textures_unreadable"] == 2 - dropped_at_ingest, (name, r["texels"])
+    print(f"ok: {name} textures: exit 0, texture_unreadable = 2, {dropped_at_ingest} dropped at ingest, "
+          f"texels.textures_unreadable = {2 - dropped_at_ingest}")
+PY
+no_partial "the whole test"
+
+# peak_rss_mb is the process peak so far, so it cannot fall from one step to the next.
+"$PY" - <<'PY' || fail "steps[].peak_rss_mb decreases: $(json tree/atlas_report.json "[(s['name'], s['peak_rss_mb']) for s in j['steps']]")"
+import json
+s = json.load(open("tree/atlas_report.json"))["steps"]
+assert [x["name"] for x in s] == ["read", "estimate", "structure", "order", "images"], s
+assert all(a["peak_rss_mb"] <= b["peak_rss_mb"] for a, b in zip(s, s[1:])), s
+PY
+echo "ok: steps in order, peak memory never decreases"
