@@ -47,7 +47,8 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
                                {"allowed_fraction", p.critical_fraction},
                                {"at_used_d_min", s.critical_after_enlarge},
                                {"split", s.triangles_split},
-                               {"triangles_added", s.triangles_added_by_split}};
+                               {"triangles_added", s.triangles_added_by_split},
+                               {"enlarged_for_split_budget", s.enlarged_for_split_budget}};
     j["scene"] = {{"triangles", scene.triangles.size()},
                   {"textured_triangles", s.textured_triangles},
                   {"degenerate_uv_triangles", s.degenerate_uv_triangles},
@@ -87,6 +88,7 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
                  {"depth", s.depth},
                  {"atlases", s.atlases},
                  {"triangles", tree.triangles.size()},
+                 {"leaves_below_resolution", s.leaves_below_resolution},
                  {"coverage",
                   {{"overall", s.leaf_atlas_texels ? static_cast<double>(s.packed_texels) / s.leaf_atlas_texels : 0.0},
                    {"leaf_min", leaf_layers ? min_cov : 0.0},

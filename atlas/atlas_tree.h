@@ -153,6 +153,7 @@ struct AtlasStats {
     uint64_t critical_after_enlarge = 0;    ///< left at d_min_used, then split
     uint64_t triangles_split = 0;           ///< scene triangles split for being critical
     uint64_t triangles_added_by_split = 0;
+    bool enlarged_for_split_budget = false; ///< d_min raised beyond the fraction rule to bound splitting
     uint64_t textured_triangles = 0;
     uint64_t degenerate_uv_triangles = 0;   ///< all three uv equal, or collinear
     uint64_t nodes = 0, leaves = 0, atlases = 0;
@@ -162,6 +163,7 @@ struct AtlasStats {
     uint64_t original_texture_bytes = 0;    ///< uncompressed, of the textures used, at 8 bits per channel
     uint64_t atlas_texture_bytes = 0;       ///< uncompressed RGB / RGBA atlases over all nodes
     uint64_t textures_unreadable = 0;
+    uint64_t leaves_below_resolution = 0;   ///< forced leaves (see the atlas_resolution_lowered warning)
     std::vector<StepStats> steps;
 };
 

@@ -17,7 +17,8 @@ double centroid(const Triangle& t, int axis) {
 // close as possible to half of the total.
 size_t balancedCut(const std::vector<uint32_t>& ids, std::span<const double> weight) {
     double total = 0;
-    for (uint32_t i : ids) total += weight[i];
+    if (!weight.empty())
+        for (uint32_t i : ids) total += weight[i];
     const bool by_count = !(total > 0);
     if (by_count) total = static_cast<double>(ids.size());
     double run = 0, best_gap = 1e300;

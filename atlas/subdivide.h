@@ -19,7 +19,8 @@ namespace cityatlas::atlas {
 /// triangles at least two groups are non-empty and every cut leaves both sides
 /// non-empty (the papers' termination argument). `weight` is per triangle
 /// (the caller passes world area of textured triangles); all-zero weights fall
-/// back to counting triangles. Ties are broken by index: deterministic.
+/// back to counting triangles, as does an empty `weight` (the caller's guard
+/// against deep chains of ever smaller triangles). Ties are broken by index: deterministic.
 std::array<std::vector<uint32_t>, 4> splitIntoFour(std::span<const uint32_t> ids,
                                                    std::span<const Triangle> triangles,
                                                    std::span<const double> weight);

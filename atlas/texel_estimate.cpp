@@ -140,10 +140,36 @@ CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::v
     }
     r.critical_at_requested = fits_from.size();
     const auto allowed = static_cast<uint64_t>(std::floor(critical_fraction * static_cast<double>(textured)));
+    std::sort(fits_from.begin(), fits_from.end(), std::greater<>());
     if (fits_from.size() > allowed) {
         // Keep exactly `allowed` critical: d_min becomes the (allowed+1)-th largest distance.
-        std::sort(fits_from.begin(), fits_from.end(), std::greater<>());
         r.d_min_used_m = fits_from[allowed] * (1.0 + 1e-12);
+    }
+    // Pieces grow with the square of the overshoot (a 1 km triangle at 1 m
+    // would become millions): estimate them, and if splitting would add more
+    // than the scene's textured triangles (at least 10,000), raise d_min
+    // until it would not. The thesis' alternative for such scenes.
+    auto pieces = [&](double d) {
+        double n = 0;
+        for (double from : fits_from) {
+            if (from <= d) break;
+            // Halving stops once a piece fits, so pieces keep at least a
+            // quarter of the room's area: at most about 4 per room-sized
+            // cell of the triangle's box, whose side is `overshoot` rooms.
+            const double overshoot = from / d;
+            n += 4.0 * std::ceil(overshoot) * std::ceil(overshoot);
+        }
+        return n;
+    };
+    const double budget = std::max(10000.0, static_cast<double>(textured));
+    if (!fits_from.empty() && pieces(r.d_min_used_m) > budget) {
+        double lo = r.d_min_used_m, hi = fits_from.front() * (1.0 + 1e-12);
+        for (int k = 0; k < 100 && hi > lo * (1 + 1e-9); ++k) {
+            const double mid = 0.5 * (lo + hi);
+            (pieces(mid) > budget ? lo : hi) = mid;
+        }
+        r.d_min_used_m = hi;
+        r.enlarged_for_split_budget = true;
     }
     const double f = pixels_per_metre_at_1m / r.d_min_used_m;
     std::vector<Triangle> out;

@@ -42,13 +42,15 @@ RegionSize regionSize(double texels_per_u, double texels_per_v, Vec2d uv_min, Ve
 /// fit into one atlas. When more than `critical_fraction` of the textured
 /// triangles are critical, d_min is raised until exactly that fraction is;
 /// the remaining critical triangles are split at their longest edge (measured
-/// in texels) until none is.
+/// in texels) until none is. Should that add more pieces than the scene has
+/// textured triangles (at least 10,000), d_min is raised until it would not.
 struct CriticalResult {
     double d_min_used_m = 0;
     uint64_t critical_at_requested = 0;
     uint64_t critical_after_enlarge = 0;
     uint64_t triangles_split = 0;
     uint64_t triangles_added = 0;
+    bool enlarged_for_split_budget = false;  ///< d_min raised further so splitting stays bounded
 };
 /// `pixels_per_metre_at_1m`: ProjectionBound::pixelsPerMetreAt1m(). Replaces
 /// `triangles` by the split set; `sources` gets each output triangle's index

@@ -103,7 +103,7 @@ struct BuildNode {
     std::array<std::unique_ptr<BuildNode>, 4> kids;
     std::array<LayerPack, kLayerCount> packs;
     bool leaf = false;
-    bool forced = false;  // one triangle that could not pack: region clamped
+    double forced_shrink = 0;  // > 0: could not pack at full resolution; regions scaled by this
 };
 
 class StructureBuilder {
@@ -112,27 +112,38 @@ public:
                      const std::vector<double>& weight, const AtlasParams& params, double f)
         : tris_(tris), info_(info), weight_(weight), params_(params), f_(f) {}
 
-    void build(BuildNode& node, std::vector<uint32_t> ids) {
-        if (tryPack(node, ids, false)) {
+    // Area-balanced cuts can peel off one triangle per level when areas fall
+    // geometrically (a fan of slivers); from this level on, cuts balance
+    // counts, which bounds the depth by about log4(n) more levels.
+    static constexpr int kCountBalancedFromLevel = 16;
+    // Node offsets are 32-bit; a node this deep is made a leaf, its regions scaled down to fit.
+    static constexpr int kMaxLevel = 31;
+
+    void build(BuildNode& node, std::vector<uint32_t> ids, int level) {
+        if (tryPack(node, ids, 1.0)) {
             node.leaf = true;
             node.ids = std::move(ids);
             return;
         }
-        if (ids.size() < 2) {
-            // Only a critical triangle that splitting could not fix ends here
-            // (it cannot with finite input); keep it, clamped, and count it.
-            tryPack(node, ids, true);
-            node.leaf = node.forced = true;
+        if (ids.size() < 2 || level >= kMaxLevel) {
+            // Only a critical triangle that splitting could not fix, or a
+            // pathological depth, ends here: lower the resolution until it
+            // packs, and count it.
+            double shrink = 1.0;
+            while (!tryPack(node, ids, shrink *= 0.8) && shrink > 1e-9) {
+            }
+            node.leaf = true;
+            node.forced_shrink = shrink;
             node.ids = std::move(ids);
             return;
         }
-        auto groups = splitIntoFour(ids, tris_, weight_);
+        auto groups = splitIntoFour(ids, tris_, level >= kCountBalancedFromLevel ? std::span<const double>() : weight_);
         std::vector<uint32_t>().swap(ids);
         tbb::task_group g;
         for (int q = 0; q < 4; ++q) {
             if (groups[q].empty()) continue;
             node.kids[q] = std::make_unique<BuildNode>();
-            g.run([this, &node, &groups, q] { build(*node.kids[q], std::move(groups[q])); });
+            g.run([this, &node, &groups, q, level] { build(*node.kids[q], std::move(groups[q]), level + 1); });
         }
         g.wait();
     }
@@ -140,7 +151,9 @@ public:
 private:
     // Regions per texture (papers/000 §4.5.2): the largest density of its
     // triangles in this node over the union of their uv boxes.
-    bool tryPack(BuildNode& node, const std::vector<uint32_t>& ids, bool clamp) {
+    // `shrink` < 1 lowers every region's content resolution (forced leaves only).
+    bool tryPack(BuildNode& node, const std::vector<uint32_t>& ids, double shrink) {
+        const bool clamp = shrink < 1.0;  // forced leaf: no region larger than the atlas
         const int a = params_.atlas_size_px, blocks = a / 4;
         const uint64_t capacity = static_cast<uint64_t>(a) * a;
         for (int l = 0; l < kLayerCount; ++l) {
@@ -176,7 +189,7 @@ private:
                     pack.region_of[positions[k]] = static_cast<uint32_t>(pack.regions.size()) + it->second;
                 }
                 for (const Acc& c : acc) {
-                    RegionSize rs = regionSize(c.per_u, c.per_v, c.lo, c.hi, params_.border_px);
+                    RegionSize rs = regionSize(c.per_u * shrink, c.per_v * shrink, c.lo, c.hi, params_.border_px);
                     if (clamp) rs.w = std::min(rs.w, a), rs.h = std::min(rs.h, a);
                     PackedRegion r;
                     r.texture = texture, r.w = rs.w, r.h = rs.h, r.uv_min = rs.uv_min, r.uv_max = rs.uv_max;
@@ -184,7 +197,7 @@ private:
                     items.push_back({rs.w / 4, rs.h / 4});
                     area += static_cast<uint64_t>(rs.w) * rs.h;
                 }
-                if (area > capacity && !clamp) return false;  // cannot pack: skip the rest of the work
+                if (area > capacity) return false;  // cannot pack: skip the rest of the work
             }
             std::vector<Placement> placements;
             if (!atlas::pack(params_.packing, items, blocks, &placements)) return false;
@@ -218,6 +231,7 @@ struct Flattener {
     const std::vector<TriangleInfo>& info;
     std::vector<const BuildNode*> build_of;  // per flat node
     uint64_t forced = 0;
+    double smallest_shrink = 1.0;
 
     int32_t visit(const BuildNode& b, int32_t parent, int level, std::array<uint32_t, 2> offset) {
         const auto id = static_cast<int32_t>(tree.nodes.size());
@@ -228,7 +242,7 @@ struct Flattener {
             n.parent = parent, n.level = level, n.offset = offset;
         }
         tree.stats.depth = std::max(tree.stats.depth, level);
-        forced += b.forced ? 1 : 0;
+        if (b.forced_shrink > 0) ++forced, smallest_shrink = std::min(smallest_shrink, b.forced_shrink);
         for (int q = 0; q < 4; ++q) {
             if (!b.kids[q]) continue;
             const std::array<uint32_t, 2> child_offset{2 * offset[0] + (q & 1), 2 * offset[1] + (q >> 1)};
@@ -363,6 +377,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     stats.d_min_used_m = critical.d_min_used_m;
     stats.critical_triangles = critical.critical_at_requested;
     stats.critical_after_enlarge = critical.critical_after_enlarge;
+    stats.enlarged_for_split_budget = critical.enlarged_for_split_budget;
     stats.triangles_split = critical.triangles_split;
     stats.triangles_added_by_split = critical.triangles_added;
     const double f = ppm / stats.d_min_used_m;
@@ -392,7 +407,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
         std::vector<uint32_t> all(tris.size());
         for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
         StructureBuilder builder(tris, info, weight, params, f);
-        arena.execute([&] { builder.build(root, std::move(all)); });
+        arena.execute([&] { builder.build(root, std::move(all), 0); });
     }
     step("structure");
 
@@ -421,11 +436,15 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
             if (n.leaf()) stats.packed_texels += nl.packed_texels, stats.leaf_atlas_texels += atlas_texels;
         }
     }
-    if (flat.forced)
-        diagnostics.warn("atlas_region_clamped",
-                         {"", 0, "", fmt::format("{} triangle(s) needed more than one atlas even after splitting; "
-                                                 "their regions were clamped to the atlas size",
-                                                 flat.forced)});
+    if (flat.forced) {
+        stats.leaves_below_resolution = flat.forced;
+        diagnostics.warn("atlas_resolution_lowered",
+                         {"", 0, "", fmt::format("{} leaf node(s) could not pack at the resolution d_min asks for "
+                                                 "(a critical triangle left unsplit, or a tree deeper than 31 levels); "
+                                                 "their regions were scaled down, to {:.3g} at worst, and the "
+                                                 "texel-size guarantee does not hold for them",
+                                                 flat.forced, flat.smallest_shrink)});
+    }
     step("order");
 
     if (!params.render_images) return Status::Ok();

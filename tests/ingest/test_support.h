@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -17,6 +18,18 @@ inline std::filesystem::path scratchPath(const std::string& group, const std::st
     fs::remove_all(p);
     fs::create_directories(p.parent_path());
     return p;
+}
+
+/// The team's shared folder (real data): $CITYATLAS_SHARED, else the path the
+/// build was configured with. May not exist on a user's clone: callers skip.
+inline std::filesystem::path sharedDir() {
+    const char* env = std::getenv("CITYATLAS_SHARED");
+    if (env != nullptr && *env != '\0') return env;
+#ifdef CITYATLAS_SHARED_DEFAULT
+    return CITYATLAS_SHARED_DEFAULT;
+#else
+    return {};
+#endif
 }
 
 }  // namespace cityatlas::test
