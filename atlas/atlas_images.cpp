@@ -306,6 +306,7 @@ Status writeCanvas(const Canvas& c, Layer layer, const fs::path& path) {
     spec.attribute("png:compressionLevel", 1);
     spec.attribute("png:filter", 0x20);
     spec.attribute("oiio:ColorSpace", "sRGB");
+    spec.attribute("oiio:UnassociatedAlpha", 1);  // the bytes are straight alpha already (divided above)
     if (!out->open(path.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close())
         return Status::Fail(fmt::format("{}: cannot write: {}", path.string(), out->geterror()));
     return Status::Ok();
@@ -319,6 +320,9 @@ public:
         cache_->attribute("max_memory_MB", static_cast<float>(tree.params.cache_mb));
         cache_->attribute("autotile", 0);
         cache_->attribute("max_open_files", 64);
+        // PNG alpha is straight; by default OpenImageIO hands it over already
+        // multiplied into the 8-bit sRGB codes, which would premultiply twice.
+        cache_->attribute("unassociatedalpha", 1);
         for (const auto& n : tree.nodes)
             for (const auto& l : n.layers) total_ += l.present() ? 1 : 0;
     }
