@@ -34,3 +34,16 @@ ensure_gltf_validator() {
       { tail -20 npm.log >&2; fail "npm ci in $GLTF_TOOLS failed (the first run needs the npm registry)"; }
   fi
 }
+
+# expect CODE PATTERN -- ARGS...: the command exits CODE and its stderr matches
+# the extended regex PATTERN (case-insensitive); stdout/stderr in out.txt/err.txt.
+expect() {
+  local code="$1" pattern="$2"; shift 3
+  set +e
+  "$CITYATLAS" "$@" > out.txt 2> err.txt
+  local rc=$?
+  set -e
+  [ $rc -eq "$code" ] || { cat err.txt >&2; fail "'$*': exit $rc, expected $code"; }
+  grep -Eqi -- "$pattern" err.txt || { cat err.txt >&2; fail "'$*': stderr lacks '$pattern'"; }
+  echo "ok: '$*' -> exit $rc: $(head -1 err.txt)"
+}

@@ -2,17 +2,6 @@
 # exit code, and never a half-written output folder.
 source "$(dirname "$0")/lib.sh" "$@"
 
-expect() {  # expect CODE PATTERN -- ARGS...
-  local code="$1" pattern="$2"; shift 3
-  set +e
-  "$CITYATLAS" "$@" > out.txt 2> err.txt
-  local rc=$?
-  set -e
-  [ $rc -eq "$code" ] || { cat err.txt >&2; fail "'$*': exit $rc, expected $code"; }
-  grep -qi -- "$pattern" err.txt || { cat err.txt >&2; fail "'$*': stderr lacks '$pattern'"; }
-  echo "ok: '$*' -> exit $rc: $(head -1 err.txt)"
-}
-
 expect 2 "not a projected CRS" -- synth --crs 4326 -o a
 expect 2 "not a CRS known" -- synth --crs 999999 -o a
 expect 2 "buildings" -- synth --buildings 0 -o a
