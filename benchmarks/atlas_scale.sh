@@ -40,7 +40,7 @@ facade_gib = truth["textures"]["facade"] * int(s) * int(s) * 3 / 2**30
 rec = {
     "benchmark": "atlas", "command": " ".join(cmd), "buildings": int(n), "texture_size_px": int(s),
     "wall_s": round(wall, 2), "user_s": round(ru.ru_utime, 2), "system_s": round(ru.ru_stime, 2),
-    "peak_rss_mb": round(ru.ru_maxrss / 1024, 1), "output_mb": round(size / 1e6, 1),
+    "peak_rss_mb": round(ru.ru_maxrss * 1024 / 1e6, 1), "output_mb": round(size / 1e6, 1),  # Linux: KiB
     "facade_texels_gib_uncompressed": round(facade_gib, 2), "triangles": rep["scene"]["triangles"], "textures": rep["scene"]["textures"],
     "original_texture_mb": round(rep["texels"]["original_texture_bytes"] / 1e6, 1),
     "atlas_texture_mb_uncompressed": round(rep["texels"]["atlas_texture_bytes"] / 1e6, 1),

@@ -179,7 +179,9 @@ RunFn addAtlasCommand(CLI::App& app) {
     auto* g = "Atlas tree";
     cmd->add_option("--d-min", opt->d_min,
                     "Minimum camera distance for leaf atlases: metres, or D/N for the scene's bounding-box diagonal "
-                    "divided by N (the papers use D/72)")
+                    "divided by N (the papers use D/72). Nearer than this, leaves use the original textures. Atlas "
+                    "texels, and build time, grow as 1/d_min^2; d_min grows by itself when too many triangles are "
+                    "critical (see the report)")
         ->default_val("D/72")
         ->group(g);
     cmd->add_option("--atlas-size", opt->params.atlas_size_px, "Atlas size A in texels: a power of two, 64..4096")
@@ -204,7 +206,8 @@ RunFn addAtlasCommand(CLI::App& app) {
         ->group(g);
     cmd->add_option("--critical-percent", opt->critical_percent,
                     "If more textured triangles than this are critical (too large for one atlas), d_min is enlarged "
-                    "until this many are; the rest are split")
+                    "until this many are; the rest are split (and d_min grows further if splitting would more than "
+                    "double the textured triangles)")
         ->default_val(10)
         ->check(CLI::Range(0.0, 100.0))
         ->group(g);
