@@ -206,8 +206,8 @@ RunFn addAtlasCommand(CLI::App& app) {
         ->group(g);
     cmd->add_option("--critical-percent", opt->critical_percent,
                     "If more textured triangles than this are critical (too large for one atlas), d_min is enlarged "
-                    "until this many are; the rest are split (and d_min grows further if splitting would more than "
-                    "double the textured triangles)")
+                    "until this many are; the rest are split (and d_min grows further if splitting would add more "
+                    "triangles than the scene has textured ones, or 10,000)")
         ->default_val(10)
         ->check(CLI::Range(0.0, 100.0))
         ->group(g);
