@@ -26,6 +26,17 @@ find_package(TinyGLTF CONFIG REQUIRED)
 list(APPEND CMAKE_MODULE_PATH /usr/share/cmake/geographiclib)
 find_package(GeographicLib REQUIRED)
 
+# Tiles: S3TC encoders and Draco geometry (../shared/STACK.md).
+pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)  # stb_dxt, compiled in Debian's libstb
+# libsquish's .pc file has an empty prefix: find it by hand.
+find_path(SQUISH_INCLUDE_DIR squish.h REQUIRED)
+find_library(SQUISH_LIBRARY squish REQUIRED)
+add_library(squish::squish UNKNOWN IMPORTED)
+set_target_properties(squish::squish PROPERTIES IMPORTED_LOCATION ${SQUISH_LIBRARY}
+                      INTERFACE_INCLUDE_DIRECTORIES ${SQUISH_INCLUDE_DIR})
+find_package(draco CONFIG REQUIRED)
+find_package(meshoptimizer CONFIG REQUIRED)
+
 if(CITYATLAS_BUILD_TESTS)
   find_package(GTest CONFIG REQUIRED)
   include(GoogleTest)

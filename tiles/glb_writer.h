@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// One tile node's geometry as a glTF 2.0 binary (.glb) whose single primitive
+/// is compressed with KHR_draco_mesh_compression, and the reader for it.
+///
+/// The GLB is written by hand on nlohmann::json (like ingest/gltf_debug.cpp),
+/// never through tinygltf or Draco's own glTF IO: Draco embeds a copy of
+/// tinygltf and the two crash each other in one process (../shared/STACK.md).
+///
+/// Frame and precision
+/// -------------------
+/// * Positions are written relative to a caller-given centre as float32, then
+///   quantized by Draco over the mesh's extent. Subtracting the centre in
+///   double first is what keeps millimetres at ECEF magnitudes: float32 alone
+///   has a spacing of 0.5 m at 6.4e6 m and 1 m at 9.9e6 m.
+/// * The centre is NOT written as a node translation (a client would add it in
+///   float32 and lose exactly that precision); the client adds it in double
+///   (3D Tiles: the tile transform). Callers may record it in asset.extras.
+/// * Positions are written in the caller's axes, unrotated (glTF's y-up
+///   convention is the tileset writer's business, as is the 3D Tiles y-up to
+///   z-up rule).
+/// * Worst-case position error per axis: step/2 + float32 rounding, with
+///   step = extent / (2^position_bits - 1) and extent the largest side of the
+///   mesh's bounding box. At 14 bits: 1.8 mm step for a 30 m lot, 5.5 mm for a
+///   90 m block. GlbResult reports the error measured on the file.
+///
+/// Texture coordinates
+/// -------------------
+/// TileMesh uvs follow the project convention (v = 0 at the BOTTOM of the
+/// image, ingest/scene.h and atlas/atlas_tree.h); the file holds glTF's
+/// (u, 1 - v) and decodeTileGlb flips them back. With both sets present,
+/// uv_original is TEXCOORD_0 and uv_atlas TEXCOORD_1; glTF forbids a
+/// TEXCOORD_1 without TEXCOORD_0, so a lone set is TEXCOORD_0. The primitive's
+/// extras {"cityatlas_texcoords": ["original", "atlas"]} name the sets in
+/// TEXCOORD order (a material's texCoord must follow it). Each uv set is quantized over
+/// its own extent (Draco's TEX_COORD quantization), so original uvs that
+/// repeat a texture 1000 times get a 1000 / 4095 step at 12 bits: pass the
+/// atlas uvs for rendering.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "ingest/scene.h"
+#include "ingest/status.h"
+
+namespace cityatlas::tiles {
+
+/// Name of the per-vertex feature id attribute (as in the debug glb).
+inline constexpr const char* kTileFeatureIdAttribute = "_FEATURE_ID_0";
+/// Largest feature id written: float32 holds every integer up to 2^24 exactly.
+inline constexpr uint32_t kMaxTileFeatureId = 1u << 24;
+
+/// An indexed triangle mesh in double precision.
+struct TileMesh {
+    std::vector<Vec3d> positions;      ///< metres; world (or any frame), the centre is subtracted on writing
+    std::vector<Vec2d> uv_original;    ///< optional (empty = absent): TEXCOORD_0, original texture coordinates
+    std::vector<Vec2d> uv_atlas;       ///< optional: TEXCOORD_1 (TEXCOORD_0 without uv_original), atlas coordinates
+    std::vector<uint32_t> feature_id;  ///< optional, per vertex: building index, _FEATURE_ID_0 (float, lossless)
+    std::vector<uint32_t> indices;     ///< triangles, counter-clockwise
+};
+
+struct DracoSettings {
+    int position_bits = 14;  ///< 1..30
+    int uv_bits = 12;        ///< 1..30, both uv sets
+    int speed = 5;           ///< 0 (smallest) .. 10 (fastest, sequential); encoding and decoding speed
+    /// Draco's sequential connectivity instead of edgebreaker: vertex i and
+    /// triangle t of the file are the i-th referenced input vertex and the t-th
+    /// kept input triangle. Files are larger (about 2x); for tests and callers
+    /// that index vertices. Edgebreaker (the default) reorders both.
+    bool preserve_order = false;
+};
+
+struct GlbResult {
+    std::vector<uint8_t> bytes;  ///< the .glb file
+    Vec3d centre;                ///< positions in the file are relative to it
+    /// Largest distance between an input position and its decoded position
+    /// (file float + centre, in double): quantization and float32 together.
+    double max_position_error_m = 0;
+    /// Largest |du| or |dv| between an input uv and its decoded value, per set
+    /// (0 when the set is absent).
+    double max_uv_original_error = 0;
+    double max_uv_atlas_error = 0;
+    /// Quantization steps Draco used (extent / (2^bits - 1)); 0 for absent uvs.
+    double position_step_m = 0;
+    double uv_original_step = 0;
+    double uv_atlas_step = 0;
+    size_t triangles = 0, vertices = 0;  ///< as decoded from the file (what the accessors say)
+    /// Input triangles left out: two corners at the same float32 position
+    /// (relative to the centre). They cover no pixel, and Draco's edgebreaker
+    /// would drop them anyway; dropping them first keeps both codecs equal.
+    size_t degenerate_triangles_dropped = 0;
+    size_t draco_bytes = 0;  ///< size of the Draco blob inside `bytes`
+};
+
+/// Encodes `mesh` relative to `centre` with Draco: positions and uvs quantized
+/// to the given bits, feature ids stored losslessly (unquantized float32).
+///
+/// The glTF: asset (version 2.0, generator "cityatlas", `extras` as
+/// asset.extras unless it is null), one scene with one node with one mesh with
+/// one primitive (mode TRIANGLES) whose KHR_draco_mesh_compression extension
+/// points at bufferView 0 (the Draco blob, all of the BIN chunk). Accessors
+/// (no bufferView, as the extension says) carry count, componentType, type and
+/// min/max equal to the decoded extremes; indices are UNSIGNED_SHORT up to
+/// 65535 vertices, UNSIGNED_INT above. The extension is in extensionsUsed and
+/// extensionsRequired.
+///
+/// The blob is decoded again before returning: counts and min/max come from
+/// that decode, and the errors in GlbResult are measured against the input
+/// (see glb_writer.cpp for how vertices are matched when Draco reorders).
+///
+/// Fails (one line, nothing in *out changed) on: no triangles, an index out of
+/// range, index count not a multiple of 3, an optional array whose size is not
+/// positions.size(), a non-finite coordinate or centre, a position that does
+/// not fit float32 relative to the centre, a feature id above 2^24, settings
+/// out of range, a file over 4 GiB, or a Draco error.
+Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSettings& settings, GlbResult* out,
+                     const nlohmann::json& extras = {});
+
+/// Reads a GLB written by encodeTileGlb: checks the GLB framing, parses the
+/// JSON chunk, finds the primitive's KHR_draco_mesh_compression blob in the BIN
+/// chunk and decodes it with draco::Decoder. Positions come back as the file's
+/// float32 + `centre` in double, uvs flipped back to v = 0 at the bottom,
+/// feature ids as integers. Decoded counts must match the accessors.
+///
+/// Fails with a one-line reason (truncated file, bad magic or version, no JSON
+/// chunk, JSON not parsable, no Draco primitive, blob outside the BIN chunk,
+/// Draco error, attribute of the wrong shape, ...) and never crashes or throws
+/// on arbitrary bytes; *out is only written on success.
+Status decodeTileGlb(const std::vector<uint8_t>& bytes, const Vec3d& centre, TileMesh* out);
+
+}  // namespace cityatlas::tiles

@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// Texture encoding for the tiles stage: mip chains in linear light and S3TC
+/// (BC1 for RGB, BC3 for RGBA) blocks in DDS files, which every desktop GPU
+/// samples without decoding (../shared/STACK.md §3 for the encoder choice).
+///
+/// Malformed arguments (wrong buffer size, channels other than 3 or 4, a mip
+/// list whose sizes do not halve) are programmer errors and throw
+/// std::invalid_argument; only file-system failures come back as a Status.
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include "ingest/status.h"
+
+namespace cityatlas::tiles {
+
+/// Fast: stb_dxt with STB_DXT_HIGHQUAL, parallel per block row (TBB).
+/// Best: libsquish kColourClusterFit with uniform channel weights (the same
+/// measure as psnrRgb), per block under TBB; about 60-90x slower for ~0.2 dB.
+enum class BcQuality : uint8_t { Fast, Best };
+
+std::string_view bcQualityName(BcQuality q);  ///< "fast", "best"
+std::optional<BcQuality> bcQualityFromName(std::string_view name);
+
+/// 8-bit image, rows top-down (file order), 3 (RGB) or 4 (RGBA, straight alpha)
+/// channels, sRGB-encoded colour; alpha is linear coverage.
+struct Image8 {
+    int width = 0, height = 0, channels = 0;
+    std::vector<uint8_t> pixels;  ///< width*height*channels bytes
+};
+
+/// The full mip chain, base first, down to 1x1: each level halves each
+/// dimension (floor, at least 1) and is the box mean of the covered texels of
+/// the previous level in LINEAR light with premultiplied alpha (sRGB decode,
+/// average, re-encode to the nearest code). Output texel i covers input texels
+/// 2i and 2i+1 per axis; when the input size is odd the last output texel also
+/// covers the final input texel (3 texels). A footprint that is fully
+/// transparent keeps the plain linear mean of its colours (nothing to weight by).
+/// Level 0 is a copy of `base`.
+std::vector<Image8> mipChain(const Image8& base);
+
+/// Block bytes of one level: 8 per 4x4 block for BC1 (3 channels), 16 for BC3.
+size_t bcBlockBytes(int width, int height, int channels);
+
+/// BC1 blocks (3 channels; opaque: alpha is never encoded, so no block uses
+/// BC1's transparent index) or BC3 blocks (4 channels) of one image, row-major
+/// blocks, partial edge blocks padded by replicating the last row/column.
+/// Deterministic for any thread count (each block is encoded on its own).
+std::vector<uint8_t> encodeBc(const Image8& image, BcQuality quality);
+
+/// Decodes BC1/BC3 blocks back to an Image8 of `channels` channels (3: BC1,
+/// 4: BC3) and exactly width x height (the padding is dropped), with
+/// squish::Decompress per block. For tests and PSNR reports.
+Image8 decodeBc(const std::vector<uint8_t>& blocks, int width, int height, int channels);
+
+/// A complete DDS file: "DDS " + 124-byte DDS_HEADER (flags
+/// CAPS|HEIGHT|WIDTH|PIXELFORMAT|MIPMAPCOUNT|LINEARSIZE, pitchOrLinearSize =
+/// bytes of level 0, mipMapCount = levels, FourCC "DXT1" for 3 channels or
+/// "DXT5" for 4, caps TEXTURE, plus MIPMAP|COMPLEX when more than one level),
+/// then each level's blocks. `mips` is level 0 first; each further level must
+/// be the halved size of the one before (a chain may stop before 1x1).
+std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality quality);
+
+/// encodeDds written to `path` through a sibling temporary file and a rename,
+/// so a reader never sees a partial file; the error names the file.
+Status writeDds(const std::filesystem::path& path, const std::vector<Image8>& mips, BcQuality quality);
+
+/// PSNR in dB over the RGB channels of two images of the same width and height
+/// (either may have 3 or 4 channels; alpha is ignored); +inf when equal.
+double psnrRgb(const Image8& a, const Image8& b);
+
+}  // namespace cityatlas::tiles
