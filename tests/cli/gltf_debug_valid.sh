@@ -11,24 +11,11 @@ source "$(dirname "$0")/lib.sh" "$@"
 ensure_gltf_validator
 TOOLS="$GLTF_TOOLS"
 
-# validate FILE: runs the validator, leaves its output in validate.txt, returns its exit status.
-validate() {
-  set +e
-  node "$TOOLS/validate.mjs" --all "$1" > validate.txt 2>&1
-  local rc=$?
-  set -e
-  return $rc
-}
-# glb_json FILE EXPR: a Python expression over the glb's JSON chunk as j.
-glb_json() {
-  "$PY" -c "import json,struct,sys; b=open(sys.argv[1],'rb').read(); n=struct.unpack_from('<I',b,12)[0]; j=json.loads(b[20:20+n]); print($2)" "$1"
-}
-
 "$CITYATLAS" synth --buildings 30 --texture-size 64 -q -o town > /dev/null
 "$SCENE_TO_GLB" town town.glb
 [ -s town.glb ] || fail "scene_to_glb wrote no town.glb"
 
-rc=0; validate town.glb || rc=$?
+rc=0; gltf_validate town.glb || rc=$?
 [ $rc -eq 0 ] || { cat validate.txt >&2; fail "town.glb does not validate (exit $rc)"; }
 grep -q "^town.glb: 0 errors" validate.txt || { cat validate.txt >&2; fail "unexpected summary"; }
 echo "ok: $(head -1 validate.txt)"
@@ -44,7 +31,7 @@ check_eq "triangles in the glb" "$(glb_json town.glb "j['asset']['extras']['tria
 # --- The validator must be able to fail. ---
 expect_invalid() {  # expect_invalid FILE PATTERN WHAT
   local rc=0
-  validate "$1" || rc=$?
+  gltf_validate "$1" || rc=$?
   [ $rc -eq 1 ] || { cat validate.txt >&2; fail "$3: validator exit $rc, expected 1"; }
   grep -q -- "$2" validate.txt || { cat validate.txt >&2; fail "$3: output lacks '$2'"; }
   echo "ok: $3 is rejected: $(grep -m1 -- "$2" validate.txt | sed 's/^ *//')"

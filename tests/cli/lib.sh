@@ -22,6 +22,20 @@ xcount() { xmllint --xpath "count($2)" "$1"; }
 # Makes the Khronos glTF validator (npm gltf-validator, pinned in
 # tests/tools/gltf/package-lock.json) available; exits 77 (skipped) without
 # node >= 18. The first run installs it with `npm ci` (needs the npm registry).
+# gltf_validate FILE: runs the Khronos validator (after ensure_gltf_validator),
+# leaves its output in validate.txt and returns its exit status.
+gltf_validate() {
+  set +e
+  node "$GLTF_TOOLS/validate.mjs" --all "$1" > validate.txt 2>&1
+  local rc=$?
+  set -e
+  return $rc
+}
+# glb_json FILE EXPR: a Python expression over the glb's JSON chunk as j.
+glb_json() {
+  "$PY" -c "import json,struct,sys; b=open(sys.argv[1],'rb').read(); n=struct.unpack_from('<I',b,12)[0]; j=json.loads(b[20:20+n]); print($2)" "$1"
+}
+
 ensure_gltf_validator() {
   GLTF_TOOLS="$SRC/tests/tools/gltf"
   command -v node > /dev/null || { echo "SKIPPED: node is not installed (Debian: apt-get install nodejs npm)"; exit 77; }

@@ -15,17 +15,6 @@ source "$(dirname "$0")/lib.sh" "$@"
 ensure_gltf_validator
 TOOLS="$GLTF_TOOLS"
 
-validate() {  # validate FILE: output in validate.txt, returns the validator's exit status
-  set +e
-  node "$TOOLS/validate.mjs" --all "$1" > validate.txt 2>&1
-  local rc=$?
-  set -e
-  return $rc
-}
-# glb_json FILE EXPR: a Python expression over the glb's JSON chunk as j.
-glb_json() {
-  "$PY" -c "import json,struct,sys; b=open(sys.argv[1],'rb').read(); n=struct.unpack_from('<I',b,12)[0]; j=json.loads(b[20:20+n]); print($2)" "$1"
-}
 PRIM="j['meshes'][0]['primitives'][0]"
 
 mkdir glbs
@@ -38,7 +27,7 @@ have_transcoder=1
 command -v draco_transcoder > /dev/null || { have_transcoder=0; echo "note: draco_transcoder not installed (Debian: draco); skipping the second reader"; }
 
 for f in glbs/*.glb; do
-  rc=0; validate "$f" || rc=$?
+  rc=0; gltf_validate "$f" || rc=$?
   [ $rc -eq 0 ] || { cat validate.txt >&2; fail "$f does not validate (exit $rc)"; }
   grep -q "^$f: 0 errors, 0 warnings" validate.txt || { cat validate.txt >&2; fail "$f: errors or warnings"; }
   # The validator really saw the extension (and says it cannot check it).
@@ -70,7 +59,7 @@ done
 # --- Both readers must be able to fail. ---
 expect_invalid() {  # expect_invalid FILE PATTERN WHAT
   local rc=0
-  validate "$1" || rc=$?
+  gltf_validate "$1" || rc=$?
   [ $rc -eq 1 ] || { cat validate.txt >&2; fail "$3: validator exit $rc, expected 1"; }
   grep -q -- "$2" validate.txt || { cat validate.txt >&2; fail "$3: output lacks '$2'"; }
   echo "ok: $3 is rejected: $(grep -m1 -- "$2" validate.txt | sed 's/^ *//')"
@@ -93,7 +82,7 @@ blob = 20 + struct.unpack_from('<I', b, 12)[0] + 8
 b[blob + 10:blob + 200] = bytes(190)
 open(sys.argv[2], 'wb').write(b)
 EOF
-validate zeroed.glb || fail "the validator rejects a zeroed Draco blob now; update this script"
+gltf_validate zeroed.glb || fail "the validator rejects a zeroed Draco blob now; update this script"
 echo "ok: the validator alone accepts a zeroed Draco blob (it cannot decode Draco)"
 if [ $have_transcoder -eq 1 ]; then
   set +e; draco_transcoder -i zeroed.glb -o x.glb > transcoder.txt 2>&1; rc=$?; set -e
