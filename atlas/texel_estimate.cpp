@@ -108,13 +108,12 @@ void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, int
         const double ext = std::max(std::abs(duv.x) * d.s_world, std::abs(duv.y) * d.t_world);
         if (ext > best) best = ext, edge = e;
     }
-    const int a = edge, b = (edge + 1) % 3, c = (edge + 2) % 3;
+    const int a = edge, b = (edge + 1) % 3;
     const Vec3d pm = 0.5 * (t.position_local[a] + t.position_local[b]);
     const Vec2d tm{0.5 * (t.uv[a].x + t.uv[b].x), 0.5 * (t.uv[a].y + t.uv[b].y)};
-    Triangle first = t, second = t;  // (a, m, c) and (m, b, c): orientation kept
+    Triangle first = t, second = t;  // (a, m, third) and (m, b, third): orientation kept
     first.position_local[b] = pm, first.uv[b] = tm;
     second.position_local[a] = pm, second.uv[a] = tm;
-    (void)c;
     splitUntilFits(first, f, atlas_size, border, depth + 1, out);
     splitUntilFits(second, f, atlas_size, border, depth + 1, out);
 }
