@@ -272,7 +272,12 @@ struct Flattener {
                 const uint32_t i = b.ids[k];
                 TreeTriangle t;
                 t.tri = tris[i], t.source = sources[i], t.layer = layer;
-                if (t.tri.texture >= 0) {
+                // A forced leaf whose regions did not pack even scaled down to
+                // nothing (thousands of textures at level 31) has no region:
+                // its triangles keep atlas coordinates (0,0), counted with the
+                // forced leaves, rather than reading past the region list.
+                const bool has_region = k < pack.region_of.size() && pack.region_of[k] < pack.regions.size();
+                if (t.tri.texture >= 0 && has_region) {
                     const PackedRegion* r = &pack.regions[pack.region_of[k]];
                     for (int c = 0; c < 3; ++c) {
                         const Vec2d texel = r->toAtlasTexels(t.tri.uv[c]);
