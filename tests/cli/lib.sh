@@ -31,6 +31,14 @@ gltf_validate() {
   set -e
   return $rc
 }
+# expect_invalid FILE PATTERN WHAT: the validator rejects FILE (exit 1) and says PATTERN.
+expect_invalid() {  # expect_invalid FILE PATTERN WHAT
+  local rc=0
+  gltf_validate "$1" || rc=$?
+  [ $rc -eq 1 ] || { cat validate.txt >&2; fail "$3: validator exit $rc, expected 1"; }
+  grep -q -- "$2" validate.txt || { cat validate.txt >&2; fail "$3: output lacks '$2'"; }
+  echo "ok: $3 is rejected: $(grep -m1 -- "$2" validate.txt | sed 's/^ *//')"
+}
 # glb_json FILE EXPR: a Python expression over the glb's JSON chunk as j.
 glb_json() {
   "$PY" -c "import json,struct,sys; b=open(sys.argv[1],'rb').read(); n=struct.unpack_from('<I',b,12)[0]; j=json.loads(b[20:20+n]); print($2)" "$1"

@@ -57,13 +57,6 @@ for f in glbs/*.glb; do
 done
 
 # --- Both readers must be able to fail. ---
-expect_invalid() {  # expect_invalid FILE PATTERN WHAT
-  local rc=0
-  gltf_validate "$1" || rc=$?
-  [ $rc -eq 1 ] || { cat validate.txt >&2; fail "$3: validator exit $rc, expected 1"; }
-  grep -q -- "$2" validate.txt || { cat validate.txt >&2; fail "$3: output lacks '$2'"; }
-  echo "ok: $3 is rejected: $(grep -m1 -- "$2" validate.txt | sed 's/^ *//')"
-}
 town=glbs/town_all_attributes.glb
 # 1. A truncated file.
 head -c $(( $(stat -c %s $town) / 2 )) $town > truncated.glb
