@@ -50,15 +50,18 @@ struct AttributeSpec {
     int components;
     const char* gltf_type;
 };
-constexpr std::array<AttributeSpec, 4> kAttributes{{
+constexpr std::array<AttributeSpec, 6> kAttributes{{
     {"POSITION", draco::GeometryAttribute::POSITION, 3, "VEC3"},
     {"uv_original", draco::GeometryAttribute::TEX_COORD, 2, "VEC2"},
     {"uv_atlas", draco::GeometryAttribute::TEX_COORD, 2, "VEC2"},
     // GENERIC and never given a quantization: Draco then stores the float32
     // values verbatim, so ids up to 2^24 survive exactly.
     {kTileFeatureIdAttribute, draco::GeometryAttribute::GENERIC, 1, "SCALAR"},
+    {kTileTextureIdAttribute, draco::GeometryAttribute::GENERIC, 1, "SCALAR"},
+    {kTileMaterialIdAttribute, draco::GeometryAttribute::GENERIC, 1, "SCALAR"},
 }};
-enum Slot : size_t { kPos = 0, kUv0 = 1, kUv1 = 2, kFid = 3, kSlots = 4 };
+enum Slot : size_t { kPos = 0, kUv0 = 1, kUv1 = 2, kFid = 3, kTex = 4, kMat = 5, kSlots = 6 };
+constexpr std::array<Slot, 2> kSignedIdSlots{kTex, kMat};
 
 // glTF forbids TEXCOORD_1 without TEXCOORD_0 (the validator's
 // MESH_PRIMITIVE_INDEXED_SEMANTIC_CONTINUITY), so the uv sets present are
@@ -105,7 +108,8 @@ Status checkInput(const TileMesh& m, const Vec3d& centre, const DracoSettings& s
                                 : Status::Fail(fmt::format("tile glb: {} has {} entries for {} positions", what, k, n));
     };
     for (const Status& st : {sized(m.uv_original.size(), "uv_original"), sized(m.uv_atlas.size(), "uv_atlas"),
-                             sized(m.feature_id.size(), "feature_id")})
+                             sized(m.feature_id.size(), "feature_id"), sized(m.texture_id.size(), "texture_id"),
+                             sized(m.material_id.size(), "material_id")})
         if (!st.ok()) return st;
     if (m.indices.size() % 3 != 0)
         return Status::Fail(fmt::format("tile glb: {} indices is not a multiple of 3", m.indices.size()));
@@ -130,6 +134,11 @@ Status checkInput(const TileMesh& m, const Vec3d& centre, const DracoSettings& s
             return Status::Fail(fmt::format("tile glb: feature id {} (vertex {}) exceeds 2^24, the largest integer a "
                                             "float32 attribute holds exactly",
                                             m.feature_id[i], i));
+    for (const auto* ids : {&m.texture_id, &m.material_id})
+        for (size_t i = 0; i < ids->size(); ++i)
+            if ((*ids)[i] < -1 || (*ids)[i] > static_cast<int32_t>(kMaxTileFeatureId))
+                return Status::Fail(fmt::format("tile glb: texture or material id {} (vertex {}) is outside -1..2^24",
+                                                (*ids)[i], i));
     return Status::Ok();
 }
 
@@ -168,7 +177,12 @@ Compact compact(const TileMesh& m, const Vec3d& centre) {
     for (auto& f : c.faces)
         for (auto& v : f) v = remap[v];
 
-    c.present = {true, !m.uv_original.empty(), !m.uv_atlas.empty(), !m.feature_id.empty()};
+    c.present = {true,
+                 !m.uv_original.empty(),
+                 !m.uv_atlas.empty(),
+                 !m.feature_id.empty(),
+                 !m.texture_id.empty(),
+                 !m.material_id.empty()};
     const size_t k = c.input_vertex.size();
     for (size_t s = 0; s < kSlots; ++s)
         if (c.present[s]) c.values[s].reserve(k * kAttributes[s].components);
@@ -185,6 +199,8 @@ Compact compact(const TileMesh& m, const Vec3d& centre) {
             c.values[kUv1].push_back(static_cast<float>(1.0 - m.uv_atlas[i].y));
         }
         if (c.present[kFid]) c.values[kFid].push_back(static_cast<float>(m.feature_id[i]));
+        if (c.present[kTex]) c.values[kTex].push_back(static_cast<float>(m.texture_id[i]));
+        if (c.present[kMat]) c.values[kMat].push_back(static_cast<float>(m.material_id[i]));
     }
     return c;
 }
@@ -428,6 +444,12 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
         if (c.present[kFid] && ordered.values[kFid][i] != static_cast<float>(mesh.feature_id[in]))
             return Status::Fail(fmt::format("tile glb: Draco changed feature id {} of vertex {} to {}", mesh.feature_id[in],
                                             in, ordered.values[kFid][i]));
+        for (Slot s : kSignedIdSlots) {
+            const auto& ids = s == kTex ? mesh.texture_id : mesh.material_id;
+            if (c.present[s] && ordered.values[s][i] != static_cast<float>(ids[in]))
+                return Status::Fail(fmt::format("tile glb: Draco changed {} {} of vertex {} to {}", kAttributes[s].label,
+                                                ids[in], in, ordered.values[s][i]));
+        }
     }
     if (!settings.preserve_order) {
         std::unordered_set<PositionKey, PositionKeyHash> known;
@@ -453,7 +475,7 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
     for (size_t s = 0; s < kSlots; ++s) {
         if (!file.present[s]) continue;
         const AttributeSpec& spec = kAttributes[s];
-        std::string name = s == kPos ? "POSITION" : kTileFeatureIdAttribute;
+        std::string name = s == kPos ? "POSITION" : kAttributes[s].label;
         if (s == kUv0 || s == kUv1) {
             name = fmt::format("TEXCOORD_{}", texcoord_sets.size());
             texcoord_sets.push_back(kTexcoordSetNames[s - kUv0]);
@@ -659,7 +681,8 @@ Status decodeTileGlb(const std::vector<uint8_t>& bytes, const Vec3d& centre, Til
                                 offset.value_or(0), length.value_or(0), chunks.bin_size));
 
     // glTF attribute name of each slot (empty: absent).
-    std::array<std::string, kSlots> names{"POSITION", "TEXCOORD_0", "TEXCOORD_1", kTileFeatureIdAttribute};
+    std::array<std::string, kSlots> names{"POSITION",         "TEXCOORD_0", "TEXCOORD_1", kTileFeatureIdAttribute,
+                                          kTileTextureIdAttribute, kTileMaterialIdAttribute};
     if (const json* extras = member(prim, "extras"); extras != nullptr && member(*extras, kTexcoordExtras) != nullptr) {
         const json& sets = *member(*extras, kTexcoordExtras);
         names[kUv0].clear();
@@ -726,6 +749,17 @@ Status decodeTileGlb(const std::vector<uint8_t>& bytes, const Vec3d& centre, Til
             if (!(f >= 0.0f && f <= static_cast<float>(kMaxTileFeatureId)) || f != std::floor(f))
                 return fail(fmt::format("feature id {} of vertex {} is not an integer in 0..2^24", f, i));
             m.feature_id[i] = static_cast<uint32_t>(f);
+        }
+    }
+    for (Slot s : kSignedIdSlots) {
+        if (!d.present[s]) continue;
+        auto& ids = s == kTex ? m.texture_id : m.material_id;
+        ids.resize(d.points);
+        for (uint32_t i = 0; i < d.points; ++i) {
+            const float f = d.values[s][i];
+            if (!(f >= -1.0f && f <= static_cast<float>(kMaxTileFeatureId)) || f != std::floor(f))
+                return fail(fmt::format("{} {} of vertex {} is not an integer in -1..2^24", kAttributes[s].label, f, i));
+            ids[i] = static_cast<int32_t>(f);
         }
     }
     m.indices.reserve(3 * d.faces.size());

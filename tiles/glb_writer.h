@@ -51,6 +51,10 @@ namespace cityatlas::tiles {
 
 /// Name of the per-vertex feature id attribute (as in the debug glb).
 inline constexpr const char* kTileFeatureIdAttribute = "_FEATURE_ID_0";
+/// Per-vertex texture index (into the tileset's texture table; -1 untextured)
+/// and material index (into its material table; -1 none), lossless like feature ids.
+inline constexpr const char* kTileTextureIdAttribute = "_TEXTURE_ID";
+inline constexpr const char* kTileMaterialIdAttribute = "_MATERIAL_ID";
 /// Largest feature id written: float32 holds every integer up to 2^24 exactly.
 inline constexpr uint32_t kMaxTileFeatureId = 1u << 24;
 
@@ -60,6 +64,8 @@ struct TileMesh {
     std::vector<Vec2d> uv_original;    ///< optional (empty = absent): TEXCOORD_0, original texture coordinates
     std::vector<Vec2d> uv_atlas;       ///< optional: TEXCOORD_1 (TEXCOORD_0 without uv_original), atlas coordinates
     std::vector<uint32_t> feature_id;  ///< optional, per vertex: building index, _FEATURE_ID_0 (float, lossless)
+    std::vector<int32_t> texture_id;   ///< optional, per vertex: _TEXTURE_ID, -1 = untextured (float, lossless)
+    std::vector<int32_t> material_id;  ///< optional, per vertex: _MATERIAL_ID, -1 = none (float, lossless)
     std::vector<uint32_t> indices;     ///< triangles, counter-clockwise
 };
 

@@ -263,6 +263,12 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
     std::vector<Vec3d> local_pos;
     for (size_t v = 0; v < nv; ++v) {
         if (!used[v]) continue;
+        if (in.keep_attribute_seams) {  // every vertex stays itself; meshopt finds the seams by position
+            local_of[v] = static_cast<uint32_t>(local_pos.size());
+            local_pos.push_back(in.positions[v]);
+            input_of.push_back(static_cast<uint32_t>(v));
+            continue;
+        }
         auto [it, inserted] = local_at.emplace(in.positions[v], static_cast<uint32_t>(local_pos.size()));
         if (inserted) {
             local_pos.push_back(in.positions[v]);
@@ -276,7 +282,7 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
     for (size_t t = 0; t < all_local.size(); t += 3) {
         const uint32_t a = all_local[t], b = all_local[t + 1], c = all_local[t + 2];
         // Zero area after welding: covers no pixel, and meshopt would drop it.
-        if (a == b || b == c || c == a) continue;
+        if (local_pos[a] == local_pos[b] || local_pos[b] == local_pos[c] || local_pos[c] == local_pos[a]) continue;
         kept.insert(kept.end(), {a, b, c});
     }
 

@@ -45,6 +45,12 @@ struct SimplifyInput {
     std::vector<Vec3d> positions;      ///< welded vertices, local metres (double)
     std::vector<uint32_t> indices;     ///< triangles (3 per triangle), indices into positions
     std::vector<uint32_t> feature_id;  ///< per vertex (building index); optional (empty = absent)
+    /// false: weld by position first (a triangle soup collapses freely; the
+    /// result's vertices lose their own attributes). true: vertices stay as
+    /// given (weld the soup by position AND attributes beforehand), and
+    /// meshopt treats vertices sharing a position as an attribute seam, which
+    /// it only collapses along: every kept corner keeps its uv and ids.
+    bool keep_attribute_seams = false;
 };
 
 struct SimplifyResult {
