@@ -36,6 +36,9 @@ set_target_properties(squish::squish PROPERTIES IMPORTED_LOCATION ${SQUISH_LIBRA
                       INTERFACE_INCLUDE_DIRECTORIES ${SQUISH_INCLUDE_DIR})
 find_package(draco CONFIG REQUIRED)
 find_package(meshoptimizer CONFIG REQUIRED)
+# tileset.json validation in `cityatlas inspect` (header-only), content hashes for `build`.
+find_package(valijson CONFIG REQUIRED)
+pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
 
 if(CITYATLAS_BUILD_TESTS)
   find_package(GTest CONFIG REQUIRED)

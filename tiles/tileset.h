@@ -1,7 +1,102 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-/// The tiles stage (not implemented yet; see issue "Tiles stage"): writes an
-/// AtlasTree as a static folder — tileset.json, Draco glTF geometry and DDS
-/// (BC1/BC3) textures — and reads it back for the client.
+/// \file
+/// The tiles stage: an AtlasTree (with its atlas PNGs) -> a static folder that
+/// any web server can host and a client can stream node by node; and the
+/// checker for such folders (`cityatlas inspect`).
+///
+/// The folder
+/// ----------
+///   tileset.json                 the index; schemas/tileset.schema.json (3D Tiles 1.1 conventions)
+///   geometry/<layer>/<node>.glb  glTF 2.0 binary, one Draco primitive (tiles/glb_writer.h)
+///   atlas/<layer>/<node>.dds     the node's atlas, BC1 (opaque) / BC3 (alpha), full mip chain
+///   textures/<block>.bin         leaves' original textures: DDS files back to back
+///   features/<table>.json        feature attributes, `block_size` consecutive ids per table
+///   build_report.json            written by `cityatlas build` (schemas/build_report.schema.json)
+/// <layer> is "opaque" or "alpha"; <node> the node index (depth-first preorder).
+///
+/// Every node can be drawn on its own: its geometry file holds ALL triangles of
+/// its subtree for that layer (leaves: exactly the tree's triangles, with
+/// original and atlas texture coordinates and texture ids; inner nodes: the
+/// children's geometry merged, and simplified with meshoptimizer when it
+/// exceeds `node_triangles`, at a measured geometric error below the node's
+/// world texel size). Atlas coordinates in a node's file are local to that
+/// node's atlas ([0,1]^2, no root-space scale), so float32 and Draco's
+/// quantization never lose precision with depth.
+///
+/// Vertex attributes: POSITION (relative to the node's `centre`), TEXCOORD_n
+/// (named by the primitive's extras.cityatlas_texcoords: "original" in leaves,
+/// "atlas" everywhere), _FEATURE_ID_0 (building index), _TEXTURE_ID (leaves;
+/// index into tileset textures, -1 untextured), _MATERIAL_ID (index into
+/// tileset materials, -1 none).
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "atlas/atlas_tree.h"
+#include "ingest/diagnostics.h"
+#include "ingest/scene.h"
+#include "ingest/status.h"
+#include "tiles/glb_writer.h"
+#include "tiles/texture_codec.h"
+
+namespace cityatlas::tiles {
+
+struct TilesParams {
+    DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default
+    /// Largest position error allowed per node, metres: a node whose extent
+    /// needs more than draco.position_bits for it gets more (up to 30). 0:
+    /// exactly draco.position_bits everywhere.
+    double position_error_target_m = 0.002;
+    BcQuality bc_quality = BcQuality::Fast;
+    size_t node_triangles = 32768;        ///< per inner node and layer; above it the merge is simplified
+    int feature_block_size = 4096;        ///< feature ids per features/<table>.json
+    int threads = 0;                      ///< 0 = all cores
+};
+
+struct TilesStepStats {
+    std::string name;
+    double seconds = 0;
+    double peak_rss_mb = 0;
+};
+
+struct TilesStats {
+    uint64_t nodes = 0, leaves = 0, depth = 0;
+    uint64_t geometry_files = 0, atlas_files = 0, texture_blocks = 0, feature_tables = 0;
+    uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0, bytes_tileset = 0;
+    uint64_t triangles_written = 0;        ///< over all geometry files
+    uint64_t nodes_simplified = 0;         ///< node layers whose geometry was simplified
+    double max_position_error_m = 0;       ///< Draco quantization, measured, over all nodes
+    int position_bits_min = 0, position_bits_max = 0;  ///< as used over node layers
+    double max_geometric_error_m = 0;      ///< simplification, measured, over all nodes
+    double max_geometric_error_fraction = 0;  ///< geometric_error / world_texel, largest over nodes (< 1)
+    double max_uv_atlas_error_texels = 0;  ///< quantization of atlas coordinates, in atlas texels
+    uint64_t root_features = 0;            ///< distinct feature ids in the root's geometry
+    std::vector<uint32_t> root_features_dropped;  ///< subtree features absent from the root's geometry
+    uint64_t textures_written = 0, textures_unreadable = 0;
+    double atlas_psnr_min_db = 0, atlas_psnr_mean_db = 0;  ///< BC level 0 vs the atlas PNG, RGB
+    double atlas_encode_mpix_per_s = 0;    ///< BC encoding of atlas mip chains (all levels), per second of encoding
+    std::vector<TilesStepStats> steps;
+};
+
+using TilesProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
+
+/// Writes the folder for `tree` (built from `scene`, its atlas PNGs under
+/// `atlas_dir/atlas/<layer>/<node>.png`) into `out_dir` (which must exist;
+/// files are created inside it). `build_hash` (16 hex digits) becomes
+/// asset.tilesetVersion. An original texture that cannot be read is a counted
+/// warning (its entry gets block -1); any write failure is an error naming the
+/// file. Deterministic for any thread count.
+Status writeTileset(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
+                    const TilesParams& params, const std::filesystem::path& out_dir, const std::string& build_hash,
+                    Diagnostics& diagnostics, const TilesProgressFn& progress, TilesStats* stats);
+
+/// The schema of tileset.json (schemas/tileset.schema.json, compiled in).
+const nlohmann::json& tilesetSchema();
+
+}  // namespace cityatlas::tiles

@@ -1,0 +1,47 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// Checks a tile folder written by the tiles stage (tiles/tileset.h), for
+/// `cityatlas inspect` and the tests: tileset.json against its schema (compiled
+/// in), every uri exists and is inside the folder, every block has the byte
+/// size tileset.json gives, every geometry file decodes (Draco) with the
+/// triangle count and attributes its node records, every DDS (atlases and the
+/// textures inside texture blocks) has a valid header whose format, size and
+/// mip count match its entry and whose length is exactly header + blocks,
+/// every feature table parses and holds its ids; and the tree is consistent
+/// (ids, levels, quadrants, children boxes inside parents' boxes within
+/// rounding, min_distance doubling at least, geometric errors below world
+/// texel sizes).
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace cityatlas::tiles {
+
+struct InspectLevel {
+    uint64_t nodes = 0, leaves = 0;
+    uint64_t triangles = 0;
+    uint64_t bytes_geometry = 0, bytes_atlases = 0;
+    double min_distance_m = 0;  ///< largest over the level's nodes
+    double world_texel_min_m = 0, world_texel_max_m = 0;
+};
+
+struct InspectResult {
+    /// One line per defect: "<path relative to the folder or tileset.json>: <what>".
+    std::vector<std::string> defects;
+    std::vector<InspectLevel> levels;  ///< index = level
+    uint64_t nodes = 0, leaves = 0;
+    uint64_t files_checked = 0;
+    uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0;
+    uint64_t textures = 0, texture_blocks = 0, features = 0;
+    bool ok() const { return defects.empty(); }
+};
+
+/// Inspects `folder`. Never throws on damaged content; every problem becomes a
+/// defect line. `threads` 0 = all cores.
+InspectResult inspectTileFolder(const std::filesystem::path& folder, int threads = 0);
+
+}  // namespace cityatlas::tiles

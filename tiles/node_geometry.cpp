@@ -1,0 +1,184 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "tiles/node_geometry.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <unordered_map>
+
+#include "tiles/simplify.h"
+
+namespace cityatlas::tiles {
+namespace {
+
+// One vertex with every attribute; welding merges exact duplicates only.
+struct Vertex {
+    Vec3d position;
+    Vec2d uv_original, uv_atlas;
+    uint32_t feature = 0;
+    int32_t texture = -1, material = -1;
+    bool operator==(const Vertex&) const = default;
+};
+
+struct VertexHash {
+    size_t operator()(const Vertex& v) const {
+        auto mix = [](uint64_t h, double x) {
+            const uint64_t b = std::bit_cast<uint64_t>(x == 0.0 ? 0.0 : x);  // +0 and -0 compare equal
+            return (h ^ b) * 0x100000001B3ull + (h >> 29);
+        };
+        uint64_t h = 0xCBF29CE484222325ull;
+        for (double x : {v.position.x, v.position.y, v.position.z, v.uv_original.x, v.uv_original.y, v.uv_atlas.x,
+                         v.uv_atlas.y})
+            h = mix(h, x);
+        h = mix(h, static_cast<double>(v.feature));
+        h = mix(h, static_cast<double>(v.texture) * 65536.0 + static_cast<double>(v.material));
+        return static_cast<size_t>(h ^ (h >> 31));
+    }
+};
+
+// Accumulates triangles into a welded TileMesh.
+class MeshBuilder {
+public:
+    explicit MeshBuilder(bool with_original_uv) : with_original_uv_(with_original_uv) {}
+
+    void add(const std::array<Vertex, 3>& tri) {
+        for (const Vertex& v : tri) mesh_.indices.push_back(index(v));
+    }
+    TileMesh take() { return std::move(mesh_); }
+
+private:
+    uint32_t index(const Vertex& v) {
+        auto [it, inserted] = index_of_.emplace(v, static_cast<uint32_t>(mesh_.positions.size()));
+        if (inserted) {
+            mesh_.positions.push_back(v.position);
+            mesh_.uv_atlas.push_back(v.uv_atlas);
+            if (with_original_uv_) mesh_.uv_original.push_back(v.uv_original);
+            mesh_.feature_id.push_back(v.feature);
+            mesh_.texture_id.push_back(v.texture);
+            mesh_.material_id.push_back(v.material);
+        }
+        return it->second;
+    }
+
+    bool with_original_uv_;
+    TileMesh mesh_;
+    std::unordered_map<Vertex, uint32_t, VertexHash> index_of_;
+};
+
+Vertex vertexOf(const TileMesh& m, uint32_t i) {
+    Vertex v;
+    v.position = m.positions[i];
+    if (!m.uv_original.empty()) v.uv_original = m.uv_original[i];
+    v.uv_atlas = m.uv_atlas[i];
+    v.feature = m.feature_id[i];
+    v.texture = m.texture_id[i];
+    v.material = m.material_id[i];
+    return v;
+}
+
+// Only referenced vertices, in first-reference order.
+TileMesh compactMesh(const TileMesh& in, const std::vector<uint32_t>& indices) {
+    MeshBuilder b(!in.uv_original.empty());
+    for (size_t t = 0; t + 2 < indices.size(); t += 3)
+        b.add({vertexOf(in, indices[t]), vertexOf(in, indices[t + 1]), vertexOf(in, indices[t + 2])});
+    return b.take();
+}
+
+}  // namespace
+
+NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
+                          const std::vector<int32_t>& texture_index) {
+    const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
+    const atlas::TriangleRange range = n.layers[static_cast<size_t>(layer)].range;
+    MeshBuilder b(true);
+    for (uint32_t i = range.first; i < range.first + range.count; ++i) {
+        const atlas::TreeTriangle& tt = tree.triangles[i];
+        const Triangle& t = tt.tri;
+        const bool textured = t.texture >= 0;
+        // Whole periods of a repeating texture change nothing under GL_REPEAT;
+        // shifting each triangle's uvs next to 0 keeps the quantization range
+        // at the largest triangle's span instead of the largest repeat count.
+        Vec2d shift;
+        if (textured && scene.textures[static_cast<size_t>(t.texture)].wrap == WrapMode::Wrap) {
+            shift = {std::floor(std::min({t.uv[0].x, t.uv[1].x, t.uv[2].x})),
+                     std::floor(std::min({t.uv[0].y, t.uv[1].y, t.uv[2].y}))};
+        }
+        std::array<Vertex, 3> tri;
+        for (int k = 0; k < 3; ++k) {
+            Vertex& v = tri[static_cast<size_t>(k)];
+            v.position = t.position_local[static_cast<size_t>(k)];
+            v.feature = t.feature;
+            v.material = t.material;
+            if (textured) {
+                v.texture = texture_index[static_cast<size_t>(t.texture)];
+                v.uv_original = {t.uv[static_cast<size_t>(k)].x - shift.x, t.uv[static_cast<size_t>(k)].y - shift.y};
+                v.uv_atlas = n.localFromRoot(tt.atlas_uv[static_cast<size_t>(k)]);
+            }
+        }
+        b.add(tri);
+    }
+    NodeGeometry g;
+    g.mesh = b.take();
+    g.triangles_source = range.count;
+    return g;
+}
+
+NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node,
+                           const std::array<const NodeGeometry*, 4>& children, size_t budget, double world_texel_m) {
+    const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
+    NodeGeometry g;
+    MeshBuilder b(false);
+    double child_error = 0;
+    size_t merged = 0;
+    for (size_t q = 0; q < 4; ++q) {
+        const NodeGeometry* c = children[q];
+        if (c == nullptr || c->empty()) continue;
+        const atlas::AtlasNode& cn = tree.nodes[static_cast<size_t>(n.children[q])];
+        g.triangles_source += c->triangles_source;
+        child_error = std::max(child_error, c->geometric_error_m);
+        merged += c->mesh.indices.size() / 3;
+        // child local = root * 2^(k+1) - offset_c, so root * 2^k = (local + offset_c) / 2:
+        // exact in double (offsets are integers below 2^32, the scale a power of two).
+        auto toParent = [&](const Vec2d& uv) {
+            return Vec2d{(uv.x + cn.offset[0]) * 0.5 - n.offset[0], (uv.y + cn.offset[1]) * 0.5 - n.offset[1]};
+        };
+        const TileMesh& m = c->mesh;
+        for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+            std::array<Vertex, 3> tri;
+            for (size_t k = 0; k < 3; ++k) {
+                tri[k] = vertexOf(m, m.indices[t + k]);
+                tri[k].uv_original = {};
+                if (tri[k].texture >= 0) tri[k].uv_atlas = toParent(tri[k].uv_atlas);
+            }
+            b.add(tri);
+        }
+    }
+    g.mesh = b.take();
+    g.geometric_error_m = child_error;
+    if (merged <= budget || g.mesh.indices.empty()) return g;
+
+    SimplifyInput in;
+    in.positions = g.mesh.positions;
+    in.indices = g.mesh.indices;
+    in.feature_id = g.mesh.feature_id;
+    in.keep_attribute_seams = true;  // corners keep their atlas uvs and ids
+    const double bound = std::max(0.0, world_texel_m - child_error);
+    const SimplifyResult r = simplifyMesh(in, budget, bound);
+    if (r.triangles_out < r.triangles_in) {
+        g.mesh = compactMesh(g.mesh, r.indices);
+        g.simplified = true;
+    }
+    g.geometric_error_m = child_error + r.geometric_error_m;
+    return g;
+}
+
+std::vector<uint32_t> distinctFeatures(const TileMesh& mesh) {
+    std::vector<uint32_t> f;
+    f.reserve(mesh.indices.size());
+    for (uint32_t i : mesh.indices) f.push_back(mesh.feature_id[i]);
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+    return f;
+}
+
+}  // namespace cityatlas::tiles

@@ -1,0 +1,57 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// What one node of the atlas tree draws for one layer: leaves their exact
+/// triangles, inner nodes their children's geometry merged and, above a
+/// triangle budget, simplified under a geometric-error bound (tiles/tileset.h).
+///
+/// Built bottom-up: an inner node merges its children's NodeGeometry, not the
+/// whole subtree, so each simplification sees at most 4 x budget triangles.
+/// Errors then add up along the path (Hausdorff distances obey the triangle
+/// inequality): a node's geometric_error_m is its children's largest error
+/// plus what its own simplification measured, and its own bound is its world
+/// texel size minus the children's error. Since world texels double per level
+/// and a child's error stays below its own texel, at least half of the node's
+/// texel is left for its own simplification.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "atlas/atlas_tree.h"
+#include "ingest/scene.h"
+#include "tiles/glb_writer.h"
+
+namespace cityatlas::tiles {
+
+struct NodeGeometry {
+    /// Welded: one vertex per distinct (position, uvs, ids). Positions in the
+    /// scene's local frame (double). uv_atlas is local to THIS node's atlas
+    /// (0 for untextured vertices); uv_original and texture_id are kept by
+    /// leaves (inner nodes keep texture_id only to tell textured vertices).
+    TileMesh mesh;
+    size_t triangles_source = 0;    ///< tree triangles of the subtree this stands for
+    double geometric_error_m = 0;   ///< bound on the distance to the original surface
+    bool simplified = false;        ///< this node's own merge was simplified
+    bool empty() const { return mesh.indices.empty(); }
+};
+
+/// The leaf's triangles of `layer`, exact. Texture ids are mapped through
+/// `texture_index` (scene texture -> tileset texture). Original uvs of a
+/// repeating (wrap) texture are shifted per triangle by whole periods towards
+/// 0, which changes nothing on screen with GL_REPEAT and keeps Draco's uv
+/// quantization range (and so its step) small.
+NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
+                          const std::vector<int32_t>& texture_index);
+
+/// The node's children's geometry of one layer (null: no child there, or an
+/// empty layer), merged into this node's atlas space and simplified to
+/// `budget` triangles when larger, at a bound of `world_texel_m` minus the
+/// children's error. uv_original is dropped.
+NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node,
+                           const std::array<const NodeGeometry*, 4>& children, size_t budget, double world_texel_m);
+
+/// Distinct feature ids of a mesh, ascending.
+std::vector<uint32_t> distinctFeatures(const TileMesh& mesh);
+
+}  // namespace cityatlas::tiles

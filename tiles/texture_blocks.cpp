@@ -1,0 +1,173 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "tiles/texture_blocks.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+#include <fmt/format.h>
+#include <OpenImageIO/imageio.h>
+#include <tbb/parallel_for.h>
+
+namespace cityatlas::tiles {
+namespace fs = std::filesystem;
+
+bool readImage8(const std::string& path, int channels, Image8* out, std::string* why) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        *why = OIIO::geterror();
+        if (why->empty()) *why = "cannot open";
+        return false;
+    }
+    const OIIO::ImageSpec spec = in->spec();
+    const int nc = spec.nchannels;
+    if (spec.width < 1 || spec.height < 1 || nc < 1) {
+        *why = "empty image";
+        return false;
+    }
+    std::vector<uint8_t> raw(static_cast<size_t>(spec.width) * spec.height * nc);
+    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::UINT8, raw.data())) {
+        *why = in->geterror();
+        if (why->empty()) *why = "cannot decode";
+        return false;
+    }
+    Image8 img;
+    img.width = spec.width;
+    img.height = spec.height;
+    img.channels = channels;
+    img.pixels.resize(static_cast<size_t>(img.width) * img.height * channels);
+    const size_t n = static_cast<size_t>(img.width) * img.height;
+    for (size_t i = 0; i < n; ++i) {
+        const uint8_t* s = &raw[i * nc];
+        uint8_t* d = &img.pixels[i * channels];
+        const bool grey = nc < 3;
+        d[0] = s[0];
+        d[1] = grey ? s[0] : s[1];
+        d[2] = grey ? s[0] : s[2];
+        if (channels == 4) d[3] = nc == 2 ? s[1] : nc >= 4 ? s[3] : 255;
+    }
+    *out = std::move(img);
+    return true;
+}
+
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree) {
+    TextureBlocks b;
+    b.texture_index.assign(scene.textures.size(), -1);
+    b.node_blocks.resize(tree.nodes.size());
+    const uint64_t block_texels = static_cast<uint64_t>(tree.params.atlas_size_px) * tree.params.atlas_size_px;
+    uint64_t current_texels = 0;
+    int32_t current = -1;
+    // Nodes are in depth-first preorder, so leaves come in depth-first order.
+    for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
+        const atlas::AtlasNode& node = tree.nodes[ni];
+        if (!node.leaf()) continue;
+        std::vector<uint32_t>& mine = b.node_blocks[ni];
+        for (const atlas::NodeLayer& layer : node.layers) {
+            for (uint32_t i = layer.range.first; i < layer.range.first + layer.range.count; ++i) {
+                const int32_t st = tree.triangles[i].tri.texture;
+                if (st < 0) continue;
+                int32_t& ti = b.texture_index[static_cast<size_t>(st)];
+                if (ti < 0) {
+                    const TextureRef& ref = scene.textures[static_cast<size_t>(st)];
+                    const uint64_t texels = static_cast<uint64_t>(std::max(ref.width_px, 1)) * std::max(ref.height_px, 1);
+                    TextureEntry e;
+                    e.scene_texture = st;
+                    e.width = ref.width_px;
+                    e.height = ref.height_px;
+                    e.channels = ref.channels == 4 ? 4 : 3;
+                    e.wrap = ref.wrap;
+                    if (texels >= block_texels) {
+                        e.block = static_cast<int32_t>(b.block_bytes.size());  // a block of its own
+                        b.block_bytes.push_back(0);
+                    } else {
+                        if (current < 0 || current_texels + texels > block_texels) {
+                            current = static_cast<int32_t>(b.block_bytes.size());
+                            b.block_bytes.push_back(0);
+                            current_texels = 0;
+                        }
+                        current_texels += texels;
+                        e.block = current;
+                    }
+                    ti = static_cast<int32_t>(b.textures.size());
+                    b.textures.push_back(e);
+                }
+                const auto blk = static_cast<uint32_t>(b.textures[static_cast<size_t>(ti)].block);
+                if (std::find(mine.begin(), mine.end(), blk) == mine.end()) mine.push_back(blk);
+            }
+        }
+        std::sort(mine.begin(), mine.end());
+    }
+    return b;
+}
+
+Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path& out_dir, Diagnostics& diagnostics,
+                          const std::function<void(uint64_t, uint64_t)>& progress, TextureBlocks* blocks) {
+    std::error_code ec;
+    fs::create_directories(out_dir / "textures", ec);
+    if (ec) return Status::Fail(fmt::format("{}: cannot create: {}", (out_dir / "textures").string(), ec.message()));
+    const size_t nblocks = blocks->block_bytes.size();
+    std::vector<std::vector<size_t>> members(nblocks);
+    for (size_t t = 0; t < blocks->textures.size(); ++t) members[static_cast<size_t>(blocks->textures[t].block)].push_back(t);
+
+    struct Encoded {
+        std::vector<uint8_t> dds;
+        std::string why;  // non-empty: unreadable
+        int mips = 0;
+        uint64_t texels = 0;
+        double seconds = 0;
+    };
+    uint64_t done = 0;
+    for (size_t blk = 0; blk < nblocks; ++blk) {
+        const std::vector<size_t>& list = members[blk];
+        std::vector<Encoded> enc(list.size());
+        tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
+            const TextureEntry& e = blocks->textures[list[k]];
+            const TextureRef& ref = scene.textures[static_cast<size_t>(e.scene_texture)];
+            Image8 img;
+            if (!readImage8(ref.path, e.channels, &img, &enc[k].why)) {
+                if (enc[k].why.empty()) enc[k].why = "unreadable";
+                return;
+            }
+            const auto t0 = std::chrono::steady_clock::now();
+            const std::vector<Image8> mips = mipChain(img);
+            for (const Image8& m : mips) enc[k].texels += static_cast<uint64_t>(m.width) * m.height;
+            enc[k].dds = encodeDds(mips, quality);
+            enc[k].mips = static_cast<int>(mips.size());
+            enc[k].seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            // The real size wins over the one recorded at ingest.
+            blocks->textures[list[k]].width = img.width;
+            blocks->textures[list[k]].height = img.height;
+        });
+        const fs::path path = out_dir / "textures" / fmt::format("{}.bin", blk);
+        std::ofstream f(path, std::ios::binary);
+        uint64_t offset = 0;
+        for (size_t k = 0; k < list.size(); ++k) {
+            TextureEntry& e = blocks->textures[list[k]];
+            if (!enc[k].why.empty()) {
+                diagnostics.warn(warn::kTextureUnreadable,
+                                 {scene.textures[static_cast<size_t>(e.scene_texture)].path, 0, "",
+                                  "original texture for near views not written (leaves draw their atlas): " + enc[k].why});
+                e.block = -1;
+                continue;
+            }
+            f.write(reinterpret_cast<const char*>(enc[k].dds.data()), static_cast<std::streamsize>(enc[k].dds.size()));
+            e.offset = offset;
+            e.bytes = enc[k].dds.size();
+            e.mips = enc[k].mips;
+            offset += e.bytes;
+            blocks->texels_encoded += enc[k].texels;
+            blocks->encode_seconds += enc[k].seconds;
+        }
+        f.close();
+        if (!f) return Status::Fail(fmt::format("{}: cannot write", path.string()));
+        blocks->block_bytes[blk] = offset;
+        done += list.size();
+        if (progress) progress(done, blocks->textures.size());
+    }
+    return Status::Ok();
+}
+
+}  // namespace cityatlas::tiles

@@ -1,0 +1,56 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// Leaves' original textures, for drawing closer than a leaf's min distance
+/// (papers/000 §4.6): each used texture as a DDS (BC1 / BC3, full mip chain),
+/// grouped into block files of roughly one atlas of texels so a client loads
+/// a neighbourhood's textures in a few requests. Textures are taken in the
+/// order leaves first use them (depth-first), so a block holds textures of
+/// neighbouring leaves; a texture larger than one atlas is a block of its own.
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "atlas/atlas_tree.h"
+#include "ingest/diagnostics.h"
+#include "ingest/scene.h"
+#include "ingest/status.h"
+#include "tiles/texture_codec.h"
+
+namespace cityatlas::tiles {
+
+struct TextureEntry {
+    int32_t scene_texture = -1;
+    int32_t block = -1;               ///< -1: the original could not be read
+    uint64_t offset = 0, bytes = 0;   ///< the DDS inside its block
+    int width = 0, height = 0, channels = 0, mips = 0;
+    WrapMode wrap = WrapMode::Wrap;
+};
+
+struct TextureBlocks {
+    std::vector<TextureEntry> textures;       ///< tileset order
+    std::vector<int32_t> texture_index;       ///< scene texture -> tileset texture, -1 unused
+    std::vector<uint64_t> block_bytes;        ///< per block; the file is textures/<block>.bin
+    std::vector<std::vector<uint32_t>> node_blocks;  ///< per node (leaves only), ascending
+    uint64_t texels_encoded = 0;              ///< all mip levels
+    double encode_seconds = 0;                ///< summed over threads
+};
+
+/// Plans the blocks from the texture sizes recorded at ingest (nothing is decoded).
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree);
+
+/// Reads, encodes and writes every planned block to `out_dir/textures/`;
+/// fills offsets and sizes. An unreadable texture is a counted warning
+/// (texture_unreadable) and gets block -1.
+Status writeTextureBlocks(const Scene& scene, BcQuality quality, const std::filesystem::path& out_dir,
+                          Diagnostics& diagnostics, const std::function<void(uint64_t, uint64_t)>& progress,
+                          TextureBlocks* blocks);
+
+/// Reads an image file as 8-bit, `channels` (3 or 4) channels, rows top-down;
+/// grey and grey+alpha are expanded. Empty optional-like: returns false with a reason.
+bool readImage8(const std::string& path, int channels, Image8* out, std::string* why);
+
+}  // namespace cityatlas::tiles

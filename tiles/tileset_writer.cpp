@@ -1,0 +1,511 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The tile folder of tiles/tileset.h: geometry bottom-up, atlases, original
+// texture blocks, feature tables, then tileset.json.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <mutex>
+
+#include <draco/core/draco_version.h>
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "cityatlas_version.h"
+#include "tiles/node_geometry.h"
+#include "tiles/texture_blocks.h"
+#include "tiles/tileset.h"
+
+namespace cityatlas::tiles {
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+using atlas::AtlasNode;
+using atlas::AtlasTree;
+using atlas::Layer;
+
+double peakRssMb() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return static_cast<double>(u.ru_maxrss) / 1024.0;  // KiB on Linux
+}
+
+Status writeBytes(const fs::path& path, const void* data, size_t size) {
+    std::ofstream f(path, std::ios::binary);
+    f.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+    f.close();
+    if (!f) return Status::Fail(fmt::format("{}: cannot write", path.string()));
+    return Status::Ok();
+}
+
+Vec3d centreOf(const Box3d& b) { return 0.5 * (b.min + b.max); }
+
+// Distinct feature ids of the triangles that survive encoding (encodeTileGlb
+// drops triangles with two corners at one float32 position).
+std::vector<uint32_t> encodedFeatures(const TileMesh& m, const Vec3d& centre) {
+    auto f32 = [&](uint32_t i) {
+        const Vec3d r = m.positions[i] - centre;
+        return std::array<float, 3>{static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.z)};
+    };
+    std::vector<uint32_t> f;
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+        const auto a = f32(m.indices[t]), b = f32(m.indices[t + 1]), c = f32(m.indices[t + 2]);
+        if (a == b || b == c || a == c) continue;
+        f.push_back(m.feature_id[m.indices[t]]);
+    }
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+    return f;
+}
+
+std::vector<uint32_t> unionOf(const std::vector<uint32_t>& a, const std::vector<uint32_t>& b) {
+    std::vector<uint32_t> u;
+    std::set_union(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(u));
+    return u;
+}
+
+// What the tileset records of one layer of one node.
+struct LayerRecord {
+    bool present = false;
+    size_t triangles = 0, triangles_source = 0;
+    std::string geometry_uri;
+    uint64_t geometry_bytes = 0;
+    double geometric_error_m = 0, position_error_m = 0, uv_atlas_error_texels = 0;
+    int position_bits = 0;
+    bool simplified = false;
+    std::string atlas_uri;  // empty: no atlas
+    uint64_t atlas_bytes = 0;
+    int atlas_mips = 0;
+    double atlas_psnr_db = 0;
+    double atlas_encode_seconds = 0;
+    uint64_t atlas_texels = 0;  // all mip levels
+};
+
+struct NodeRecord {
+    std::array<LayerRecord, atlas::kLayerCount> layers;
+    std::vector<uint32_t> features;  // in the geometry, after encoding
+    std::vector<uint32_t> dropped;
+    std::string error;               // first failure in this node
+};
+
+// The fewest quantization bits whose worst-case error over the mesh's
+// extent (sqrt(3) half steps) stays within 90 % of `target` metres.
+int bitsFor(const TileMesh& m, const Vec3d& centre, double target) {
+    Box3d b;
+    for (const Vec3d& p : m.positions) b.extend(p - centre);
+    const Vec3d size = b.max - b.min;
+    const double extent = std::max({size.x, size.y, size.z});
+    for (int bits = 1; bits < 30; ++bits)
+        if (std::sqrt(3.0) * 0.5 * extent / static_cast<double>((uint64_t{1} << bits) - 1) <= 0.9 * target) return bits;
+    return 30;
+}
+
+json box(const Box3d& b) {
+    const Vec3d c = centreOf(b), h = 0.5 * (b.max - b.min);
+    return json::array({c.x, c.y, c.z, h.x, 0.0, 0.0, 0.0, h.y, 0.0, 0.0, 0.0, h.z});
+}
+
+json matrixOrNull(const std::optional<std::array<double, 16>>& m) {
+    return m ? json(*m) : json(nullptr);
+}
+
+}  // namespace
+
+Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
+                    const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
+                    const TilesProgressFn& progress, TilesStats* stats_out) {
+    TilesStats stats;
+    const size_t n_nodes = tree.nodes.size();
+    if (n_nodes == 0) return Status::Fail("tiles: the atlas tree has no nodes");
+    const double focal = tree.projection.focal_px;
+    const double ppm = tree.projection.pixelsPerMetreAt1m();
+    const int A = tree.params.atlas_size_px;
+    std::mutex progress_mutex;
+    auto report = [&](const char* step, uint64_t done, uint64_t total) {
+        if (!progress) return;
+        std::lock_guard lock(progress_mutex);
+        progress(step, done, total);
+    };
+    auto clock = std::chrono::steady_clock::now();
+    auto endStep = [&](const char* name) {
+        const auto now = std::chrono::steady_clock::now();
+        stats.steps.push_back({name, std::chrono::duration<double>(now - clock).count(), peakRssMb()});
+        clock = now;
+    };
+    std::error_code ec;
+    for (const char* dir : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha", "features"}) {
+        fs::create_directories(out_dir / dir, ec);
+        if (ec) return Status::Fail(fmt::format("{}: cannot create: {}", (out_dir / dir).string(), ec.message()));
+    }
+
+    TextureBlocks blocks = planTextureBlocks(scene, tree);
+    std::vector<NodeRecord> records(n_nodes);
+    tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+
+    // --- Geometry, deepest level first: a node merges its children's geometry.
+    std::vector<std::vector<int32_t>> by_level;
+    for (size_t i = 0; i < n_nodes; ++i) {
+        const auto level = static_cast<size_t>(tree.nodes[i].level);
+        if (by_level.size() <= level) by_level.resize(level + 1);
+        by_level[level].push_back(static_cast<int32_t>(i));
+    }
+    std::vector<std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> geometry(n_nodes);
+    std::atomic<uint64_t> nodes_done{0};
+    for (size_t level = by_level.size(); level-- > 0;) {
+        const std::vector<int32_t>& ids = by_level[level];
+        arena.execute([&] {
+            tbb::parallel_for(size_t{0}, ids.size(), [&](size_t k) {
+                const int32_t id = ids[k];
+                const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
+                NodeRecord& rec = records[static_cast<size_t>(id)];
+                const double texel = node.min_distance_m / ppm;
+                const Vec3d centre = centreOf(node.bounds);
+                for (int li = 0; li < atlas::kLayerCount; ++li) {
+                    if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
+                    const auto layer = static_cast<Layer>(li);
+                    std::unique_ptr<NodeGeometry> g;
+                    if (node.leaf()) {
+                        g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, blocks.texture_index));
+                    } else {
+                        std::array<const NodeGeometry*, 4> children{};
+                        for (size_t q = 0; q < 4; ++q)
+                            if (node.children[q] >= 0)
+                                children[q] = geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)].get();
+                        g = std::make_unique<NodeGeometry>(
+                            innerGeometry(tree, id, children, params.node_triangles, texel));
+                    }
+                    if (g->empty()) continue;
+                    TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
+                    if (!node.leaf()) mesh.texture_id.clear();
+                    GlbResult glb;
+                    json extras = {{"cityatlas", {{"node", id},
+                                                  {"layer", std::string(atlas::layerName(layer))},
+                                                  {"centre", {centre.x, centre.y, centre.z}}}}};
+                    DracoSettings draco = params.draco;
+                    const double target = params.position_error_target_m;
+                    if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
+                    Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                    // The prediction leaves room for float32 rounding; should it not
+                    // suffice, the measurement decides.
+                    while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
+                        ++draco.position_bits;
+                        st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                    }
+                    if (!st.ok()) {
+                        if (glb.bytes.empty() && st.error.find("no triangles") != std::string::npos) continue;
+                        rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
+                        continue;
+                    }
+                    LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
+                    lr.present = true;
+                    lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
+                    if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
+                        rec.error = w.error;
+                        continue;
+                    }
+                    lr.geometry_bytes = glb.bytes.size();
+                    lr.triangles = glb.triangles;
+                    lr.triangles_source = g->triangles_source;
+                    lr.geometric_error_m = g->geometric_error_m;
+                    lr.simplified = g->simplified;
+                    lr.position_error_m = glb.max_position_error_m;
+                    lr.position_bits = draco.position_bits;
+                    lr.uv_atlas_error_texels = glb.max_uv_atlas_error * A;
+                    rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
+                    geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
+                }
+                report("tiles: geometry", ++nodes_done, n_nodes);
+            });
+        });
+        if (level + 1 < by_level.size())
+            for (int32_t id : by_level[level + 1]) geometry[static_cast<size_t>(id)] = {};
+    }
+    geometry.clear();
+    for (const NodeRecord& r : records)
+        if (!r.error.empty()) return Status::Fail("tiles: " + r.error);
+
+    // Subtree features (both layers), for the dropped lists: bottom-up unions.
+    {
+        std::vector<std::vector<uint32_t>> subtree(n_nodes);
+        for (size_t i = n_nodes; i-- > 0;) {
+            const AtlasNode& node = tree.nodes[i];
+            std::vector<uint32_t>& s = subtree[i];
+            if (node.leaf()) {
+                for (const auto& layer : node.layers)
+                    for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
+                        s.push_back(tree.triangles[t].tri.feature);
+                std::sort(s.begin(), s.end());
+                s.erase(std::unique(s.begin(), s.end()), s.end());
+            } else {
+                for (int32_t c : node.children)
+                    if (c >= 0) s = unionOf(s, subtree[static_cast<size_t>(c)]);
+            }
+            std::set_difference(s.begin(), s.end(), records[i].features.begin(), records[i].features.end(),
+                                std::back_inserter(records[i].dropped));
+            for (int32_t c : node.children)
+                if (c >= 0) subtree[static_cast<size_t>(c)].clear();
+        }
+    }
+    endStep("geometry");
+
+    // --- Atlases: PNG from the atlas stage -> DDS with its mip chain.
+    std::vector<std::pair<int32_t, int>> atlas_jobs;
+    for (size_t i = 0; i < n_nodes; ++i)
+        for (int li = 0; li < atlas::kLayerCount; ++li)
+            if (tree.nodes[i].layers[static_cast<size_t>(li)].present() && records[i].layers[static_cast<size_t>(li)].present)
+                atlas_jobs.emplace_back(static_cast<int32_t>(i), li);
+    std::vector<std::string> atlas_errors(atlas_jobs.size());
+    std::atomic<uint64_t> atlases_done{0};
+    arena.execute([&] {
+        tbb::parallel_for(size_t{0}, atlas_jobs.size(), [&](size_t k) {
+            const auto [id, li] = atlas_jobs[k];
+            const atlas::NodeLayer& nl = tree.nodes[static_cast<size_t>(id)].layers[static_cast<size_t>(li)];
+            LayerRecord& lr = records[static_cast<size_t>(id)].layers[static_cast<size_t>(li)];
+            const int channels = li == static_cast<int>(Layer::Alpha) ? 4 : 3;
+            Image8 img;
+            std::string why;
+            if (!readImage8((atlas_dir / nl.atlas_path).string(), channels, &img, &why)) {
+                atlas_errors[k] = fmt::format("{}: cannot read the atlas: {}", (atlas_dir / nl.atlas_path).string(), why);
+                return;
+            }
+            const auto t0 = std::chrono::steady_clock::now();
+            const std::vector<Image8> mips = mipChain(img);
+            const std::vector<uint8_t> dds = encodeDds(mips, params.bc_quality);
+            lr.atlas_encode_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            for (const Image8& m : mips) lr.atlas_texels += static_cast<uint64_t>(m.width) * m.height;
+            constexpr size_t kDdsHeader = 128;
+            const std::vector<uint8_t> level0(dds.begin() + kDdsHeader,
+                                              dds.begin() + kDdsHeader + bcBlockBytes(img.width, img.height, channels));
+            lr.atlas_psnr_db = psnrRgb(img, decodeBc(level0, img.width, img.height, channels));
+            lr.atlas_uri = fmt::format("atlas/{}/{}.dds", atlas::layerName(static_cast<Layer>(li)), id);
+            if (Status w = writeBytes(out_dir / lr.atlas_uri, dds.data(), dds.size()); !w.ok()) {
+                atlas_errors[k] = w.error;
+                return;
+            }
+            lr.atlas_bytes = dds.size();
+            lr.atlas_mips = static_cast<int>(mips.size());
+            report("tiles: atlases", ++atlases_done, atlas_jobs.size());
+        });
+    });
+    for (const std::string& e : atlas_errors)
+        if (!e.empty()) return Status::Fail("tiles: " + e);
+    endStep("atlases");
+
+    // --- Original textures for leaves.
+    Status tex_status = Status::Ok();
+    arena.execute([&] {
+        tex_status = writeTextureBlocks(scene, params.bc_quality, out_dir, diagnostics,
+                                        [&](uint64_t d, uint64_t t) { report("tiles: textures", d, t); }, &blocks);
+    });
+    if (!tex_status.ok()) return tex_status;
+    endStep("textures");
+
+    // --- Feature tables.
+    const auto bs = static_cast<size_t>(std::max(1, params.feature_block_size));
+    json tables = json::array();
+    for (size_t first = 0; first < scene.features.size(); first += bs) {
+        json list = json::array();
+        for (size_t id = first; id < std::min(scene.features.size(), first + bs); ++id) {
+            const Feature& f = scene.features[id];
+            json j = {{"id", id},
+                      {"gml_id", f.gml_id},
+                      {"name", f.name},
+                      {"source_file", f.source_file},
+                      {"parent", f.parent},
+                      {"lod", f.lod},
+                      {"roof_type", f.roof_type},
+                      {"function", f.function},
+                      {"attributes", f.attributes}};
+            j["measured_height_m"] = f.measured_height_m ? json(*f.measured_height_m) : json(nullptr);
+            list.push_back(std::move(j));
+        }
+        const std::string text =
+            json({{"first", first}, {"features", list}}).dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
+        const std::string uri = fmt::format("features/{}.json", first / bs);
+        if (Status w = writeBytes(out_dir / uri, text.data(), text.size()); !w.ok()) return w;
+        tables.push_back({{"uri", uri}, {"bytes", text.size()}});
+        stats.bytes_features += text.size();
+        ++stats.feature_tables;
+    }
+
+    // --- tileset.json
+    double psnr_sum = 0;
+    uint64_t psnr_n = 0, atlas_texels = 0;
+    double atlas_seconds = 0;
+    stats.atlas_psnr_min_db = std::numeric_limits<double>::infinity();
+    std::function<json(int32_t, int)> tile = [&](int32_t id, int quadrant) -> json {
+        const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
+        const NodeRecord& rec = records[static_cast<size_t>(id)];
+        const Vec3d centre = centreOf(node.bounds);
+        json layers = json::object(), contents = json::array();
+        uint64_t node_bytes = 0;
+        for (int li = 0; li < atlas::kLayerCount; ++li) {
+            const LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
+            if (!lr.present) continue;
+            json atlas_json = nullptr;
+            if (!lr.atlas_uri.empty()) {
+                atlas_json = {{"uri", lr.atlas_uri},
+                              {"bytes", lr.atlas_bytes},
+                              {"format", li == static_cast<int>(Layer::Alpha) ? "BC3" : "BC1"},
+                              {"size_px", A},
+                              {"mips", lr.atlas_mips},
+                              {"psnr_db", std::round(lr.atlas_psnr_db * 100.0) / 100.0}};
+                ++stats.atlas_files;
+                stats.bytes_atlases += lr.atlas_bytes;
+                stats.atlas_psnr_min_db = std::min(stats.atlas_psnr_min_db, lr.atlas_psnr_db);
+                psnr_sum += lr.atlas_psnr_db;
+                ++psnr_n;
+                atlas_texels += lr.atlas_texels;
+                atlas_seconds += lr.atlas_encode_seconds;
+            }
+            layers[std::string(atlas::layerName(static_cast<Layer>(li)))] = {
+                {"triangles", lr.triangles},
+                {"triangles_source", lr.triangles_source},
+                {"geometry", {{"uri", lr.geometry_uri}, {"bytes", lr.geometry_bytes}}},
+                {"geometric_error_m", lr.geometric_error_m},
+                {"position_error_mm", lr.position_error_m * 1000.0},
+                {"position_bits", lr.position_bits},
+                {"uv_atlas_error_texels", lr.uv_atlas_error_texels},
+                {"simplified", lr.simplified},
+                {"atlas", atlas_json}};
+            contents.push_back({{"uri", lr.geometry_uri}});
+            node_bytes += lr.geometry_bytes + lr.atlas_bytes;
+            ++stats.geometry_files;
+            stats.bytes_geometry += lr.geometry_bytes;
+            stats.triangles_written += lr.triangles;
+            stats.nodes_simplified += lr.simplified ? 1 : 0;
+            stats.max_position_error_m = std::max(stats.max_position_error_m, lr.position_error_m);
+            stats.position_bits_min =
+                stats.position_bits_min ? std::min(stats.position_bits_min, lr.position_bits) : lr.position_bits;
+            stats.position_bits_max = std::max(stats.position_bits_max, lr.position_bits);
+            stats.max_geometric_error_m = std::max(stats.max_geometric_error_m, lr.geometric_error_m);
+            const double texel = node.min_distance_m / ppm;
+            if (texel > 0)
+                stats.max_geometric_error_fraction =
+                    std::max(stats.max_geometric_error_fraction, lr.geometric_error_m / texel);
+            stats.max_uv_atlas_error_texels = std::max(stats.max_uv_atlas_error_texels, lr.uv_atlas_error_texels);
+        }
+        std::vector<uint32_t> feature_tables;
+        for (uint32_t f : rec.features) {
+            const auto t = static_cast<uint32_t>(f / bs);
+            if (feature_tables.empty() || feature_tables.back() != t) feature_tables.push_back(t);
+        }
+        json ca = {{"id", id},
+                   {"level", node.level},
+                   {"quadrant", quadrant},
+                   {"offset", {node.offset[0], node.offset[1]}},
+                   {"min_distance_m", node.min_distance_m},
+                   {"world_texel_m", node.min_distance_m / ppm},
+                   {"centre", {centre.x, centre.y, centre.z}},
+                   {"layers", layers},
+                   {"features", {{"count", rec.features.size()}, {"dropped", rec.dropped}, {"tables", feature_tables}}},
+                   {"texture_blocks", blocks.node_blocks[static_cast<size_t>(id)]},
+                   {"bytes", node_bytes}};
+        json t = json::object();
+        t["boundingVolume"] = {{"box", box(node.bounds)}};
+        t["geometricError"] = node.min_distance_m / focal;
+        t["refine"] = "REPLACE";
+        if (!contents.empty()) t["contents"] = contents;
+        json children = json::array();
+        for (size_t q = 0; q < 4; ++q)
+            if (node.children[q] >= 0) children.push_back(tile(node.children[q], static_cast<int>(q)));
+        if (!children.empty()) t["children"] = children;
+        t["extras"] = {{"cityatlas", ca}};
+        ++stats.nodes;
+        stats.leaves += node.leaf() ? 1 : 0;
+        stats.depth = std::max<uint64_t>(stats.depth, static_cast<uint64_t>(node.level));
+        return t;
+    };
+    json root = tile(0, -1);
+    if (scene.georef.local_to_ecef) root["transform"] = *scene.georef.local_to_ecef;
+    stats.root_features = records[0].features.size();
+    stats.root_features_dropped = records[0].dropped;
+    stats.atlas_psnr_mean_db = psnr_n ? psnr_sum / static_cast<double>(psnr_n) : 0;
+    if (!psnr_n) stats.atlas_psnr_min_db = 0;
+    stats.atlas_encode_mpix_per_s = atlas_seconds > 0 ? static_cast<double>(atlas_texels) / 1e6 / atlas_seconds : 0;
+
+    json materials = json::array();
+    for (const Material& m : scene.materials)
+        materials.push_back({{"diffuse", m.diffuse}, {"transparency", m.transparency}});
+    json textures = json::array();
+    for (const TextureEntry& e : blocks.textures) {
+        textures.push_back({{"block", e.block},
+                            {"offset", e.offset},
+                            {"bytes", e.bytes},
+                            {"width", std::max(e.width, 1)},
+                            {"height", std::max(e.height, 1)},
+                            {"format", e.channels == 4 ? "BC3" : "BC1"},
+                            {"mips", std::max(e.mips, 1)},
+                            {"wrap", std::string(wrapModeName(e.wrap))}});
+        if (e.block >= 0) ++stats.textures_written; else ++stats.textures_unreadable;
+    }
+    json texture_blocks = json::array();
+    for (size_t b = 0; b < blocks.block_bytes.size(); ++b) {
+        texture_blocks.push_back({{"uri", fmt::format("textures/{}.bin", b)}, {"bytes", blocks.block_bytes[b]}});
+        stats.bytes_textures += blocks.block_bytes[b];
+    }
+    stats.texture_blocks = blocks.block_bytes.size();
+
+    const Georeference& g = scene.georef;
+    const atlas::AtlasParams& ap = tree.params;
+    json build = {{"d_min_m", tree.stats.d_min_used_m},
+                  {"d_min_requested_m", tree.stats.d_min_requested_m},
+                  {"atlas_size_px", A},
+                  {"border_px", ap.border_px},
+                  {"tau", 1.0},
+                  {"screen_width_px", ap.screen_width_px},
+                  {"screen_height_px", ap.screen_height_px},
+                  {"vertical_fov_deg", ap.vertical_fov_deg},
+                  {"focal_px", focal},
+                  {"corner_factor", tree.projection.corner_factor},
+                  {"filter", std::string(atlas::filterName(ap.filter))},
+                  {"packing", std::string(atlas::packingMethodName(ap.packing))},
+                  {"position_bits", params.draco.position_bits},
+                  {"position_error_target_mm", params.position_error_target_m * 1000.0},
+                  {"uv_bits", params.draco.uv_bits},
+                  {"bc_quality", std::string(bcQualityName(params.bc_quality))},
+                  {"node_triangles", params.node_triangles},
+                  {"geometry_encoder", fmt::format("Draco {} (KHR_draco_mesh_compression, speed {})",
+                                                   draco::kDracoVersion, params.draco.speed)},
+                  {"texture_encoder", params.bc_quality == BcQuality::Fast ? "stb_dxt (STB_DXT_HIGHQUAL)"
+                                                                            : "libsquish (cluster fit)"}};
+    json ca = {{"format_version", 1},
+               {"georeference", {{"source_crs", g.source_crs},
+                                 {"origin_source", {g.origin_source.x, g.origin_source.y, g.origin_source.z}},
+                                 {"grid_frame", g.grid_frame},
+                                 {"local_to_ecef", matrixOrNull(g.local_to_ecef)},
+                                 {"enu_to_ecef", matrixOrNull(g.enu_to_ecef)}}},
+               {"build", build},
+               {"materials", materials},
+               {"textures", textures},
+               {"texture_blocks", texture_blocks},
+               {"features", {{"count", scene.features.size()}, {"block_size", bs}, {"tables", tables}}},
+               {"totals", {{"nodes", stats.nodes},
+                           {"leaves", stats.leaves},
+                           {"depth", stats.depth},
+                           {"bytes", {{"geometry", stats.bytes_geometry},
+                                      {"atlases", stats.bytes_atlases},
+                                      {"textures", stats.bytes_textures},
+                                      {"features", stats.bytes_features}}}}}};
+    json tileset = json::object();
+    tileset["asset"] = {{"version", "1.1"},
+                        {"generator", fmt::format("cityatlas {}", kCityAtlasVersion)},
+                        {"tilesetVersion", build_hash},
+                        {"gltfUpAxis", "Z"}};
+    tileset["geometricError"] = 2.0 * tree.nodes[0].min_distance_m / focal;
+    tileset["root"] = std::move(root);
+    tileset["extras"] = {{"cityatlas", ca}};
+    const std::string text = tileset.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+    if (Status w = writeBytes(out_dir / "tileset.json", text.data(), text.size()); !w.ok()) return w;
+    stats.bytes_tileset = text.size();
+    endStep("index");
+    if (stats_out) *stats_out = std::move(stats);
+    return Status::Ok();
+}
+
+}  // namespace cityatlas::tiles
