@@ -11,6 +11,7 @@
 
 #include "atlas/atlas_report.h"
 #include "atlas/atlas_tree.h"
+#include "cli/atlas_options.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
 #include "cli/scene_input.h"
@@ -22,17 +23,14 @@ namespace {
 struct AtlasCliOptions {
     SceneInputOptions input;
     std::string output;
-    std::string d_min = "D/72";
-    std::string screen = "1920x1080";
-    std::string filter = "lanczos3";
-    std::string packing = "maxrects";
-    double critical_percent = 10;
-    atlas::AtlasParams params;
+    AtlasTreeOptions tree;
     bool overwrite = false;
     bool quiet = false;
 };
 
-Status parseAtlasOptions(const AtlasCliOptions& opt, atlas::AtlasParams* p) {
+}  // namespace
+
+Status parseAtlasTreeOptions(const AtlasTreeOptions& opt, atlas::AtlasParams* p) {
     *p = opt.params;
     const std::string& d = opt.d_min;
     char* end = nullptr;
@@ -60,6 +58,8 @@ Status parseAtlasOptions(const AtlasCliOptions& opt, atlas::AtlasParams* p) {
     return atlas::validateParams(*p);
 }
 
+namespace {
+
 int fail(Progress& progress, const std::string& message) {
     progress.finish();
     std::fprintf(stderr, "cityatlas atlas: error: %s\n", message.c_str());
@@ -68,7 +68,7 @@ int fail(Progress& progress, const std::string& message) {
 
 int runAtlas(const AtlasCliOptions& opt) {
     atlas::AtlasParams params;
-    if (Status s = parseAtlasOptions(opt, &params); !s.ok()) {
+    if (Status s = parseAtlasTreeOptions(opt.tree, &params); !s.ok()) {
         std::fprintf(stderr, "cityatlas atlas: %s\n", s.error.c_str());
         return kExitUsage;
     }
@@ -162,20 +162,7 @@ int runAtlas(const AtlasCliOptions& opt) {
 
 }  // namespace
 
-RunFn addAtlasCommand(CLI::App& app) {
-    auto opt = std::make_shared<AtlasCliOptions>();
-    CLI::App* cmd = app.add_subcommand(
-        "atlas",
-        "Build the multiresolution texture-atlas tree (Buchholz & Doellner 2005) of city data: nodes split until\n"
-        "each node's textures, at the resolution a camera d_min away can resolve, pack into one A x A atlas; inner\n"
-        "atlases are their children halved. Writes atlas/<opaque|alpha>/<node>.png (8-bit sRGB) and\n"
-        "atlas_report.json (schema: schemas/atlas_report.schema.json) into a new folder, atomically.\n"
-        "Guarantee: from at least a node's min_distance_m, no atlas texel covers more than one pixel anywhere on\n"
-        "the assumed screen (frustum corners included).");
-    addSceneInputOptions(cmd, &opt->input);
-    cmd->add_option("-o,--output", opt->output, "Output folder (created; must not exist unless --overwrite)")->required();
-    cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing output folder");
-    cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt) {
     auto* g = "Atlas tree";
     cmd->add_option("--d-min", opt->d_min,
                     "Minimum camera distance for leaf atlases: metres, or D/N for the scene's bounding-box diagonal "
@@ -217,6 +204,23 @@ RunFn addAtlasCommand(CLI::App& app) {
     cmd->add_option("--cache-mb", opt->params.cache_mb, "Memory for decoded original textures (OpenImageIO ImageCache), MB")
         ->default_val(256)
         ->group(g);
+}
+
+RunFn addAtlasCommand(CLI::App& app) {
+    auto opt = std::make_shared<AtlasCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "atlas",
+        "Build the multiresolution texture-atlas tree (Buchholz & Doellner 2005) of city data: nodes split until\n"
+        "each node's textures, at the resolution a camera d_min away can resolve, pack into one A x A atlas; inner\n"
+        "atlases are their children halved. Writes atlas/<opaque|alpha>/<node>.png (8-bit sRGB) and\n"
+        "atlas_report.json (schema: schemas/atlas_report.schema.json) into a new folder, atomically.\n"
+        "Guarantee: from at least a node's min_distance_m, no atlas texel covers more than one pixel anywhere on\n"
+        "the assumed screen (frustum corners included).");
+    addSceneInputOptions(cmd, &opt->input);
+    cmd->add_option("-o,--output", opt->output, "Output folder (created; must not exist unless --overwrite)")->required();
+    cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing output folder");
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+    addAtlasTreeOptions(cmd, &opt->tree);
     return [opt]() { return runAtlas(*opt); };
 }
 

@@ -17,5 +17,7 @@ using RunFn = std::function<int()>;
 RunFn addSynthCommand(CLI::App& app);
 RunFn addIngestCommand(CLI::App& app);
 RunFn addAtlasCommand(CLI::App& app);
+RunFn addBuildCommand(CLI::App& app);
+RunFn addInspectCommand(CLI::App& app);
 
 }  // namespace cityatlas::cli

@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
     RunFn run_synth = addSynthCommand(app);
     RunFn run_ingest = addIngestCommand(app);
     RunFn run_atlas = addAtlasCommand(app);
+    RunFn run_build = addBuildCommand(app);
+    RunFn run_inspect = addInspectCommand(app);
 
     try {
         app.parse(argc, argv);
@@ -32,6 +34,8 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "synth") return run_synth();
             if (sub->get_name() == "ingest") return run_ingest();
             if (sub->get_name() == "atlas") return run_atlas();
+            if (sub->get_name() == "build") return run_build();
+            if (sub->get_name() == "inspect") return run_inspect();
         }
     } catch (const std::exception& e) {
         // Library code reports expected failures as Status; reaching this is

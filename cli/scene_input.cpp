@@ -81,6 +81,9 @@ Status parseFootprintOptions(const SceneInputOptions& opt, FootprintOptions* out
     return Status::Ok();
 }
 
+
+}  // namespace
+
 // Files, folders (searched recursively for .gml/.xml/.citygml) and glob
 // patterns (for shells that pass them through), in a stable order.
 Status expandInputs(const std::vector<std::string>& args, std::vector<fs::path>* files) {
@@ -115,7 +118,6 @@ Status expandInputs(const std::vector<std::string>& args, std::vector<fs::path>*
     return Status::Ok();
 }
 
-}  // namespace
 
 void addSceneInputOptions(CLI::App* cmd, SceneInputOptions* opt) {
     cmd->add_option("inputs", opt->inputs,
@@ -218,5 +220,25 @@ Status writeTextAtomically(const fs::path& path, const std::string& text) {
     return Status::Ok();
 }
 
+Status replaceFolder(const fs::path& finished, const fs::path& target) {
+    std::error_code ec;
+    // The old folder moves aside first, so a reader sees either the old or the
+    // new one complete, never a mixture; only the rename gap shows neither.
+    const fs::path old = target.parent_path() / (target.filename().string() + ".old");
+    fs::remove_all(old, ec);
+    const bool had_old = fs::exists(target, ec);
+    if (had_old) {
+        fs::rename(target, old, ec);
+        if (ec) return Status::Fail(fmt::format("{}: cannot move the previous output aside: {}", target.string(), ec.message()));
+    }
+    fs::rename(finished, target, ec);
+    if (ec) {
+        std::error_code ignored;
+        if (had_old) fs::rename(old, target, ignored);
+        return Status::Fail(fmt::format("{}: cannot move into place: {}", target.string(), ec.message()));
+    }
+    if (had_old) fs::remove_all(old, ec);
+    return Status::Ok();
+}
 
 }  // namespace cityatlas::cli

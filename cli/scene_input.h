@@ -29,6 +29,10 @@ struct SceneInputOptions {
     std::string base = "auto";
 };
 
+/// Files, folders (searched recursively for city data) and glob patterns ->
+/// the input files, in a stable order.
+Status expandInputs(const std::vector<std::string>& args, std::vector<std::filesystem::path>* files);
+
 /// Registers the positional inputs and the reading options on `cmd`.
 void addSceneInputOptions(CLI::App* cmd, SceneInputOptions* opt);
 
@@ -46,5 +50,9 @@ std::optional<GeorefSummary> attachGeoreference(IngestState& state, const Box3d&
 
 /// Writes `text` to `path` through a sibling temporary file and a rename.
 Status writeTextAtomically(const std::filesystem::path& path, const std::string& text);
+
+/// Moves the finished folder `finished` to `target`, replacing what is there
+/// (moved aside first and removed after, so no half state stays behind).
+Status replaceFolder(const std::filesystem::path& finished, const std::filesystem::path& target);
 
 }  // namespace cityatlas::cli

@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// The atlas-tree options, shared by `atlas` and `build`.
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "atlas/atlas_tree.h"
+#include "ingest/status.h"
+
+namespace cityatlas::cli {
+
+struct AtlasTreeOptions {
+    std::string d_min = "D/72";
+    std::string screen = "1920x1080";
+    std::string filter = "lanczos3";
+    std::string packing = "maxrects";
+    double critical_percent = 10;
+    atlas::AtlasParams params;
+};
+
+/// Registers --d-min, --atlas-size, --border, --screen, --fov, --filter,
+/// --packing, --critical-percent, --threads and --cache-mb.
+void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt);
+
+/// Options -> parameters; the message names the bad option.
+Status parseAtlasTreeOptions(const AtlasTreeOptions& opt, atlas::AtlasParams* p);
+
+}  // namespace cityatlas::cli

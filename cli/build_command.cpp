@@ -1,0 +1,368 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// `cityatlas build`: city data -> a streamable tile folder, in one run:
+// read (ingest) -> atlas tree -> tiles, atomically, skipped when up to date.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <set>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "atlas/atlas_tree.h"
+#include "cityatlas_version.h"
+#include "cli/atlas_options.h"
+#include "cli/build_hash.h"
+#include "cli/commands.h"
+#include "cli/progress.h"
+#include "cli/scene_input.h"
+#include "ingest/ingest_report.h"
+#include "tiles/tileset.h"
+
+namespace cityatlas::cli {
+namespace fs = std::filesystem;
+namespace {
+
+using nlohmann::ordered_json;
+
+struct BuildCliOptions {
+    SceneInputOptions input;
+    std::string output;
+    AtlasTreeOptions tree;
+    tiles::TilesParams tiles;
+    std::string bc_quality = "fast";
+    double position_error_mm = 2.0;
+    bool force = false;
+    bool overwrite = false;
+    bool quiet = false;
+};
+
+int fail(Progress& progress, const std::string& message, int code = kExitFailure) {
+    progress.finish();
+    std::fprintf(stderr, "cityatlas build: %s%s\n", code == kExitFailure ? "error: " : "", message.c_str());
+    return code;
+}
+
+// Everything that changes the output, as text (threads and cache size do not).
+std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::AtlasParams& a) {
+    std::vector<std::string> k{std::string("cityatlas ") + kCityAtlasVersion, "lod=" + opt.input.lod,
+                               "theme=" + opt.input.theme, "crs=" + opt.input.crs,
+                               "height_unit=" + opt.input.height_unit,
+                               fmt::format("heights={}/{}", opt.input.default_height_m, opt.input.storey_height_m),
+                               "base=" + opt.input.base};
+    for (const std::string& m : opt.input.maps) k.push_back("map=" + m);
+    k.push_back(fmt::format("d_min={}/{}", a.d_min_m.value_or(-1.0), a.d_min_diagonal_fraction));
+    k.push_back(fmt::format("atlas={} border={} screen={}x{} fov={} filter={} packing={} critical={}", a.atlas_size_px,
+                            a.border_px, a.screen_width_px, a.screen_height_px, a.vertical_fov_deg,
+                            atlas::filterName(a.filter), atlas::packingMethodName(a.packing), a.critical_fraction));
+    const tiles::TilesParams& t = opt.tiles;
+    k.push_back(fmt::format("position_error={}", t.position_error_target_m));
+    k.push_back(fmt::format("bits={}/{} speed={} bc={} node_triangles={} feature_block={}", t.draco.position_bits,
+                            t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality), t.node_triangles,
+                            t.feature_block_size));
+    return k;
+}
+
+std::string inputsKey(const std::vector<std::string>& params, const std::vector<FileDigest>& inputs) {
+    std::vector<std::string> parts = params;
+    for (const FileDigest& d : inputs) parts.push_back(d.path + "=" + d.xxh3);
+    return hashStrings(parts);
+}
+
+// The previous build's report, when `target` holds one.
+std::optional<nlohmann::json> previousReport(const fs::path& target) {
+    std::ifstream f(target / "build_report.json");
+    if (!f) return std::nullopt;
+    try {
+        return nlohmann::json::parse(f);
+    } catch (const std::exception&) {
+        return std::nullopt;
+    }
+}
+
+// True when the previous build used the same inputs and parameters, every
+// texture it read is unchanged, and its files are all there.
+bool upToDate(const nlohmann::json& report, const std::string& inputs_key, const fs::path& target, std::string* why) {
+    try {
+        const auto& fp = report.at("fingerprint");
+        if (fp.at("inputs_key").get<std::string>() != inputs_key) {
+            *why = "inputs or parameters changed";
+            return false;
+        }
+        for (const FileDigest& d : digestsFromJson(fp.at("textures"))) {
+            FileDigest now;
+            if (!digestFile(d.path, &now).ok() || !(now == d)) {
+                *why = fmt::format("texture {} changed", d.path);
+                return false;
+            }
+        }
+        if (!fs::exists(target / "tileset.json")) {
+            *why = "tileset.json is missing";
+            return false;
+        }
+        return true;
+    } catch (const std::exception&) {
+        *why = "the previous build report is not readable";
+        return false;
+    }
+}
+
+ordered_json stagesJson(const std::vector<std::pair<std::string, std::pair<double, double>>>& stages) {
+    ordered_json a = ordered_json::array();
+    for (const auto& [name, t] : stages) a.push_back({{"name", name}, {"seconds", t.first}, {"peak_rss_mb", t.second}});
+    return a;
+}
+
+int runBuild(const BuildCliOptions& opt_in) {
+    BuildCliOptions opt = opt_in;
+    atlas::AtlasParams params;
+    if (Status s = parseAtlasTreeOptions(opt.tree, &params); !s.ok()) {
+        std::fprintf(stderr, "cityatlas build: %s\n", s.error.c_str());
+        return kExitUsage;
+    }
+    const auto quality = tiles::bcQualityFromName(opt.bc_quality);
+    if (!quality) {
+        std::fprintf(stderr, "cityatlas build: --bc-quality %s: expected fast or best\n", opt.bc_quality.c_str());
+        return kExitUsage;
+    }
+    opt.tiles.bc_quality = *quality;
+    opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
+    opt.tiles.threads = params.threads;
+    Progress progress(!opt.quiet);
+    const fs::path target = fs::path(opt.output).lexically_normal();
+    if (target.empty() || target == "." || target == "/")
+        return fail(progress, fmt::format("{}: refusing to use this as the output folder", opt.output));
+    const auto t_start = std::chrono::steady_clock::now();
+    auto clock = t_start;
+    std::vector<std::pair<std::string, std::pair<double, double>>> stages;
+    auto endStage = [&](const std::string& name) {
+        const auto now = std::chrono::steady_clock::now();
+        stages.push_back({name, {std::chrono::duration<double>(now - clock).count(), peakRssBytes() / 1e6}});
+        clock = now;
+    };
+
+    // --- Fingerprint of the inputs: decides whether there is anything to do.
+    std::vector<fs::path> files;
+    if (Status s = expandInputs(opt.input.inputs, &files); !s.ok()) return fail(progress, s.error);
+    std::vector<FileDigest> input_digests;
+    for (const fs::path& f : withSidecars(files)) {
+        FileDigest d;
+        if (Status s = digestFile(f, &d); !s.ok()) return fail(progress, s.error);
+        input_digests.push_back(d);
+    }
+    const std::vector<std::string> param_key = parameterKey(opt, params);
+    const std::string inputs_key = inputsKey(param_key, input_digests);
+    std::error_code ec;
+    if (fs::exists(target, ec)) {
+        const auto previous = previousReport(target);
+        std::string why;
+        if (previous && !opt.force && upToDate(*previous, inputs_key, target, &why)) {
+            progress.finish();
+            std::printf("%s is up to date (build %s): same inputs, textures and parameters; nothing to do. "
+                        "Use --force to rebuild.\n",
+                        target.string().c_str(), previous->value("build_hash", std::string("?")).c_str());
+            return kExitOk;
+        }
+        if (!previous && !opt.overwrite)
+            return fail(progress, fmt::format("{}: exists and is not a cityatlas build (use --overwrite to replace it)",
+                                              target.string()));
+        if (previous && !opt.quiet)
+            std::fprintf(stderr, "cityatlas build: rebuilding %s: %s\n", target.string().c_str(),
+                         opt.force ? "--force" : why.c_str());
+    }
+
+    // --- Read.
+    IngestState state;
+    SceneCollector collector;
+    state.sink = &collector;
+    std::vector<fs::path> read_files;
+    bool usage = false;
+    if (Status s = readInputs(opt.input, progress, state, &read_files, &usage); !s.ok())
+        return fail(progress, s.error, usage ? kExitUsage : kExitFailure);
+    Scene& scene = collector.scene;
+    const SceneStats scene_stats = computeStats(scene);
+    attachGeoreference(state, scene_stats.bounds_local, scene.georef, read_files.front());
+    if (scene.triangles.empty()) return fail(progress, "the inputs hold no triangles: nothing to build");
+    std::vector<FileDigest> texture_digests;
+    {
+        std::set<std::string> seen;
+        for (const TextureRef& t : scene.textures) {
+            if (!seen.insert(t.path).second) continue;
+            FileDigest d;
+            if (digestFile(t.path, &d).ok()) texture_digests.push_back(d);  // unreadable ones are ingest warnings
+        }
+    }
+    std::vector<std::string> all = {inputs_key};
+    for (const FileDigest& d : texture_digests) all.push_back(d.path + "=" + d.xxh3);
+    const std::string build_hash = hashStrings(all);
+    endStage("read");
+
+    // --- Atlas tree and tiles, into a sibling folder renamed into place at the end.
+    const fs::path tmp = target.parent_path() / (target.filename().string() + ".partial");
+    const fs::path work = tmp / ".atlas-png";
+    fs::remove_all(tmp, ec);
+    fs::create_directories(work, ec);
+    if (ec) return fail(progress, fmt::format("{}: cannot create the working folder: {}", tmp.string(), ec.message()));
+    auto abandon = [&](const std::string& message) {
+        std::error_code ignored;
+        fs::remove_all(tmp, ignored);
+        return fail(progress, message);
+    };
+    atlas::AtlasTree tree;
+    Diagnostics& diagnostics = state.diagnostics;
+    const Status built = atlas::buildAtlasTree(
+        scene, params, work, diagnostics,
+        [&](const char* step, uint64_t done, uint64_t total) {
+            progress.update(fmt::format("atlas: {}", step).c_str(), done, total);
+        },
+        &tree);
+    if (!built.ok()) return abandon(built.error);
+    endStage("atlas");
+
+    tiles::TilesStats ts;
+    const Status written = tiles::writeTileset(
+        scene, tree, work, opt.tiles, tmp, build_hash, diagnostics,
+        [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts);
+    if (!written.ok()) return abandon(written.error);
+    fs::remove_all(work, ec);
+    endStage("tiles");
+
+    // --- Report.
+    const atlas::AtlasStats& as = tree.stats;
+    ordered_json report;
+    report["cityatlas_version"] = kCityAtlasVersion;
+    report["kind"] = "build_report";
+    report["build_hash"] = build_hash;
+    report["fingerprint"] = {{"inputs_key", inputs_key},
+                             {"parameters", param_key},
+                             {"inputs", toJson(input_digests)},
+                             {"textures", toJson(texture_digests)}};
+    report["counts"] = {{"features", scene.features.size()},
+                        {"triangles", scene.triangles.size()},
+                        {"textured_triangles", scene_stats.textured_triangles},
+                        {"textures", scene.textures.size()},
+                        {"nodes", ts.nodes},
+                        {"leaves", ts.leaves},
+                        {"depth", ts.depth},
+                        {"geometry_files", ts.geometry_files},
+                        {"atlas_files", ts.atlas_files},
+                        {"texture_blocks", ts.texture_blocks},
+                        {"textures_written", ts.textures_written},
+                        {"textures_unreadable", ts.textures_unreadable},
+                        {"feature_tables", ts.feature_tables},
+                        {"triangles_written", ts.triangles_written},
+                        {"node_layers_simplified", ts.nodes_simplified}};
+    const uint64_t total = ts.bytes_geometry + ts.bytes_atlases + ts.bytes_textures + ts.bytes_features + ts.bytes_tileset;
+    report["bytes"] = {{"geometry", ts.bytes_geometry},  {"atlases", ts.bytes_atlases},
+                       {"textures", ts.bytes_textures},  {"features", ts.bytes_features},
+                       {"tileset", ts.bytes_tileset},    {"total", total},
+                       {"original_textures_uncompressed", as.original_texture_bytes},
+                       {"atlases_uncompressed", as.atlas_texture_bytes}};
+    report["d_min"] = {{"requested_m", as.d_min_requested_m}, {"used_m", as.d_min_used_m}};
+    report["coverage"] = {{"leaf_atlases", as.leaf_atlas_texels ? static_cast<double>(as.packed_texels) /
+                                                                      static_cast<double>(as.leaf_atlas_texels)
+                                                                : 0.0}};
+    report["errors"] = {{"position_mm_max", ts.max_position_error_m * 1000.0},
+                        {"geometric_error_m_max", ts.max_geometric_error_m},
+                        {"geometric_error_of_texel_max", ts.max_geometric_error_fraction},
+                        {"uv_atlas_texels_max", ts.max_uv_atlas_error_texels},
+                        {"atlas_psnr_db_min", ts.atlas_psnr_min_db},
+                        {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db}};
+    report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
+    report["encoding"] = {{"bc_quality", tiles::bcQualityName(opt.tiles.bc_quality)},
+                          {"atlas_mpix_per_s", ts.atlas_encode_mpix_per_s},
+                          {"position_bits", opt.tiles.draco.position_bits},
+                          {"position_bits_used", {ts.position_bits_min, ts.position_bits_max}},
+                          {"position_error_target_mm", opt.position_error_mm},
+                          {"uv_bits", opt.tiles.draco.uv_bits}};
+    report["warnings"] = warningsJson(diagnostics);
+    report["warnings_total"] = diagnostics.total();
+    for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.peak_rss_mb}});
+    for (const auto& s : ts.steps) stages.push_back({"tiles: " + s.name, {s.seconds, s.peak_rss_mb}});
+    report["stages"] = stagesJson(stages);
+    if (Status s = writeTextAtomically(tmp / "build_report.json", report.dump(2) + "\n"); !s.ok()) return abandon(s.error);
+    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s.error);
+    progress.finish();
+
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    std::printf("Built %s: %zu features, %llu nodes (%llu leaves, depth %llu), d_min %.1f m\n", target.string().c_str(),
+                scene.features.size(), static_cast<unsigned long long>(ts.nodes),
+                static_cast<unsigned long long>(ts.leaves), static_cast<unsigned long long>(ts.depth), as.d_min_used_m);
+    std::printf("  bytes: geometry %s, atlases %s, original textures %s, features %s (total %s)\n",
+                humanBytes(ts.bytes_geometry).c_str(), humanBytes(ts.bytes_atlases).c_str(),
+                humanBytes(ts.bytes_textures).c_str(), humanBytes(ts.bytes_features).c_str(), humanBytes(total).c_str());
+    std::printf("  errors: position <= %.2f mm (%d..%d bits), simplification <= %.3f m (%.0f %% of a texel), atlas BC "
+                "PSNR >= %.1f dB\n",
+                ts.max_position_error_m * 1000.0, ts.position_bits_min, ts.position_bits_max, ts.max_geometric_error_m,
+                100.0 * ts.max_geometric_error_fraction, ts.atlas_psnr_min_db);
+    std::printf("  root draws %llu of %zu features%s\n", static_cast<unsigned long long>(ts.root_features),
+                scene.features.size(),
+                ts.root_features_dropped.empty()
+                    ? ""
+                    : fmt::format(" ({} dropped below its geometric error; listed in tileset.json)",
+                                  ts.root_features_dropped.size())
+                          .c_str());
+    if (diagnostics.total()) {
+        std::printf("Warnings: %llu\n", static_cast<unsigned long long>(diagnostics.total()));
+        for (const auto& [code, e] : diagnostics.entries())
+            std::printf("  %-24s %6llu  e.g. %s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
+                        e.examples.front().file.c_str(), e.examples.front().detail.c_str());
+    }
+    for (const auto& [name, t] : stages)
+        if (name.find(':') == std::string::npos)
+            std::printf("  %-6s %8.2f s, peak memory %.0f MB\n", name.c_str(), t.first, t.second);
+    std::printf("Output: %s (tileset.json, build_report.json)  Time %.2f s\n", target.string().c_str(), seconds);
+    return kExitOk;
+}
+
+}  // namespace
+
+RunFn addBuildCommand(CLI::App& app) {
+    auto opt = std::make_shared<BuildCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "build",
+        "Turn city data into a streamable tile folder in one run: read (as `ingest`), build the texture-atlas\n"
+        "tree (as `atlas`), then write tileset.json (schemas/tileset.schema.json, OGC 3D Tiles conventions),\n"
+        "Draco-compressed glTF geometry per node, DDS atlases (BC1 opaque, BC3 alpha, full mips), the leaves'\n"
+        "original textures in blocks, feature attribute tables and build_report.json. The folder appears\n"
+        "complete or not at all. A rerun with the same input contents, textures and parameters does nothing.");
+    addSceneInputOptions(cmd, &opt->input);
+    cmd->add_option("-o,--output", opt->output, "Output folder")->required();
+    cmd->add_flag("--force", opt->force, "Rebuild even when the output is up to date");
+    cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing folder that is not a cityatlas build");
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+    addAtlasTreeOptions(cmd, &opt->tree);
+    auto* g = "Tiles";
+    cmd->add_option("--position-bits", opt->tiles.draco.position_bits,
+                    "Draco quantization of positions: the fewest bits over each node's extent (more where --position-error-mm needs them; the error in mm is reported per node)")
+        ->default_val(14)
+        ->check(CLI::Range(8, 30))
+        ->group(g);
+    cmd->add_option("--position-error-mm", opt->position_error_mm,
+                    "Largest position error per node, mm: nodes too large for it at --position-bits get more bits "
+                    "(up to 30); 0 = exactly --position-bits everywhere")
+        ->default_val(2.0)
+        ->check(CLI::NonNegativeNumber)
+        ->group(g);
+    cmd->add_option("--uv-bits", opt->tiles.draco.uv_bits, "Draco quantization of texture coordinates, bits")
+        ->default_val(12)
+        ->check(CLI::Range(8, 30))
+        ->group(g);
+    cmd->add_option("--bc-quality", opt->bc_quality,
+                    "S3TC encoder: fast (stb_dxt high quality, parallel) or best (libsquish cluster fit, ~100x slower, "
+                    "~0.5 dB better)")
+        ->default_val("fast")
+        ->group(g);
+    cmd->add_option("--node-triangles", opt->tiles.node_triangles,
+                    "Triangle budget per inner node and layer; larger merges are simplified (meshoptimizer) at a "
+                    "geometric error below the node's world texel size")
+        ->default_val(32768)
+        ->check(CLI::Range(size_t{64}, size_t{1} << 24))
+        ->group(g);
+    return [opt]() { return runBuild(*opt); };
+}
+
+}  // namespace cityatlas::cli
