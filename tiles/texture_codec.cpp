@@ -268,6 +268,39 @@ std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality qualit
     return out;
 }
 
+Status parseDdsHeader(const uint8_t* data, size_t size, DdsInfo* out) {
+    if (data == nullptr || size < 128)
+        return Status::Fail(fmt::format("{} bytes: shorter than a DDS header (128)", size));
+    auto at = [&](size_t off) {
+        return uint32_t(data[off]) | uint32_t(data[off + 1]) << 8 | uint32_t(data[off + 2]) << 16 |
+               uint32_t(data[off + 3]) << 24;
+    };
+    if (at(0) != fourCC("DDS ")) return Status::Fail("no DDS magic");
+    if (at(4) != 124) return Status::Fail(fmt::format("DDS header size {} (expected 124)", at(4)));
+    if (at(76) != 32) return Status::Fail(fmt::format("DDS pixel format size {} (expected 32)", at(76)));
+    if ((at(80) & kDdpfFourCC) == 0) return Status::Fail("DDS pixel format is not a FourCC format");
+    DdsInfo d;
+    if (at(84) == fourCC("DXT1")) d.channels = 3;
+    else if (at(84) == fourCC("DXT5")) d.channels = 4;
+    else return Status::Fail("DDS FourCC is neither DXT1 nor DXT5");
+    const uint32_t h = at(12), w = at(16), mips = std::max<uint32_t>(1, at(28));
+    // 2^16 is far above any texture this project writes and keeps every size below in range.
+    if (w < 1 || h < 1 || w > 65536 || h > 65536)
+        return Status::Fail(fmt::format("DDS size {}x{} is out of range", w, h));
+    d.width = int(w);
+    d.height = int(h);
+    uint32_t full = 1;
+    for (uint32_t x = w, y = h; x > 1 || y > 1; x = std::max(1u, x / 2), y = std::max(1u, y / 2)) ++full;
+    if (mips > full)
+        return Status::Fail(fmt::format("DDS claims {} mip levels, a {}x{} image has at most {}", mips, w, h, full));
+    d.mips = int(mips);
+    d.expected_bytes = 128;
+    for (int l = 0, x = d.width, y = d.height; l < d.mips; ++l, x = std::max(1, x / 2), y = std::max(1, y / 2))
+        d.expected_bytes += bcBlockBytes(x, y, d.channels);
+    *out = d;
+    return Status::Ok();
+}
+
 Status writeDds(const std::filesystem::path& path, const std::vector<Image8>& mips, BcQuality quality) {
     const std::vector<uint8_t> bytes = encodeDds(mips, quality);
     // Unique per process and call, so concurrent writers never share a temporary.

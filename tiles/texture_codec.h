@@ -65,6 +65,22 @@ Image8 decodeBc(const std::vector<uint8_t>& blocks, int width, int height, int c
 /// be the halved size of the one before (a chain may stop before 1x1).
 std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality quality);
 
+/// What a DDS header (as encodeDds writes it) says about its file.
+struct DdsInfo {
+    int width = 0, height = 0;
+    int mips = 0;      ///< dwMipMapCount, 0 read as 1
+    int channels = 0;  ///< 3: DXT1 (BC1), 4: DXT5 (BC3)
+    size_t expected_bytes = 0;  ///< 128 + bcBlockBytes of every level: the whole file
+};
+
+/// Parses the first 128 bytes of a DDS file (`size` may be the whole file or
+/// just its header): "DDS " magic, dwSize 124, a 32-byte pixel format with
+/// DDPF_FOURCC, FourCC DXT1 or DXT5, width and height >= 1 (and <= 2^16, so
+/// that expected_bytes cannot overflow), a mip count (0 read as 1) no longer
+/// than the full chain. Fails with a one-line reason; never reads past `size`.
+/// Does not compare expected_bytes with anything: the caller knows the length.
+Status parseDdsHeader(const uint8_t* data, size_t size, DdsInfo* out);
+
 /// encodeDds written to `path` through a sibling temporary file and a rename,
 /// so a reader never sees a partial file; the error names the file.
 Status writeDds(const std::filesystem::path& path, const std::vector<Image8>& mips, BcQuality quality);

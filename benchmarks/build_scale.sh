@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Benchmark: `cityatlas build` end to end on a synthetic town (one labelled
+# 512 x 512 facade texture per building): time and peak memory per stage,
+# output bytes by kind, and the size/accuracy trade of the encoders:
+# position bits 11/14/16 (with the per-node error target off, so the bits are
+# exactly those) and BC quality fast/best.
+# Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all|main|bits|bc]
+# Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>.json (one record per run) and
+# prints a table. Every run rebuilds everything (--force), so each record's
+# stage times are complete. The town is made once and not timed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+N="${1:-10000}"; DMIN="${2:-400}"; RUNS="${3:-all}"
+./scripts/build > /dev/null
+mkdir -p out/benchmarks
+TOWN="out/benchmarks/synth-$N-512"
+if [ ! -f "$TOWN/truth.json" ]; then
+  ./build/cli/cityatlas synth --buildings "$N" --texture-size 512 --lod 2 --seed 1 -q --overwrite -o "$TOWN" > /dev/null
+fi
+TAG="$N-${DMIN//\//_}"
+/usr/bin/python3 - "$TOWN" "$DMIN" "$TAG" "$RUNS" <<'PY'
+import json, os, platform, resource, subprocess, sys, time
+town, dmin, tag, runs = sys.argv[1:5]
+variants = []
+if runs in ("all", "main"): variants.append(("default", []))
+if runs in ("all", "bits"):
+    variants += [(f"bits{b}", ["--position-bits", str(b), "--position-error-mm", "0"]) for b in (11, 14, 16)]
+if runs in ("all", "bc"): variants.append(("bc-best", ["--bc-quality", "best"]))
+records = []
+for name, extra in variants:
+    out = f"out/benchmarks/build-{tag}-{name}"
+    cmd = ["./build/cli/cityatlas", "build", os.path.join(town, "town.gml"), "-o", out, "--force", "-q",
+           "--d-min", dmin] + extra
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.monotonic()
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.monotonic() - t0
+    if proc.returncode != 0:
+        sys.exit(f"{name}: build failed: {proc.stderr.strip()}")
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    rep = json.load(open(os.path.join(out, "build_report.json")))
+    rec = {"run": name, "command": " ".join(cmd), "wall_s": round(wall, 1),
+           "cpu_s": round(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, 1),
+           "peak_rss_mb": round(after.ru_maxrss * 1024 / 1e6, 1),  # the largest child so far (Linux: KiB)
+           "stages": {s["name"]: round(s["seconds"], 2) for s in rep["stages"]},
+           "stage_peak_rss_mb": {s["name"]: round(s["peak_rss_mb"], 1) for s in rep["stages"] if ":" not in s["name"]},
+           "bytes": rep["bytes"], "counts": rep["counts"], "errors": rep["errors"], "encoding": rep["encoding"],
+           "d_min": rep["d_min"], "root": {"features": rep["root"]["features"], "dropped": len(rep["root"]["features_dropped"])}}
+    records.append(rec)
+    print(f"{name:8s} wall {rec['wall_s']:7.1f} s  read {rec['stages']['read']:6.1f}  atlas {rec['stages']['atlas']:7.1f}  "
+          f"tiles {rec['stages']['tiles']:7.1f}  peak {rec['peak_rss_mb']:7.0f} MB  geometry {rep['bytes']['geometry']/1e6:7.2f} MB  "
+          f"atlases {rep['bytes']['atlases']/1e6:8.1f} MB  textures {rep['bytes']['textures']/1e6:7.1f} MB  "
+          f"pos err {rep['errors']['position_mm_max']:7.2f} mm  PSNR min/mean {rep['errors']['atlas_psnr_db_min']:.2f}/"
+          f"{rep['errors']['atlas_psnr_db_mean']:.2f} dB  BC {rep['encoding']['atlas_mpix_per_s']:.1f} MP/s", flush=True)
+result = f"out/benchmarks/build-{tag}.json"
+json.dump({"benchmark": "build", "town": town, "d_min": dmin, "cores": os.cpu_count(), "machine": platform.machine(),
+           "runs": records}, open(result, "w"), indent=2)
+print(f"written {result}")
+PY
