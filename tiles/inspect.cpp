@@ -36,40 +36,10 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// A DDS header as the tiles stage writes it (texture_codec.h: encodeDds).
-struct DdsInfo {
-    int width = 0, height = 0, mips = 0, channels = 0;
-    uint64_t expected_bytes = 0;
-};
-
-uint32_t u32(const uint8_t* p) {
-    uint32_t v = 0;
-    std::memcpy(&v, p, 4);
-    return v;
-}
-
-// Parses the 128 bytes of a DDS header; nullopt-like: returns the reason.
-std::string parseDds(const uint8_t* d, size_t size, DdsInfo* out) {
-    if (size < 128) return fmt::format("{} bytes: shorter than a DDS header (128)", size);
-    if (std::memcmp(d, "DDS ", 4) != 0) return "no DDS magic";
-    if (u32(d + 4) != 124) return "DDS header size is not 124";
-    if (u32(d + 76) != 32 || (u32(d + 80) & 0x4u) == 0) return "DDS pixel format is not a FourCC format";
-    const uint32_t fourcc = u32(d + 84);
-    if (std::memcmp(&fourcc, "DXT1", 4) == 0) out->channels = 3;
-    else if (std::memcmp(&fourcc, "DXT5", 4) == 0) out->channels = 4;
-    else return "DDS FourCC is neither DXT1 nor DXT5";
-    out->height = static_cast<int>(u32(d + 12));
-    out->width = static_cast<int>(u32(d + 16));
-    out->mips = std::max<int>(1, static_cast<int>(u32(d + 28)));
-    if (out->width < 1 || out->height < 1 || out->width > 65536 || out->height > 65536)
-        return fmt::format("DDS size {}x{} is out of range", out->width, out->height);
-    int full = 1;
-    for (int w = out->width, h = out->height; w > 1 || h > 1; w = std::max(1, w / 2), h = std::max(1, h / 2)) ++full;
-    if (out->mips > full) return fmt::format("DDS claims {} mip levels, a {}x{} image has {}", out->mips, out->width, out->height, full);
-    out->expected_bytes = 128;
-    for (int l = 0, w = out->width, h = out->height; l < out->mips; ++l, w = std::max(1, w / 2), h = std::max(1, h / 2))
-        out->expected_bytes += bcBlockBytes(w, h, out->channels);
-    return {};
+// The reason a DDS header is unusable, or empty.
+std::string parseDds(const uint8_t* data, size_t size, DdsInfo* out) {
+    const Status st = parseDdsHeader(data, size, out);
+    return st.ok() ? std::string() : st.error;
 }
 
 std::vector<uint8_t> readBytes(const fs::path& p, size_t limit = SIZE_MAX) {
