@@ -120,12 +120,7 @@ int runAtlas(const AtlasCliOptions& opt) {
     const auto report = atlas::makeAtlasReport(tree, scene, diagnostics);
     if (Status s = writeTextAtomically(tmp / "atlas_report.json", report.dump(2) + "\n"); !s.ok())
         return abandon(s.error);
-    if (fs::exists(target, ec)) {
-        fs::remove_all(target, ec);
-        if (ec) return abandon(fmt::format("{}: cannot replace: {}", target.string(), ec.message()));
-    }
-    fs::rename(tmp, target, ec);
-    if (ec) return abandon(fmt::format("{}: cannot move into place: {}", target.string(), ec.message()));
+    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s.error);
     progress.finish();
 
     const atlas::AtlasStats& s = tree.stats;
