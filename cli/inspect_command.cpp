@@ -1,8 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // `cityatlas inspect`: checks a tile folder and summarises its tree.
+#include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "cli/commands.h"
 #include "cli/progress.h"
@@ -10,6 +14,7 @@
 
 namespace cityatlas::cli {
 namespace {
+namespace fs = std::filesystem;
 
 struct InspectCliOptions {
     std::string folder;
@@ -17,31 +22,49 @@ struct InspectCliOptions {
     bool quiet = false;
 };
 
-int runInspect(const InspectCliOptions& opt) {
-    const tiles::InspectResult r = tiles::inspectTileFolder(opt.folder, opt.threads);
-    if (!opt.quiet && r.nodes > 0) {
-        std::printf("%s: %llu nodes (%llu leaves), %zu levels\n", opt.folder.c_str(),
-                    static_cast<unsigned long long>(r.nodes), static_cast<unsigned long long>(r.leaves), r.levels.size());
-        std::printf("  level  nodes  leaves   triangles    geometry     atlases  min distance   world texel\n");
-        for (size_t l = 0; l < r.levels.size(); ++l) {
-            const tiles::InspectLevel& L = r.levels[l];
-            std::printf("  %5zu %6llu %7llu %11llu %11s %11s %11.1f m  %.3f..%.3f m\n", l,
-                        static_cast<unsigned long long>(L.nodes), static_cast<unsigned long long>(L.leaves),
-                        static_cast<unsigned long long>(L.triangles), humanBytes(L.bytes_geometry).c_str(),
-                        humanBytes(L.bytes_atlases).c_str(), L.min_distance_m, L.world_texel_min_m, L.world_texel_max_m);
-        }
-        std::printf("  textures %llu in %llu blocks (%s), features %llu (%s); geometry %s, atlases %s\n",
-                    static_cast<unsigned long long>(r.textures), static_cast<unsigned long long>(r.texture_blocks),
-                    humanBytes(r.bytes_textures).c_str(), static_cast<unsigned long long>(r.features),
-                    humanBytes(r.bytes_features).c_str(), humanBytes(r.bytes_geometry).c_str(),
-                    humanBytes(r.bytes_atlases).c_str());
+void printSummary(const std::string& folder, const tiles::InspectResult& r, double seconds) {
+    fmt::print("{}: {} nodes, {} leaves, {} levels, {} triangles (checked in {:.2f} s)\n", folder, r.nodes, r.leaves,
+               r.levels.size(), r.triangles, seconds);
+    fmt::print("  {:>5} {:>7} {:>7} {:>11} {:>10} {:>10} {:>13}  {}\n", "level", "nodes", "leaves", "triangles",
+               "geometry", "atlases", "min distance", "world texel");
+    for (size_t l = 0; l < r.levels.size(); ++l) {
+        const tiles::InspectLevel& L = r.levels[l];
+        fmt::print("  {:>5} {:>7} {:>7} {:>11} {:>10} {:>10} {:>11.1f} m  {:.4f}..{:.4f} m\n", l, L.nodes, L.leaves,
+                   L.triangles, humanBytes(L.bytes_geometry), humanBytes(L.bytes_atlases), L.min_distance_m,
+                   L.world_texel_min_m, L.world_texel_max_m);
     }
+    fmt::print("  geometry  {:>10} in {} files\n", humanBytes(r.bytes_geometry), r.geometry_files);
+    fmt::print("  atlases   {:>10} in {} files\n", humanBytes(r.bytes_atlases), r.atlas_files);
+    fmt::print("  textures  {:>10} in {} blocks: {} textures ({} not written: unreadable originals)\n",
+               humanBytes(r.bytes_textures), r.texture_blocks, r.textures, r.textures_unreadable);
+    fmt::print("  features  {:>10} in {} tables: {} features\n", humanBytes(r.bytes_features), r.feature_tables,
+               r.features);
+    fmt::print("  total     {:>10}\n",
+               humanBytes(r.bytes_geometry + r.bytes_atlases + r.bytes_textures + r.bytes_features));
+}
+
+int runInspect(const InspectCliOptions& opt) {
+    std::error_code ec;
+    if (!fs::is_directory(opt.folder, ec)) {
+        std::fprintf(stderr, "cityatlas inspect: %s: no such folder\n", opt.folder.c_str());
+        return kExitFailure;
+    }
+    if (!fs::exists(fs::path(opt.folder) / "tileset.json", ec)) {
+        std::fprintf(stderr, "cityatlas inspect: %s: no tileset.json: not a cityatlas tile folder\n",
+                     opt.folder.c_str());
+        return kExitFailure;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const tiles::InspectResult r = tiles::inspectTileFolder(opt.folder, opt.threads);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!opt.quiet && r.nodes > 0) printSummary(opt.folder, r, seconds);
+    std::fflush(stdout);
     if (r.ok()) {
         std::printf("OK: %llu files checked, no defects\n", static_cast<unsigned long long>(r.files_checked));
         return kExitOk;
     }
     for (const std::string& d : r.defects) std::fprintf(stderr, "cityatlas inspect: %s\n", d.c_str());
-    std::fprintf(stderr, "cityatlas inspect: %zu defect(s) in %s\n", r.defects.size(), opt.folder.c_str());
+    std::fprintf(stderr, "cityatlas inspect: %zu defect(s)\n", r.defects.size());
     return kExitFailure;
 }
 
@@ -51,14 +74,26 @@ RunFn addInspectCommand(CLI::App& app) {
     auto opt = std::make_shared<InspectCliOptions>();
     CLI::App* cmd = app.add_subcommand(
         "inspect",
-        "Check a tile folder written by `cityatlas build`: tileset.json against its schema, every uri exists inside\n"
-        "the folder with the byte size the index gives, every Draco mesh decodes with its triangle count and ids in\n"
-        "range, every DDS header (atlases and the textures inside blocks) matches its entry, every feature table\n"
-        "parses, and the tree is consistent. Prints a summary per level. Exit 0: no defect; 1: defects, one line\n"
-        "each on stderr, naming the file.");
+        "Check a tile folder written by `cityatlas build`: tileset.json against its schema, every uri present\n"
+        "with its recorded size, every Draco GLB and DDS decoded, feature tables and tree consistency. Prints a\n"
+        "summary per level and exits 0 when no defect is found, else one line per defect and exit 1.");
+    cmd->footer(
+        "What is checked: tileset.json is validated against its schema (compiled in); every uri must name a file\n"
+        "inside the folder (symlinks resolved) with the byte size the index gives; every Draco GLB must decode with\n"
+        "its recorded triangle count, feature ids, the uv sets its node needs and feature, texture and material ids\n"
+        "in range; every DDS (atlases and the textures inside texture blocks, which must fill their blocks back to\n"
+        "back) must have a DXT1/DXT5 header matching its entry and exactly header + blocks bytes; every feature\n"
+        "table must parse and hold its ids; the tree must be consistent (preorder ids, levels, quadrants and atlas\n"
+        "offsets, children's boxes inside their parent's, min distances at least doubling upwards, geometric errors\n"
+        "and texel sizes as the build parameters give them, totals).\n"
+        "Output: a summary per level on stdout and \"OK: N files checked, no defects\" (exit 0), or one line per\n"
+        "defect on stderr, each starting with the file it concerns, and their count (exit 1). A missing folder or\n"
+        "tileset.json is one line, exit 1.");
     cmd->add_option("folder", opt->folder, "The tile folder (holding tileset.json)")->required();
-    cmd->add_option("--threads", opt->threads, "Worker threads for decoding (0 = all cores)")->default_val(0);
-    cmd->add_flag("-q,--quiet", opt->quiet, "Only the verdict");
+    cmd->add_option("--threads", opt->threads, "Threads decoding geometry (0 = all cores)")
+        ->default_val(0)
+        ->check(CLI::Range(0, 4096));
+    cmd->add_flag("-q,--quiet", opt->quiet, "No summary: only the verdict (and the defects)");
     return [opt]() { return runInspect(*opt); };
 }
 

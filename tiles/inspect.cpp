@@ -1,13 +1,24 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
+// `cityatlas inspect`: the checks of tiles/inspect.h. tileset.json is validated
+// against the compiled-in schema first; everything after reads the document
+// through accessors that throw BadEntry instead of trusting that the schema
+// held, so a damaged index still gets every check that can run, and nothing in
+// it can crash the checker. Defects are collected per node (or block, or
+// table) and concatenated in index order: the report is the same for any
+// thread count.
 #include "tiles/inspect.h"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cmath>
-#include <cstring>
 #include <fstream>
 #include <functional>
-#include <mutex>
+#include <memory>
 #include <set>
+#include <stdexcept>
+#include <string_view>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -35,360 +46,744 @@ const nlohmann::json& tilesetSchema() {
 namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
+using Defects = std::vector<std::string>;
 
-// The reason a DDS header is unusable, or empty.
-std::string parseDds(const uint8_t* data, size_t size, DdsInfo* out) {
-    const Status st = parseDdsHeader(data, size, out);
-    return st.ok() ? std::string() : st.error;
+// libstdc++'s std::regex recurses once per character (a 100k-character uri
+// overflows the stack inside valijson), and valijson and the tree walk recurse
+// once per nesting level: both are bounded before anything else runs.
+constexpr size_t kMaxStringChars = 1024;
+constexpr int kMaxNesting = 256;
+constexpr double kRelTolerance = 1e-9;  // for values the writer derives from one another
+
+// --- Reading the index without trusting it -----------------------------------
+
+struct BadEntry : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+const json& member(const json& j, const char* key) {
+    if (!j.is_object()) throw BadEntry(fmt::format("not an object (looking for '{}')", key));
+    const auto it = j.find(key);
+    if (it == j.end()) throw BadEntry(fmt::format("no '{}'", key));
+    return *it;
+}
+const json& arrayOf(const json& j, const char* key) {
+    const json& v = member(j, key);
+    if (!v.is_array()) throw BadEntry(fmt::format("'{}' is not an array", key));
+    return v;
+}
+double numberOf(const json& v, const char* what) {
+    if (!v.is_number() || !std::isfinite(v.get<double>())) throw BadEntry(fmt::format("'{}' is not a number", what));
+    return v.get<double>();
+}
+double number(const json& j, const char* key) { return numberOf(member(j, key), key); }
+// JSON Schema integers include 1.0; a value that does not fit is an error, never a wrapped number.
+int64_t integerOf(const json& v, const char* what) {
+    if (v.is_number_unsigned() && v.get<uint64_t>() <= uint64_t{INT64_MAX})
+        return static_cast<int64_t>(v.get<uint64_t>());
+    if (v.is_number_integer() && !v.is_number_unsigned()) return v.get<int64_t>();
+    if (v.is_number_float() && std::abs(v.get<double>()) < 9e15 && v.get<double>() == std::floor(v.get<double>()))
+        return static_cast<int64_t>(v.get<double>());
+    throw BadEntry(fmt::format("'{}' is not an integer", what));
+}
+int64_t integer(const json& j, const char* key) { return integerOf(member(j, key), key); }
+int64_t count(const json& j, const char* key) {
+    const int64_t v = integer(j, key);
+    if (v < 0) throw BadEntry(fmt::format("'{}' is negative", key));
+    return v;
+}
+std::string text(const json& j, const char* key) {
+    const json& v = member(j, key);
+    if (!v.is_string()) throw BadEntry(fmt::format("'{}' is not a string", key));
+    return v.get<std::string>();
+}
+bool near(double a, double b) { return std::abs(a - b) <= kRelTolerance * std::max(std::abs(a), std::abs(b)); }
+
+// Cuts over-long strings to kMaxStringChars + 1 characters (still too long for
+// every check that cares, short enough for std::regex) and returns the deepest
+// nesting; iterative, so any document is safe.
+int boundDocument(json& doc) {
+    int deepest = 0;
+    std::vector<std::pair<json*, int>> stack{{&doc, 1}};
+    while (!stack.empty()) {
+        auto [j, depth] = stack.back();
+        stack.pop_back();
+        deepest = std::max(deepest, depth);
+        if (depth > kMaxNesting) break;
+        if (j->is_string() && j->get_ref<const std::string&>().size() > kMaxStringChars)
+            j->get_ref<std::string&>().resize(kMaxStringChars + 1);
+        if (j->is_structured())
+            for (json& c : *j) stack.emplace_back(&c, depth + 1);
+    }
+    return deepest;
 }
 
-std::vector<uint8_t> readBytes(const fs::path& p, size_t limit = SIZE_MAX) {
-    std::ifstream f(p, std::ios::binary);
-    std::vector<uint8_t> b;
-    if (!f) return b;
-    f.seekg(0, std::ios::end);
-    const auto size = static_cast<size_t>(std::max<std::streamoff>(0, f.tellg()));
-    f.seekg(0);
-    b.resize(std::min(size, limit));
-    f.read(reinterpret_cast<char*>(b.data()), static_cast<std::streamsize>(b.size()));
-    return b;
+// --- Schema --------------------------------------------------------------------
+
+// The JSON pointer of a valijson context ("<root>", "[root]", "[children]", "[0]", ...).
+std::string pointerOf(const std::vector<std::string>& context) {
+    std::string p;
+    for (const std::string& c : context) {
+        if (c.size() < 2 || c.front() != '[' || c.back() != ']') continue;
+        p += '/';
+        for (char ch : std::string_view(c).substr(1, c.size() - 2))
+            p += ch == '~' ? "~0" : ch == '/' ? "~1" : std::string(1, ch);
+    }
+    return p.empty() ? "/" : p;
 }
 
-class Inspector {
-public:
-    Inspector(fs::path folder, InspectResult* r) : folder_(std::move(folder)), r_(r) {
-        std::error_code ec;
-        root_ = fs::weakly_canonical(folder_, ec);
-    }
+const valijson::Schema& compiledSchema() {
+    static const auto schema = [] {
+        auto s = std::make_unique<valijson::Schema>();
+        valijson::SchemaParser parser(valijson::SchemaParser::kDraft7);
+        valijson::adapters::NlohmannJsonAdapter adapter(tilesetSchema());
+        parser.populateSchema(adapter, *s);
+        return s;
+    }();
+    return *schema;
+}
 
-    void defect(const std::string& where, const std::string& what) {
-        std::lock_guard lock(mutex_);
-        r_->defects.push_back(fmt::format("{}: {}", where, what));
-    }
-
-    // The file behind a uri: exists, inside the folder, of `bytes` bytes (when >= 0).
-    bool checkFile(const std::string& uri, int64_t bytes) {
-        {
-            std::lock_guard lock(mutex_);
-            ++r_->files_checked;
+// One line per schema error. valijson also reports every ancestor of an error
+// ("Failed to validate against schema associated with property name 'root'"):
+// those add nothing and are left out.
+void validateSchema(const json& doc, Defects& out) {
+    try {
+        valijson::Validator validator;
+        valijson::ValidationResults results;
+        valijson::adapters::NlohmannJsonAdapter adapter(doc);
+        if (validator.validate(compiledSchema(), adapter, &results)) return;
+        std::vector<std::pair<std::string, std::string>> errors;
+        valijson::ValidationResults::Error e;
+        while (results.popError(e)) errors.emplace_back(pointerOf(e.context), e.description);
+        std::set<std::string> seen;
+        for (const auto& [where, what] : errors) {
+            const std::string below = where == "/" ? "/" : where + "/";
+            auto deeper = [&](const auto& o) { return o.first != where && o.first.rfind(below, 0) == 0; };
+            if (what.rfind("Failed to validate", 0) == 0 && std::any_of(errors.begin(), errors.end(), deeper)) continue;
+            if (seen.insert(where + what).second) out.push_back(fmt::format("tileset.json: {}: {}", where, what));
         }
-        if (uri.empty() || uri.front() == '/' || uri.find("..") != std::string::npos) {
-            defect(uri, "not a relative uri inside the folder");
+    } catch (const std::exception& ex) {
+        out.push_back(fmt::format("tileset.json: schema validation failed: {}", ex.what()));
+    }
+}
+
+// --- Files ---------------------------------------------------------------------
+
+// Why `uri` is not a relative path inside the folder (the schema's uri rule, without std::regex); empty if it is.
+std::string uriProblem(const std::string& uri) {
+    if (uri.empty()) return "empty uri";
+    if (uri.size() > kMaxStringChars) return fmt::format("uri longer than {} characters", kMaxStringChars);
+    auto plain = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+    if (!plain(uri.front())) return "uri does not start with a letter, digit or '_'";
+    for (char c : uri)
+        if (!plain(c) && c != '.' && c != '/' && c != '-') return "uri has characters other than A-Z a-z 0-9 _ . / -";
+    if (uri == ".." || uri.find("/../") != std::string::npos || uri.ends_with("/.."))
+        return "uri leaves the folder ('..')";
+    return {};
+}
+
+// The folder: every file is looked at through check(), which counts it.
+class Folder {
+public:
+    explicit Folder(const fs::path& folder) : folder_(folder) {
+        std::error_code ec;
+        root_ = fs::weakly_canonical(folder, ec);
+    }
+    // Whether `uri` names a regular file inside the folder (symlinks resolved)
+    // of `bytes` bytes (any size when negative); a defect naming it otherwise.
+    bool check(const std::string& uri, int64_t bytes, Defects& d) {
+        ++files_checked;
+        if (std::string why = uriProblem(uri); !why.empty()) {
+            d.push_back(fmt::format("{}: {}", uri.substr(0, 200), why));
             return false;
         }
         std::error_code ec;
         const fs::path p = folder_ / uri;
-        if (!fs::is_regular_file(p, ec)) {
-            defect(uri, "missing");
+        const fs::file_status st = fs::status(p, ec);
+        if (!fs::exists(st)) {
+            d.push_back(fmt::format("{}: missing", uri));
             return false;
         }
-        const fs::path c = fs::weakly_canonical(p, ec);
-        const auto rel = c.lexically_relative(root_);
-        if (ec || rel.empty() || *rel.begin() == "..") {
-            defect(uri, "resolves outside the folder");
+        const fs::path real = fs::weakly_canonical(p, ec);
+        const fs::path rel = ec ? fs::path() : real.lexically_relative(root_);
+        if (rel.empty() || *rel.begin() == "..") {
+            d.push_back(fmt::format("{}: resolves to {}, outside the folder", uri, real.string()));
             return false;
         }
-        const auto size = fs::file_size(p, ec);
-        if (bytes >= 0 && size != static_cast<uint64_t>(bytes)) {
-            defect(uri, fmt::format("{} bytes, tileset.json says {}", size, bytes));
+        if (!fs::is_regular_file(st)) {
+            d.push_back(fmt::format("{}: not a regular file", uri));
+            return false;
+        }
+        const uintmax_t size = fs::file_size(p, ec);
+        if (ec || (bytes >= 0 && size != static_cast<uint64_t>(bytes))) {
+            d.push_back(fmt::format("{}: {} bytes, tileset.json says {}", uri, ec ? 0 : size, bytes));
             return false;
         }
         return true;
     }
-
     fs::path path(const std::string& uri) const { return folder_ / uri; }
+    std::atomic<uint64_t> files_checked{0};
 
 private:
     fs::path folder_, root_;
-    InspectResult* r_;
-    std::mutex mutex_;
 };
 
-std::string validateSchema(const json& doc, std::vector<std::string>* errors) {
-    try {
-        valijson::Schema schema;
-        valijson::SchemaParser parser(valijson::SchemaParser::kDraft7);
-        valijson::adapters::NlohmannJsonAdapter schema_adapter(tilesetSchema());
-        parser.populateSchema(schema_adapter, schema);
-        valijson::Validator validator;
-        valijson::ValidationResults results;
-        valijson::adapters::NlohmannJsonAdapter doc_adapter(doc);
-        if (validator.validate(schema, doc_adapter, &results)) return {};
-        valijson::ValidationResults::Error e;
-        while (results.popError(e)) {
-            std::string where;
-            for (const std::string& c : e.context) where += c == "<root>" ? "" : c;
-            errors->push_back(fmt::format("tileset.json: {}: {}", where.empty() ? "/" : where, e.description));
-            if (errors->size() >= 20) break;
+// Up to `max` bytes of `path` from `offset` (fewer at its end; none when unreadable).
+std::vector<uint8_t> readBytes(const fs::path& path, uint64_t offset, uint64_t max) {
+    std::vector<uint8_t> b;
+    std::ifstream f(path, std::ios::binary);
+    if (!f || !f.seekg(static_cast<std::streamoff>(offset))) return b;
+    b.resize(static_cast<size_t>(max));
+    f.read(reinterpret_cast<char*>(b.data()), static_cast<std::streamsize>(b.size()));
+    b.resize(static_cast<size_t>(f.gcount()));
+    return b;
+}
+
+// The DDS header at `offset` of a checked file against its entry; only the
+// header is read. `what` prefixes the messages (empty for a file that is one DDS).
+void checkDds(const fs::path& path, const std::string& uri, uint64_t offset, const std::string& what, int channels,
+              int64_t width, int64_t height, int64_t mips, uint64_t bytes, Defects& d) {
+    const std::vector<uint8_t> head = readBytes(path, offset, 128);
+    DdsInfo info;
+    if (Status st = parseDdsHeader(head.data(), head.size(), &info); !st.ok()) {
+        d.push_back(fmt::format("{}: {}{}", uri, what, st.error));
+        return;
+    }
+    auto name = [](int c) { return c == 4 ? "BC3" : "BC1"; };
+    if (info.channels != channels || info.width != width || info.height != height || info.mips != mips)
+        d.push_back(fmt::format("{}: {}the DDS is {} {}x{} with {} mips, tileset.json says {} {}x{} with {}", uri, what,
+                                name(info.channels), info.width, info.height, info.mips, name(channels), width, height,
+                                mips));
+    if (info.expected_bytes != bytes)
+        d.push_back(fmt::format("{}: {}{} bytes, its DDS header makes {}", uri, what, bytes, info.expected_bytes));
+}
+
+int fullMipCount(int64_t w, int64_t h) {
+    int n = 1;
+    for (; w > 1 || h > 1; w = std::max<int64_t>(1, w / 2), h = std::max<int64_t>(1, h / 2)) ++n;
+    return n;
+}
+
+// --- The tree --------------------------------------------------------------------
+
+struct Layer {
+    std::string name;  // "opaque" / "alpha"
+    std::string geometry_uri;
+    int64_t geometry_bytes = 0, triangles = 0;
+    double geometric_error_m = 0;
+    bool has_atlas = false;
+    std::string atlas_uri, atlas_format;
+    int64_t atlas_bytes = 0, atlas_size_px = 0, atlas_mips = 0;
+};
+
+struct Node {
+    std::string pointer;  // in tileset.json, e.g. /root/children/1
+    int parent = -1;      // index into the preorder list
+    bool usable = false;  // every field below could be read
+    bool leaf = true;
+    bool transform = false;
+    int64_t id = -1, level = 0, quadrant = 0, bytes = 0, feature_count = 0;
+    std::array<int64_t, 2> offset{};
+    double min_distance_m = 0, world_texel_m = 0, geometric_error = 0;
+    Vec3d centre;
+    std::array<double, 12> box{};
+    std::vector<Layer> layers;
+    std::vector<std::string> contents;
+    std::vector<int64_t> texture_blocks, feature_tables, dropped;
+    std::string where() const { return fmt::format("tileset.json: {} (node {})", pointer, id); }
+};
+
+void readNode(const json& tile, Node& n) {
+    const json& ca = member(member(tile, "extras"), "cityatlas");
+    n.id = count(ca, "id");
+    n.level = count(ca, "level");
+    n.quadrant = integer(ca, "quadrant");
+    n.bytes = count(ca, "bytes");
+    const json& offset = arrayOf(ca, "offset");
+    if (offset.size() != 2) throw BadEntry("'offset' has not 2 integers");
+    n.offset = {integerOf(offset[0], "offset"), integerOf(offset[1], "offset")};
+    n.min_distance_m = number(ca, "min_distance_m");
+    n.world_texel_m = number(ca, "world_texel_m");
+    n.geometric_error = number(tile, "geometricError");
+    n.transform = tile.contains("transform");
+    const json& c = arrayOf(ca, "centre");
+    if (c.size() != 3) throw BadEntry("'centre' has not 3 numbers");
+    n.centre = {numberOf(c[0], "centre"), numberOf(c[1], "centre"), numberOf(c[2], "centre")};
+    const json& box = arrayOf(member(tile, "boundingVolume"), "box");
+    if (box.size() != 12) throw BadEntry("'box' has not 12 numbers");
+    for (size_t k = 0; k < 12; ++k) n.box[k] = numberOf(box[k], "box");
+    const json& layers = member(ca, "layers");
+    for (const char* name : {"opaque", "alpha"}) {
+        if (!layers.is_object() || !layers.contains(name)) continue;
+        const json& L = layers[name];
+        Layer l;
+        l.name = name;
+        l.geometry_uri = text(member(L, "geometry"), "uri");
+        l.geometry_bytes = count(member(L, "geometry"), "bytes");
+        l.triangles = count(L, "triangles");
+        l.geometric_error_m = number(L, "geometric_error_m");
+        if (const json& a = member(L, "atlas"); !a.is_null()) {
+            l.has_atlas = true;
+            l.atlas_uri = text(a, "uri");
+            l.atlas_bytes = count(a, "bytes");
+            l.atlas_format = text(a, "format");
+            l.atlas_size_px = count(a, "size_px");
+            l.atlas_mips = count(a, "mips");
         }
-        return "schema";
-    } catch (const std::exception& ex) {
-        return std::string("schema validation failed: ") + ex.what();
+        n.layers.push_back(std::move(l));
+    }
+    if (tile.contains("contents"))
+        for (const json& e : arrayOf(tile, "contents")) n.contents.push_back(text(e, "uri"));
+    for (const json& b : arrayOf(ca, "texture_blocks")) n.texture_blocks.push_back(integerOf(b, "texture_blocks"));
+    const json& f = member(ca, "features");
+    n.feature_count = count(f, "count");
+    for (const json& t : arrayOf(f, "tables")) n.feature_tables.push_back(integerOf(t, "tables"));
+    for (const json& t : arrayOf(f, "dropped")) n.dropped.push_back(integerOf(t, "dropped"));
+    n.usable = true;
+}
+
+// The tiles in depth-first preorder; a tile that cannot be read is a defect and
+// an unusable node (its children are still read). Nesting is bounded, so the
+// recursion is too.
+void readTree(const json& tile, const std::string& pointer, int parent, std::vector<Node>& nodes, Defects& d) {
+    const json* children = tile.is_object() && tile.contains("children") ? &tile["children"] : nullptr;
+    Node n;
+    n.pointer = pointer;
+    n.parent = parent;
+    n.leaf = !children || !children->is_array() || children->empty();
+    try {
+        readNode(tile, n);
+    } catch (const BadEntry& e) {
+        n.usable = false;
+        d.push_back(fmt::format("tileset.json: {}: tile not checked: {}", pointer, e.what()));
+    }
+    const bool leaf = n.leaf;
+    const int index = static_cast<int>(nodes.size());
+    nodes.push_back(std::move(n));
+    if (!leaf)
+        for (size_t c = 0; c < children->size(); ++c)
+            readTree((*children)[c], fmt::format("{}/children/{}", pointer, c), index, nodes, d);
+}
+
+// What the whole index says, for the per-node checks.
+struct Index {
+    double focal_px = 0, corner_factor = 1, d_min_m = 0;
+    int64_t atlas_size_px = 0, materials = 0, feature_count = 0, block_size = 1;
+    std::vector<int64_t> texture_block;  // per texture; -2: the entry cannot be read
+    size_t blocks = 0, tables = 0;
+};
+
+// Corner extremes of a 3D Tiles box per axis (exact for the writer's
+// axis-aligned boxes; the enclosing axis-aligned box otherwise).
+std::array<double, 6> extent(const std::array<double, 12>& b) {
+    std::array<double, 6> e{};
+    for (size_t k = 0; k < 3; ++k) {
+        const double h = std::abs(b[3 + k]) + std::abs(b[6 + k]) + std::abs(b[9 + k]);
+        e[k] = b[k] - h, e[3 + k] = b[k] + h;
+    }
+    return e;
+}
+
+// Checks that need the tree but no file: cheap, serial, in preorder.
+void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
+    std::set<int64_t> ids;
+    std::map<int, std::set<int64_t>> quadrants;
+    bool preorder = true;
+    for (size_t i = 0; i < nodes.size(); ++i) {
+        const Node& n = nodes[i];
+        if (!n.usable) continue;
+        auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", n.where(), what)); };
+        if (n.id != static_cast<int64_t>(i) && preorder) {
+            bad(fmt::format("id {} is not its depth-first preorder index {} (later ids not compared)", n.id, i));
+            preorder = false;
+        }
+        if (n.id >= static_cast<int64_t>(nodes.size())) bad(fmt::format("id outside 0..{}", nodes.size() - 1));
+        if (!ids.insert(n.id).second) bad("id used twice");
+        const double focal = ix.focal_px, texel_focal = ix.focal_px * ix.corner_factor;
+        if (!near(n.geometric_error, n.min_distance_m / focal))
+            bad(fmt::format("geometricError {} != min_distance_m / focal_px = {}", n.geometric_error,
+                            n.min_distance_m / focal));
+        if (!near(n.world_texel_m, n.min_distance_m / texel_focal))
+            bad(fmt::format("world_texel_m {} != min_distance_m / (focal_px * corner_factor) = {}", n.world_texel_m,
+                            n.min_distance_m / texel_focal));
+        if (n.leaf && !near(n.min_distance_m, ix.d_min_m))
+            bad(fmt::format("a leaf with min_distance_m {}, build.d_min_m is {}", n.min_distance_m, ix.d_min_m));
+        int64_t bytes = 0;
+        std::set<std::string> layer_uris;
+        for (const Layer& l : n.layers) {
+            bytes += l.geometry_bytes + (l.has_atlas ? l.atlas_bytes : 0);
+            layer_uris.insert(l.geometry_uri);
+            if (l.geometric_error_m > 0 && l.geometric_error_m >= n.world_texel_m)
+                bad(fmt::format("{} geometric_error_m {} is not below world_texel_m {}", l.name, l.geometric_error_m,
+                                n.world_texel_m));
+        }
+        if (bytes != n.bytes) bad(fmt::format("bytes {} != its geometry and atlases ({})", n.bytes, bytes));
+        if (n.contents.size() != n.layers.size() || std::set(n.contents.begin(), n.contents.end()) != layer_uris)
+            bad("contents do not list exactly the layers' geometry");
+        for (int64_t b : n.texture_blocks)
+            if (b < 0 || static_cast<size_t>(b) >= ix.blocks) bad(fmt::format("texture block {} does not exist", b));
+        for (int64_t t : n.feature_tables)
+            if (t < 0 || static_cast<size_t>(t) >= ix.tables) bad(fmt::format("feature table {} does not exist", t));
+        for (int64_t f : n.dropped)
+            if (f < 0 || f >= ix.feature_count) bad(fmt::format("dropped feature {} does not exist", f));
+        if (n.parent < 0) {
+            if (n.level != 0 || n.quadrant != -1) bad("the root is not at level 0 with quadrant -1");
+            continue;
+        }
+        if (n.transform) bad("a transform below the root (3D Tiles would apply it on top of the root's)");
+        const Node& p = nodes[static_cast<size_t>(n.parent)];
+        if (!p.usable) continue;
+        if (n.level != p.level + 1) bad(fmt::format("level {} under a parent at level {}", n.level, p.level));
+        if (n.quadrant < 0 || n.quadrant > 3) {
+            bad(fmt::format("a child with quadrant {}", n.quadrant));
+        } else if (!quadrants[n.parent].insert(n.quadrant).second) {
+            bad(fmt::format("a second child in quadrant {}", n.quadrant));
+        } else if (n.offset[0] != 2 * p.offset[0] + (n.quadrant & 1) ||
+                   n.offset[1] != 2 * p.offset[1] + (n.quadrant >> 1)) {
+            bad(fmt::format("offset [{}, {}] is not quadrant {} of its parent's [{}, {}]", n.offset[0], n.offset[1],
+                            n.quadrant, p.offset[0], p.offset[1]));
+        }
+        if (p.min_distance_m < 2 * n.min_distance_m * (1 - kRelTolerance))
+            bad(fmt::format("min_distance_m {} is more than half its parent's {}", n.min_distance_m, p.min_distance_m));
+        const auto c = extent(n.box), e = extent(p.box);
+        for (size_t k = 0; k < 3; ++k) {
+            const double tol = 1e-6 * std::max({std::abs(e[k]), std::abs(e[3 + k]), 1.0}) + 1e-6;
+            if (c[k] < e[k] - tol || c[3 + k] > e[3 + k] + tol) {
+                bad(fmt::format("box [{}, {}] along {} is not inside its parent's [{}, {}]", c[k], c[3 + k], "xyz"[k],
+                                e[k], e[3 + k]));
+                break;
+            }
+        }
     }
 }
 
-struct NodeRef {
-    const json* tile;
-    const json* parent;
-};
+// --- Files of a node -------------------------------------------------------------
+
+// The geometry (decoded and compared with the index) and atlases (DDS headers) of one node.
+void checkNodeFiles(const Node& n, const Index& ix, Folder& folder, Defects& d) {
+    std::set<uint32_t> features;
+    std::set<int64_t> blocks_used;
+    bool decoded_all = true;
+    const auto n_textures = static_cast<int64_t>(ix.texture_block.size());
+    for (const Layer& l : n.layers) {
+        const std::string& uri = l.geometry_uri;
+        TileMesh m;
+        if (!folder.check(uri, l.geometry_bytes, d)) {
+            decoded_all = false;
+        } else if (Status st = decodeTileGlb(readBytes(folder.path(uri), 0, uint64_t(l.geometry_bytes)), n.centre, &m);
+                   !st.ok()) {
+            d.push_back(fmt::format("{}: {}", uri, st.error));
+            decoded_all = false;
+        } else {
+            auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", uri, what)); };
+            const auto tris = static_cast<int64_t>(m.indices.size() / 3);
+            if (tris != l.triangles) bad(fmt::format("{} triangles, tileset.json says {}", tris, l.triangles));
+            if (m.feature_id.empty()) bad(fmt::format("no feature ids ({})", kTileFeatureIdAttribute));
+            auto outside = [](const auto& v, int64_t lo, int64_t hi) {
+                return std::find_if(v.begin(), v.end(), [&](auto x) { return x < lo || x >= hi; });
+            };
+            if (auto it = outside(m.feature_id, 0, ix.feature_count); it != m.feature_id.end())
+                bad(fmt::format("feature id {}, there are {} features", *it, ix.feature_count));
+            if (auto it = outside(m.texture_id, -1, n_textures); it != m.texture_id.end())
+                bad(fmt::format("texture id {}, there are {} textures", *it, n_textures));
+            if (auto it = outside(m.material_id, -1, ix.materials); it != m.material_id.end())
+                bad(fmt::format("material id {}, there are {} materials", *it, ix.materials));
+            bool textured = false;
+            for (int32_t t : m.texture_id)
+                if (t >= 0 && t < n_textures) {
+                    textured = true;
+                    blocks_used.insert(ix.texture_block[static_cast<size_t>(t)]);
+                }
+            if (n.leaf && textured && m.uv_original.empty()) bad("textured triangles but no \"original\" uv set");
+            if (l.has_atlas && m.uv_atlas.empty()) bad("an atlas but no \"atlas\" uv set");
+            features.insert(m.feature_id.begin(), m.feature_id.end());
+        }
+        if (!l.has_atlas) continue;
+        const int channels = l.name == "alpha" ? 4 : 3;
+        auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", l.atlas_uri, what)); };
+        if (l.atlas_format != (channels == 4 ? "BC3" : "BC1"))
+            bad(fmt::format("format {} in the {} layer", l.atlas_format, l.name));
+        if (l.atlas_size_px != ix.atlas_size_px)
+            bad(fmt::format("size_px {}, build.atlas_size_px is {}", l.atlas_size_px, ix.atlas_size_px));
+        if (l.atlas_mips != fullMipCount(l.atlas_size_px, l.atlas_size_px))
+            bad(fmt::format("{} mips, not the full chain", l.atlas_mips));
+        if (folder.check(l.atlas_uri, l.atlas_bytes, d))
+            checkDds(folder.path(l.atlas_uri), l.atlas_uri, 0, "", channels, l.atlas_size_px, l.atlas_size_px,
+                     l.atlas_mips, static_cast<uint64_t>(l.atlas_bytes), d);
+    }
+    if (!decoded_all) return;  // the comparisons below need every layer
+    auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", n.where(), what)); };
+    if (static_cast<int64_t>(features.size()) != n.feature_count)
+        bad(fmt::format("features.count {}, its geometry has {} feature ids", n.feature_count, features.size()));
+    std::set<int64_t> tables;
+    for (uint32_t f : features) tables.insert(static_cast<int64_t>(f) / ix.block_size);
+    if (tables != std::set<int64_t>(n.feature_tables.begin(), n.feature_tables.end()))
+        bad("features.tables are not the tables of its geometry's feature ids");
+    for (int64_t f : n.dropped)
+        if (f >= 0 && features.count(static_cast<uint32_t>(f))) {
+            bad(fmt::format("feature {} is listed as dropped but is in its geometry", f));
+            break;
+        }
+    const std::set<int64_t> listed(n.texture_blocks.begin(), n.texture_blocks.end());
+    for (int64_t b : blocks_used)
+        if (n.leaf && b >= 0 && !listed.count(b)) {
+            bad(fmt::format("its textures are in block {}, which texture_blocks does not list", b));
+            break;
+        }
+}
+
+// Runs check(i, defects) for i in [0, n) on the arena; the defects come back in
+// index order. `entry` names item i in tileset.json.
+void forEach(tbb::task_arena& arena, size_t n, const std::function<std::string(size_t)>& entry,
+             const std::function<void(size_t, Defects&)>& check, Defects& out) {
+    std::vector<Defects> per(n);
+    arena.execute([&] {
+        tbb::parallel_for(size_t{0}, n, [&](size_t i) {
+            try {
+                check(i, per[i]);
+            } catch (const std::exception& e) {  // BadEntry, or bad_alloc on absurd sizes: never out of the checker
+                per[i].push_back(fmt::format("tileset.json: {}: not checked further: {}", entry(i), e.what()));
+            }
+        });
+    });
+    for (Defects& d : per) out.insert(out.end(), d.begin(), d.end());
+}
+
+// --- Texture blocks and feature tables ---------------------------------------
+
+// One texture block: its file, then the DDS files of `members` inside it, back to back.
+void checkBlock(const json& entry, const json& textures, const std::vector<size_t>& members, bool layout,
+                Folder& folder, std::atomic<uint64_t>& bytes_total, Defects& d) {
+    const std::string uri = text(entry, "uri");
+    const int64_t size = count(entry, "bytes");
+    bytes_total += static_cast<uint64_t>(size);
+    if (!folder.check(uri, size, d)) return;
+    std::vector<std::tuple<int64_t, int64_t, size_t>> spans;  // offset, bytes, texture
+    for (size_t t : members) spans.emplace_back(count(textures[t], "offset"), count(textures[t], "bytes"), t);
+    std::sort(spans.begin(), spans.end());
+    int64_t end = 0;
+    for (const auto& [offset, bytes, t] : spans) {
+        const json& e = textures[t];
+        const std::string what = fmt::format("texture {} (offset {}, {} bytes): ", t, offset, bytes);
+        if (offset > size || bytes > size - offset) {
+            d.push_back(fmt::format("{}: {}outside the block of {} bytes", uri, what, size));
+            continue;
+        }
+        if (offset != end && layout)
+            d.push_back(fmt::format("{}: {}{} at byte {}", uri, what, offset < end ? "overlaps" : "a gap", end));
+        end = std::max(end, offset + bytes);
+        checkDds(folder.path(uri), uri, static_cast<uint64_t>(offset), what, text(e, "format") == "BC3" ? 4 : 3,
+                 count(e, "width"), count(e, "height"), count(e, "mips"), static_cast<uint64_t>(bytes), d);
+    }
+    if (end < size && layout) d.push_back(fmt::format("{}: bytes {}..{} belong to no texture", uri, end, size));
+}
+
+// Feature table k: ids k * block_size on, as many as the count leaves for it.
+void checkTable(const json& entry, size_t k, const Index& ix, Folder& folder, std::atomic<uint64_t>& bytes_total,
+                Defects& d) {
+    const std::string uri = text(entry, "uri");
+    const int64_t size = count(entry, "bytes");
+    bytes_total += static_cast<uint64_t>(size);
+    if (!folder.check(uri, size, d)) return;
+    json t;
+    try {
+        std::ifstream f(folder.path(uri), std::ios::binary);
+        t = json::parse(f);
+    } catch (const std::exception& e) {
+        d.push_back(fmt::format("{}: not valid JSON: {}", uri, e.what()));
+        return;
+    }
+    try {
+        const auto first = static_cast<int64_t>(k) * ix.block_size;
+        const int64_t want = std::clamp<int64_t>(ix.feature_count - first, 0, ix.block_size);
+        const json& list = arrayOf(t, "features");
+        if (count(t, "first") != first || static_cast<int64_t>(list.size()) != want) {
+            d.push_back(fmt::format("{}: holds {} features from id {}, expected {} from {}", uri, list.size(),
+                                    count(t, "first"), want, first));
+            return;
+        }
+        for (size_t i = 0; i < list.size(); ++i)
+            if (const int64_t id = count(list[i], "id"); id != first + static_cast<int64_t>(i)) {
+                d.push_back(fmt::format("{}: features[{}] has id {}, expected {}", uri, i, id, first + int64_t(i)));
+                return;
+            }
+    } catch (const BadEntry& e) {
+        d.push_back(fmt::format("{}: not a feature table: {}", uri, e.what()));
+    }
+}
+
+// Levels and sums, from the index (the checks hold the index against the files).
+void summarise(const std::vector<Node>& nodes, InspectResult& r) {
+    for (const Node& n : nodes) {
+        if (!n.usable) continue;
+        const auto level = static_cast<size_t>(std::min<int64_t>(n.level, kMaxNesting));
+        if (r.levels.size() <= level) r.levels.resize(level + 1);
+        InspectLevel& L = r.levels[level];
+        L.world_texel_min_m = L.nodes ? std::min(L.world_texel_min_m, n.world_texel_m) : n.world_texel_m;
+        L.world_texel_max_m = std::max(L.world_texel_max_m, n.world_texel_m);
+        L.min_distance_m = std::max(L.min_distance_m, n.min_distance_m);
+        ++L.nodes;
+        L.leaves += n.leaf ? 1 : 0;
+        for (const Layer& l : n.layers) {
+            L.triangles += static_cast<uint64_t>(l.triangles);
+            L.bytes_geometry += static_cast<uint64_t>(l.geometry_bytes);
+            L.bytes_atlases += l.has_atlas ? static_cast<uint64_t>(l.atlas_bytes) : 0;
+            ++r.geometry_files;
+            r.atlas_files += l.has_atlas ? 1 : 0;
+        }
+    }
+    for (const InspectLevel& L : r.levels) {
+        r.nodes += L.nodes;
+        r.leaves += L.leaves;
+        r.triangles += L.triangles;
+        r.bytes_geometry += L.bytes_geometry;
+        r.bytes_atlases += L.bytes_atlases;
+    }
+}
 
 }  // namespace
 
 InspectResult inspectTileFolder(const fs::path& folder, int threads) {
     InspectResult r;
-    Inspector in(folder, &r);
+    Defects& d = r.defects;
+    Folder files(folder);
     json ts;
-    {
-        std::ifstream f(folder / "tileset.json");
-        if (!f) {
-            in.defect((folder / "tileset.json").string(), "missing: not a cityatlas tile folder");
-            return r;
-        }
-        try {
-            ts = json::parse(f);
-        } catch (const std::exception& e) {
-            in.defect("tileset.json", fmt::format("not valid JSON: {}", e.what()));
-            return r;
-        }
+    std::error_code ec;
+    if (!fs::exists(folder / "tileset.json", ec)) {
+        d.push_back(fmt::format("tileset.json: missing in {}: not a cityatlas tile folder", folder.string()));
+        return r;
     }
-    std::vector<std::string> schema_errors;
-    const std::string schema_status = validateSchema(ts, &schema_errors);
-    for (const std::string& e : schema_errors) r.defects.push_back(e);
-    if (!schema_status.empty() && schema_status != "schema") r.defects.push_back("tileset.json: " + schema_status);
-    if (!r.defects.empty()) return r;  // the structure below relies on the schema
+    if (!files.check("tileset.json", -1, d)) return r;
+    try {
+        std::ifstream f(folder / "tileset.json", std::ios::binary);
+        ts = json::parse(f);
+    } catch (const std::exception& e) {
+        d.push_back(fmt::format("tileset.json: not valid JSON: {}", e.what()));
+        return r;
+    }
+    if (boundDocument(ts) > kMaxNesting) {
+        d.push_back(fmt::format("tileset.json: nested deeper than {} levels", kMaxNesting));
+        return r;
+    }
+    validateSchema(ts, d);
 
-    const json& ca = ts["extras"]["cityatlas"];
-    const double focal = ca["build"]["focal_px"];
-    const auto n_textures = ca["textures"].size();
-    const auto n_materials = ca["materials"].size();
-    const auto n_features = ca["features"]["count"].get<uint64_t>();
+    // The tables of the index; without them nothing else can be checked.
+    Index ix;
+    const json *ca = nullptr, *textures = nullptr, *blocks = nullptr, *tables = nullptr;
+    try {
+        ca = &member(member(ts, "extras"), "cityatlas");
+        const json& build = member(*ca, "build");
+        ix.focal_px = number(build, "focal_px");
+        ix.corner_factor = number(build, "corner_factor");
+        ix.d_min_m = number(build, "d_min_m");
+        ix.atlas_size_px = count(build, "atlas_size_px");
+        ix.materials = static_cast<int64_t>(arrayOf(*ca, "materials").size());
+        const json& features = member(*ca, "features");
+        ix.feature_count = count(features, "count");
+        ix.block_size = std::max<int64_t>(1, count(features, "block_size"));
+        tables = &arrayOf(features, "tables");
+        blocks = &arrayOf(*ca, "texture_blocks");
+        textures = &arrayOf(*ca, "textures");
+        ix.tables = tables->size();
+        ix.blocks = blocks->size();
+        if (!(ix.focal_px > 0 && ix.corner_factor > 0)) throw BadEntry("focal_px or corner_factor not positive");
+    } catch (const BadEntry& e) {
+        d.push_back(fmt::format("tileset.json: /extras/cityatlas unusable ({}); nothing further checked", e.what()));
+        return r;
+    }
+    try {
+        if (!near(number(ts, "geometricError"), 2 * number(member(ts, "root"), "geometricError")))
+            d.push_back("tileset.json: /geometricError: not twice the root's");
+        // The root's transform is local_to_ecef (absent when not georeferenced); no other tile has one.
+        const json& to_ecef = member(member(*ca, "georeference"), "local_to_ecef");
+        const json& root = member(ts, "root");
+        const bool has = root.contains("transform");
+        if (to_ecef.is_null() ? has : !has || root["transform"] != to_ecef)
+            d.push_back("tileset.json: /root/transform: not georeference.local_to_ecef");
+    } catch (const BadEntry& e) {
+        d.push_back(fmt::format("tileset.json: /: geometricError and transform not compared: {}", e.what()));
+    }
+    for (size_t t = 0; t < textures->size(); ++t) {
+        int64_t b = -2;
+        try {
+            b = integer((*textures)[t], "block");
+        } catch (const BadEntry&) {  // the schema error says why
+        }
+        ix.texture_block.push_back(b);
+        if (b == -2)
+            d.push_back(fmt::format("tileset.json: /extras/cityatlas/textures/{}: no usable block", t));
+        else if (b >= static_cast<int64_t>(ix.blocks) || b < -1)
+            d.push_back(fmt::format("tileset.json: /extras/cityatlas/textures/{}: block {} does not exist", t, b));
+        r.textures_unreadable += b == -1 ? 1 : 0;
+    }
 
-    // The tree, flattened in preorder, with structural checks.
-    std::vector<NodeRef> nodes;
-    std::set<int64_t> ids;
-    std::function<void(const json&, const json*)> walk = [&](const json& tile, const json* parent) {
-        const json& n = tile["extras"]["cityatlas"];
-        const std::string where = fmt::format("tileset.json: node {}", n["id"].get<int64_t>());
-        if (!ids.insert(n["id"].get<int64_t>()).second) in.defect(where, "id used twice");
-        if (std::abs(tile["geometricError"].get<double>() * focal - n["min_distance_m"].get<double>()) >
-            1e-9 * std::max(1.0, n["min_distance_m"].get<double>()))
-            in.defect(where, "geometricError != min_distance_m / focal_px");
-        for (const auto& [lname, L] : n["layers"].items())
-            if (L["geometric_error_m"].get<double>() > 0 &&
-                L["geometric_error_m"].get<double>() >= n["world_texel_m"].get<double>())
-                in.defect(where, fmt::format("{} geometric error {} m is not below the world texel {} m", lname,
-                                             L["geometric_error_m"].get<double>(), n["world_texel_m"].get<double>()));
-        if (parent != nullptr) {
-            const json& p = (*parent)["extras"]["cityatlas"];
-            if (n["level"].get<int>() != p["level"].get<int>() + 1) in.defect(where, "level is not its parent's + 1");
-            if (n["quadrant"].get<int>() < 0) in.defect(where, "a child without a quadrant");
-            const json& cb = tile["boundingVolume"]["box"];
-            const json& pb = (*parent)["boundingVolume"]["box"];
-            for (int k = 0; k < 3; ++k) {
-                const double c = cb[k], ch = std::abs(cb[3 + 4 * k].get<double>());
-                const double pc = pb[k], ph = std::abs(pb[3 + 4 * k].get<double>());
-                const double tol = 1e-6 * std::max({1.0, std::abs(pc), ph}) + 1e-6;
-                if (c - ch < pc - ph - tol || c + ch > pc + ph + tol)
-                    in.defect(where, "bounding box is not inside its parent's");
-            }
-        }
-        nodes.push_back({&tile, parent});
-        if (tile.contains("children")) {
-            std::set<int> quadrants;
-            for (const json& c : tile["children"]) {
-                if (!quadrants.insert(c["extras"]["cityatlas"]["quadrant"].get<int>()).second)
-                    in.defect(where, "two children in one quadrant");
-                walk(c, &tile);
-            }
-        }
-    };
-    walk(ts["root"], nullptr);
-    for (int64_t i = 0; i < static_cast<int64_t>(nodes.size()); ++i)
-        if (!ids.count(i)) {
-            in.defect("tileset.json", fmt::format("node ids are not 0..{}", nodes.size() - 1));
-            break;
-        }
+    std::vector<Node> nodes;
+    static const json kNoTile;
+    readTree(ts.contains("root") ? static_cast<const json&>(ts["root"]) : kNoTile, "/root", -1, nodes, d);
+    checkTree(nodes, ix, d);
+    std::map<std::string, int> uses;
+    for (const Node& n : nodes)
+        for (const Layer& l : n.layers)
+            for (const std::string* u : {&l.geometry_uri, l.has_atlas ? &l.atlas_uri : nullptr})
+                if (u && ++uses[*u] == 2) d.push_back(fmt::format("{}: named by more than one entry", *u));
 
-    // Blocks of every node, in parallel (Draco decoding is the slow part).
-    std::vector<uint64_t> geometry_bytes(nodes.size()), atlas_bytes(nodes.size()), triangles(nodes.size());
+    // Every node's files in parallel (Draco decoding is most of the time), then blocks and tables.
     tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-    arena.execute([&] {
-        tbb::parallel_for(size_t{0}, nodes.size(), [&](size_t i) {
-            const json& tile = *nodes[i].tile;
-            const json& n = tile["extras"]["cityatlas"];
-            const bool leaf = !tile.contains("children");
-            const Vec3d centre{n["centre"][0].get<double>(), n["centre"][1].get<double>(), n["centre"][2].get<double>()};
-            for (const auto& [lname, L] : n["layers"].items()) {
-                const std::string uri = L["geometry"]["uri"];
-                if (in.checkFile(uri, L["geometry"]["bytes"].get<int64_t>())) {
-                    geometry_bytes[i] += L["geometry"]["bytes"].get<uint64_t>();
-                    TileMesh m;
-                    const Status st = decodeTileGlb(readBytes(in.path(uri)), centre, &m);
-                    if (!st.ok()) {
-                        in.defect(uri, st.error);
-                    } else {
-                        triangles[i] += m.indices.size() / 3;
-                        if (m.indices.size() / 3 != L["triangles"].get<size_t>())
-                            in.defect(uri, fmt::format("{} triangles, tileset.json says {}", m.indices.size() / 3,
-                                                       L["triangles"].get<size_t>()));
-                        if (m.feature_id.empty()) in.defect(uri, "no feature ids");
-                        for (uint32_t f : m.feature_id)
-                            if (f >= n_features) {
-                                in.defect(uri, fmt::format("feature id {} >= {} features", f, n_features));
-                                break;
-                            }
-                        for (int32_t t : m.texture_id)
-                            if (t >= static_cast<int64_t>(n_textures)) {
-                                in.defect(uri, fmt::format("texture id {} >= {} textures", t, n_textures));
-                                break;
-                            }
-                        for (int32_t t : m.material_id)
-                            if (t >= static_cast<int64_t>(n_materials)) {
-                                in.defect(uri, fmt::format("material id {} >= {} materials", t, n_materials));
-                                break;
-                            }
-                        const bool textured = std::any_of(m.texture_id.begin(), m.texture_id.end(), [](int32_t t) { return t >= 0; });
-                        if (leaf && textured && m.uv_original.empty()) in.defect(uri, "textured leaf without original uvs");
-                        if (!L["atlas"].is_null() && m.uv_atlas.empty()) in.defect(uri, "an atlas but no atlas uvs");
-                    }
-                }
-                if (L["atlas"].is_null()) continue;
-                const json& a = L["atlas"];
-                const std::string auri = a["uri"];
-                if (!in.checkFile(auri, a["bytes"].get<int64_t>())) continue;
-                atlas_bytes[i] += a["bytes"].get<uint64_t>();
-                const std::vector<uint8_t> head = readBytes(in.path(auri), 128);
-                DdsInfo d;
-                if (std::string why = parseDds(head.data(), head.size(), &d); !why.empty()) {
-                    in.defect(auri, why);
-                    continue;
-                }
-                const int want_channels = lname == "alpha" ? 4 : 3;
-                if (d.channels != want_channels || (a["format"] == "BC3") != (d.channels == 4))
-                    in.defect(auri, fmt::format("DDS is {}, the {} layer needs {}", d.channels == 4 ? "BC3" : "BC1", lname,
-                                                want_channels == 4 ? "BC3" : "BC1"));
-                if (d.width != a["size_px"].get<int>() || d.height != a["size_px"].get<int>() || d.mips != a["mips"].get<int>())
-                    in.defect(auri, fmt::format("DDS is {}x{} with {} mips, tileset.json says {}x{} with {}", d.width,
-                                                d.height, d.mips, a["size_px"].get<int>(), a["size_px"].get<int>(),
-                                                a["mips"].get<int>()));
-                if (d.expected_bytes != a["bytes"].get<uint64_t>())
-                    in.defect(auri, fmt::format("{} bytes, a DDS with this header has {}", a["bytes"].get<uint64_t>(),
-                                                d.expected_bytes));
-            }
-            for (const json& b : n["texture_blocks"])
-                if (b.get<size_t>() >= ca["texture_blocks"].size())
-                    in.defect(fmt::format("tileset.json: node {}", n["id"].get<int64_t>()), "names a texture block that does not exist");
-        });
-    });
+    forEach(
+        arena, nodes.size(), [&](size_t i) { return nodes[i].pointer; },
+        [&](size_t i, Defects& out) {
+            if (nodes[i].usable) checkNodeFiles(nodes[i], ix, files, out);
+        },
+        d);
+    std::vector<std::vector<size_t>> members(ix.blocks);
+    for (size_t t = 0; t < ix.texture_block.size(); ++t)
+        if (ix.texture_block[t] >= 0 && ix.texture_block[t] < static_cast<int64_t>(ix.blocks))
+            members[static_cast<size_t>(ix.texture_block[t])].push_back(t);
+    // With an unreadable texture entry the layout of the blocks cannot be compared.
+    const bool layout = std::count(ix.texture_block.begin(), ix.texture_block.end(), int64_t{-2}) == 0;
+    std::atomic<uint64_t> block_bytes{0}, table_bytes{0};
+    forEach(
+        arena, ix.blocks, [](size_t b) { return fmt::format("/extras/cityatlas/texture_blocks/{}", b); },
+        [&](size_t b, Defects& out) {
+            checkBlock((*blocks)[b], *textures, members[b], layout, files, block_bytes, out);
+        },
+        d);
+    if (ix.tables != static_cast<size_t>((ix.feature_count + ix.block_size - 1) / ix.block_size))
+        d.push_back(fmt::format("tileset.json: /extras/cityatlas/features: {} tables for {} features in blocks of {}",
+                                ix.tables, ix.feature_count, ix.block_size));
+    forEach(
+        arena, ix.tables, [](size_t k) { return fmt::format("/extras/cityatlas/features/tables/{}", k); },
+        [&](size_t k, Defects& out) { checkTable((*tables)[k], k, ix, files, table_bytes, out); }, d);
 
-    // Texture blocks and the textures inside them.
-    std::vector<bool> block_ok;
-    for (const json& b : ca["texture_blocks"]) {
-        block_ok.push_back(in.checkFile(b["uri"], b["bytes"].get<int64_t>()));
-        if (block_ok.back()) r.bytes_textures += b["bytes"].get<uint64_t>();
-    }
-    r.texture_blocks = block_ok.size();
-    for (size_t t = 0; t < ca["textures"].size(); ++t) {
-        const json& e = ca["textures"][t];
-        ++r.textures;
-        const int block = e["block"];
-        if (block < 0) continue;
-        const std::string where = fmt::format("tileset.json: texture {}", t);
-        if (static_cast<size_t>(block) >= block_ok.size()) {
-            in.defect(where, "names a texture block that does not exist");
-            continue;
+    summarise(nodes, r);
+    r.bytes_textures = block_bytes;
+    r.bytes_features = table_bytes;
+    r.textures = ix.texture_block.size();
+    r.texture_blocks = ix.blocks;
+    r.feature_tables = ix.tables;
+    r.features = static_cast<uint64_t>(ix.feature_count);
+    try {
+        const json& totals = member(*ca, "totals");
+        const json& bytes = member(totals, "bytes");
+        auto total = [&](const char* what, uint64_t found, int64_t claimed) {
+            if (static_cast<int64_t>(found) != claimed)
+                d.push_back(fmt::format("tileset.json: /extras/cityatlas/totals/{}: {}, the index adds up to {}", what,
+                                        claimed, found));
+        };
+        total("nodes", nodes.size(), count(totals, "nodes"));
+        // Sums over a tree with unreadable tiles would only repeat their defects.
+        if (std::all_of(nodes.begin(), nodes.end(), [](const Node& n) { return n.usable; })) {
+            total("leaves", r.leaves, count(totals, "leaves"));
+            total("depth", r.levels.empty() ? 0 : r.levels.size() - 1, count(totals, "depth"));
+            total("bytes/geometry", r.bytes_geometry, count(bytes, "geometry"));
+            total("bytes/atlases", r.bytes_atlases, count(bytes, "atlases"));
         }
-        const json& b = ca["texture_blocks"][static_cast<size_t>(block)];
-        if (!block_ok[static_cast<size_t>(block)]) continue;
-        const auto offset = e["offset"].get<uint64_t>(), bytes = e["bytes"].get<uint64_t>();
-        const std::string buri = b["uri"];
-        if (offset + bytes > b["bytes"].get<uint64_t>() || offset + bytes < offset) {
-            in.defect(buri, fmt::format("texture {} (offset {}, {} bytes) lies outside the block", t, offset, bytes));
-            continue;
-        }
-        std::ifstream f(in.path(buri), std::ios::binary);
-        std::vector<uint8_t> head(128);
-        f.seekg(static_cast<std::streamoff>(offset));
-        f.read(reinterpret_cast<char*>(head.data()), 128);
-        head.resize(static_cast<size_t>(f.gcount()));
-        DdsInfo d;
-        if (std::string why = parseDds(head.data(), head.size(), &d); !why.empty()) {
-            in.defect(buri, fmt::format("texture {} at offset {}: {}", t, offset, why));
-            continue;
-        }
-        if (d.width != e["width"].get<int>() || d.height != e["height"].get<int>() || d.mips != e["mips"].get<int>() ||
-            (d.channels == 4) != (e["format"] == "BC3") || d.expected_bytes != bytes)
-            in.defect(buri, fmt::format("texture {} at offset {}: the DDS ({}x{}, {} mips, {} bytes) does not match its "
-                                        "entry ({}x{}, {} mips, {} bytes)",
-                                        t, offset, d.width, d.height, d.mips, d.expected_bytes, e["width"].get<int>(),
-                                        e["height"].get<int>(), e["mips"].get<int>(), bytes));
+        total("bytes/textures", r.bytes_textures, count(bytes, "textures"));
+        total("bytes/features", r.bytes_features, count(bytes, "features"));
+    } catch (const BadEntry& e) {
+        d.push_back(fmt::format("tileset.json: /extras/cityatlas/totals: {}", e.what()));
     }
-
-    // Feature tables.
-    const auto bs = ca["features"]["block_size"].get<uint64_t>();
-    const json& tables = ca["features"]["tables"];
-    if (tables.size() != (n_features + bs - 1) / bs)
-        in.defect("tileset.json", fmt::format("{} feature tables for {} features in blocks of {}", tables.size(), n_features, bs));
-    for (size_t k = 0; k < tables.size(); ++k) {
-        const std::string uri = tables[k]["uri"];
-        if (!in.checkFile(uri, tables[k]["bytes"].get<int64_t>())) continue;
-        r.bytes_features += tables[k]["bytes"].get<uint64_t>();
-        try {
-            std::ifstream f(in.path(uri));
-            const json t = json::parse(f);
-            const uint64_t first = t.at("first").get<uint64_t>();
-            const json& list = t.at("features");
-            const uint64_t want = std::min<uint64_t>(bs, n_features - std::min(n_features, k * bs));
-            if (first != k * bs || list.size() != want) {
-                in.defect(uri, fmt::format("holds ids {}..+{}, expected {}..+{}", first, list.size(), k * bs, want));
-                continue;
-            }
-            for (size_t i = 0; i < list.size(); ++i)
-                if (list[i].at("id").get<uint64_t>() != first + i) {
-                    in.defect(uri, fmt::format("entry {} has id {}, expected {}", i, list[i].at("id").get<uint64_t>(), first + i));
-                    break;
-                }
-            r.features += list.size();
-        } catch (const std::exception& e) {
-            in.defect(uri, fmt::format("not a feature table: {}", e.what()));
-        }
-    }
-
-    // Per level summary and totals.
-    for (size_t i = 0; i < nodes.size(); ++i) {
-        const json& tile = *nodes[i].tile;
-        const json& n = tile["extras"]["cityatlas"];
-        const auto level = n["level"].get<size_t>();
-        if (r.levels.size() <= level) r.levels.resize(level + 1);
-        InspectLevel& L = r.levels[level];
-        const double texel = n["world_texel_m"];
-        L.world_texel_min_m = L.nodes ? std::min(L.world_texel_min_m, texel) : texel;
-        L.world_texel_max_m = std::max(L.world_texel_max_m, texel);
-        L.min_distance_m = std::max(L.min_distance_m, n["min_distance_m"].get<double>());
-        ++L.nodes;
-        const bool leaf = !tile.contains("children");
-        L.leaves += leaf ? 1 : 0;
-        L.triangles += triangles[i];
-        L.bytes_geometry += geometry_bytes[i];
-        L.bytes_atlases += atlas_bytes[i];
-        ++r.nodes;
-        r.leaves += leaf ? 1 : 0;
-        r.bytes_geometry += geometry_bytes[i];
-        r.bytes_atlases += atlas_bytes[i];
-    }
-    const json& totals = ca["totals"];
-    auto total = [&](const char* what, uint64_t found, uint64_t claimed) {
-        if (found != claimed)
-            in.defect("tileset.json", fmt::format("totals: {} is {}, the folder has {}", what, claimed, found));
-    };
-    total("nodes", r.nodes, totals["nodes"]);
-    total("leaves", r.leaves, totals["leaves"]);
-    total("depth", r.levels.empty() ? 0 : r.levels.size() - 1, totals["depth"]);
-    total("bytes.geometry", r.bytes_geometry, totals["bytes"]["geometry"]);
-    total("bytes.atlases", r.bytes_atlases, totals["bytes"]["atlases"]);
-    total("bytes.textures", r.bytes_textures, totals["bytes"]["textures"]);
-    total("bytes.features", r.bytes_features, totals["bytes"]["features"]);
-    std::sort(r.defects.begin(), r.defects.end());
+    r.files_checked = files.files_checked;
     return r;
 }
 

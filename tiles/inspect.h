@@ -8,10 +8,18 @@
 /// triangle count and attributes its node records, every DDS (atlases and the
 /// textures inside texture blocks) has a valid header whose format, size and
 /// mip count match its entry and whose length is exactly header + blocks,
-/// every feature table parses and holds its ids; and the tree is consistent
-/// (ids, levels, quadrants, children boxes inside parents' boxes within
-/// rounding, min_distance doubling at least, geometric errors below world
-/// texel sizes).
+/// the DDS files of a texture block fill it back to back, every feature table
+/// parses and holds its ids; and the tree is consistent (ids in depth-first
+/// preorder, levels, quadrants and atlas offsets, children boxes inside
+/// parents' boxes within rounding, min_distance doubling at least upwards,
+/// geometricError and world_texel_m as the build parameters give them,
+/// geometric errors below world texel sizes, per-node feature counts and
+/// tables as the geometry has them, totals as the entries add up).
+///
+/// tileset.json is read defensively: after schema errors every check that can
+/// still run does, and no content (over-long strings, deep nesting, wrong
+/// types, garbage files) makes it throw or crash. The defect list is the same
+/// for any thread count.
 
 #include <cstdint>
 #include <filesystem>
@@ -35,8 +43,11 @@ struct InspectResult {
     std::vector<InspectLevel> levels;  ///< index = level
     uint64_t nodes = 0, leaves = 0;
     uint64_t files_checked = 0;
+    /// Byte counts and triangles as tileset.json gives them (every file is checked against its entry).
     uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0;
     uint64_t textures = 0, texture_blocks = 0, features = 0;
+    uint64_t triangles = 0, geometry_files = 0, atlas_files = 0, feature_tables = 0;
+    uint64_t textures_unreadable = 0;  ///< texture entries with block -1 (leaves draw their atlas)
     bool ok() const { return defects.empty(); }
 };
 

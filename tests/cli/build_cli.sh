@@ -31,7 +31,8 @@ set +e; node "$GLTF_TOOLS/validate.mjs" $(find tiles/geometry -name '*.glb' | so
 check_eq "GLBs with 0 errors" "$(find tiles/geometry -name '*.glb' | wc -l)" "$(grep -c ': 0 errors' validate.txt)"
 # ... and every atlas through OpenImageIO's DDS reader (full mip chain).
 for f in $(find tiles/atlas -name '*.dds' | sort | head -20); do
-  iinfo -v "$f" | grep -Eq 'compression: "DXT[15]"' || fail "$f: OpenImageIO does not read it as DXT1/DXT5"
+  info=$(iinfo -v "$f")  # captured: `grep -q` would close the pipe early (SIGPIPE under pipefail)
+  grep -Eq 'compression: "DXT[15]"' <<<"$info" || fail "$f: OpenImageIO does not read it as DXT1/DXT5"
 done
 echo "ok: OpenImageIO reads the DDS atlases"
 

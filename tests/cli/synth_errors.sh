@@ -31,7 +31,11 @@ chmod 700 ro
 ls -A ro plainfile 2>/dev/null | grep -q partial && fail "a .partial folder was left behind"
 echo "ok: no half-written folders"
 
-"$CITYATLAS" --help | grep -q synth || fail "--help does not list synth"
-"$CITYATLAS" synth --help | grep -q -- "--extreme" || fail "synth --help lacks --extreme"
-"$CITYATLAS" --version | grep -q "^cityatlas [0-9]" || fail "--version"
+# Capture first: `grep -q` closes the pipe early and pipefail would report the writer's SIGPIPE.
+top_help=$("$CITYATLAS" --help)
+synth_help=$("$CITYATLAS" synth --help)
+version=$("$CITYATLAS" --version)
+grep -q synth <<<"$top_help" || fail "--help does not list synth"
+grep -q -- "--extreme" <<<"$synth_help" || fail "synth --help lacks --extreme"
+grep -q "^cityatlas [0-9]" <<<"$version" || fail "--version"
 echo "ok: --help and --version"

@@ -650,4 +650,88 @@ TEST(TextureCodec, RejectsMalformedInput) {
     EXPECT_THROW(tiles::decodeBc(std::vector<uint8_t>(7), 4, 4, 3), std::invalid_argument);
 }
 
+// parseDdsHeader reads back what encodeDds writes, for full and partial chains,
+// from the header alone or the whole file.
+TEST(TextureCodec, ParseDdsHeaderRoundTrip) {
+    struct Case {
+        Image8 base;
+        bool chain;
+    };
+    const std::vector<Case> cases = {{photoLike(64, 64, 3, 81), true},
+                                     {photoLike(64, 32, 4, 82), true},
+                                     {photoLike(37, 5, 3, 83), true},
+                                     {photoLike(1, 1, 4, 84), true},
+                                     {photoLike(20, 12, 4, 85), false}};
+    for (const Case& c : cases) {
+        const std::vector<Image8> mips = c.chain ? tiles::mipChain(c.base) : std::vector<Image8>{c.base};
+        const std::vector<uint8_t> dds = tiles::encodeDds(mips, BcQuality::Fast);
+        SCOPED_TRACE(std::to_string(c.base.width) + "x" + std::to_string(c.base.height) + "x" +
+                     std::to_string(c.base.channels));
+        for (size_t size : {dds.size(), size_t{128}}) {
+            tiles::DdsInfo info;
+            const cityatlas::Status st = tiles::parseDdsHeader(dds.data(), size, &info);
+            ASSERT_TRUE(st.ok()) << st.error;
+            EXPECT_EQ(info.width, c.base.width);
+            EXPECT_EQ(info.height, c.base.height);
+            EXPECT_EQ(info.channels, c.base.channels);
+            EXPECT_EQ(info.mips, int(mips.size()));
+            EXPECT_EQ(info.expected_bytes, dds.size());
+        }
+    }
+}
+
+// Damaged headers fail with a reason and leave *out alone; short buffers are
+// never read past their end (the copies below are exactly `size` bytes, so
+// AddressSanitizer builds would catch an overread).
+TEST(TextureCodec, ParseDdsHeaderRejectsDamage) {
+    const std::vector<uint8_t> good = tiles::encodeDds(tiles::mipChain(photoLike(16, 16, 3, 91)), BcQuality::Fast);
+    auto with = [&](size_t offset, uint32_t value) {
+        std::vector<uint8_t> b = good;
+        for (int i = 0; i < 4; ++i) b[offset + size_t(i)] = uint8_t(value >> (8 * i));
+        return b;
+    };
+    auto expectFail = [](const std::vector<uint8_t>& b, const std::string& reason_part, const char* what) {
+        tiles::DdsInfo info;
+        info.width = -7;
+        const cityatlas::Status st = tiles::parseDdsHeader(b.data(), b.size(), &info);
+        EXPECT_FALSE(st.ok()) << what;
+        EXPECT_NE(st.error.find(reason_part), std::string::npos) << what << ": " << st.error;
+        EXPECT_EQ(info.width, -7) << what << ": *out changed on failure";
+    };
+    expectFail(with(0, 0x20534444u ^ 0xffu), "magic", "magic");
+    expectFail(with(4, 128), "header size", "dwSize");
+    expectFail(with(76, 31), "pixel format size", "ddspf.dwSize");
+    expectFail(with(80, 0x40), "FourCC format", "DDPF_RGB instead of DDPF_FOURCC");
+    expectFail(with(84, 0x33545844u), "FourCC", "DXT3");  // "DXT3"
+    expectFail(with(12, 0), "out of range", "height 0");
+    expectFail(with(16, 0), "out of range", "width 0");
+    expectFail(with(16, 0x80000000u), "out of range", "width 2^31");
+    expectFail(with(28, 6), "mip levels", "6 levels for 16x16");
+    expectFail(with(28, 0xffffffffu), "mip levels", "2^32-1 levels");
+    for (size_t size : {size_t{0}, size_t{3}, size_t{4}, size_t{127}})
+        expectFail(std::vector<uint8_t>(good.begin(), good.begin() + std::ptrdiff_t(size)), "shorter", "truncated");
+    tiles::DdsInfo info;
+    EXPECT_FALSE(tiles::parseDdsHeader(nullptr, 128, &info).ok());
+    // Mip count 0 is read as one level (DDSD_MIPMAPCOUNT readers treat it so).
+    const std::vector<uint8_t> zero = with(28, 0);
+    ASSERT_TRUE(tiles::parseDdsHeader(zero.data(), zero.size(), &info).ok());
+    EXPECT_EQ(info.mips, 1);
+    EXPECT_EQ(info.expected_bytes, 128u + 16u * 8u);
+    // Random headers behind a valid magic never crash and never claim more than the full chain.
+    uint64_t seed = 1;
+    for (int i = 0; i < 2000; ++i) {
+        std::vector<uint8_t> b(128);
+        for (uint8_t& v : b) v = uint8_t(mix(seed++));
+        std::copy(good.begin(), good.begin() + 4, b.begin());
+        if (i % 2) std::copy(good.begin() + 76, good.begin() + 88, b.begin() + 76);
+        tiles::DdsInfo r;
+        if (tiles::parseDdsHeader(b.data(), b.size(), &r).ok()) {
+            EXPECT_GE(r.width, 1);
+            EXPECT_GE(r.height, 1);
+            EXPECT_GE(r.mips, 1);
+            EXPECT_GT(r.expected_bytes, 128u);
+        }
+    }
+}
+
 }  // namespace
