@@ -120,6 +120,10 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         double seconds = 0;
     };
     uint64_t done = 0;
+    // A block whose textures are all unreadable is not written; the others are
+    // renumbered densely so every block in the index has a file of >= 1 byte.
+    std::vector<int32_t> renumber(nblocks, -1);
+    std::vector<uint64_t> written_bytes;
     for (size_t blk = 0; blk < nblocks; ++blk) {
         const std::vector<size_t>& list = members[blk];
         std::vector<Encoded> enc(list.size());
@@ -141,8 +145,11 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             blocks->textures[list[k]].width = img.width;
             blocks->textures[list[k]].height = img.height;
         });
-        const fs::path path = out_dir / "textures" / fmt::format("{}.bin", blk);
-        std::ofstream f(path, std::ios::binary);
+        const bool any_readable = std::any_of(enc.begin(), enc.end(), [](const Encoded& x) { return x.why.empty(); });
+        const auto index = static_cast<int32_t>(written_bytes.size());
+        const fs::path path = out_dir / "textures" / fmt::format("{}.bin", index);
+        std::ofstream f;
+        if (any_readable) f.open(path, std::ios::binary);
         uint64_t offset = 0;
         for (size_t k = 0; k < list.size(); ++k) {
             TextureEntry& e = blocks->textures[list[k]];
@@ -153,6 +160,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
                 e.block = -1;
                 continue;
             }
+            e.block = index;
             f.write(reinterpret_cast<const char*>(enc[k].dds.data()), static_cast<std::streamsize>(enc[k].dds.size()));
             e.offset = offset;
             e.bytes = enc[k].dds.size();
@@ -161,11 +169,20 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             blocks->texels_encoded += enc[k].texels;
             blocks->encode_seconds += enc[k].seconds;
         }
-        f.close();
-        if (!f) return Status::Fail(fmt::format("{}: cannot write", path.string()));
-        blocks->block_bytes[blk] = offset;
         done += list.size();
         if (progress) progress(done, blocks->textures.size());
+        if (!any_readable) continue;
+        f.close();
+        if (!f) return Status::Fail(fmt::format("{}: cannot write", path.string()));
+        renumber[blk] = index;
+        written_bytes.push_back(offset);
+    }
+    blocks->block_bytes = std::move(written_bytes);
+    for (std::vector<uint32_t>& list : blocks->node_blocks) {
+        std::vector<uint32_t> kept;
+        for (const uint32_t blk : list)
+            if (renumber[blk] >= 0) kept.push_back(static_cast<uint32_t>(renumber[blk]));
+        list = std::move(kept);  // renumbering keeps the order: still ascending
     }
     return Status::Ok();
 }

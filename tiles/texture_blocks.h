@@ -44,7 +44,9 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
 
 /// Reads, encodes and writes every planned block to `out_dir/textures/`;
 /// fills offsets and sizes. An unreadable texture is a counted warning
-/// (texture_unreadable) and gets block -1.
+/// (texture_unreadable) and gets block -1; a block left with no readable
+/// texture is not written, and the others are renumbered densely (textures'
+/// blocks and node_blocks follow).
 Status writeTextureBlocks(const Scene& scene, BcQuality quality, const std::filesystem::path& out_dir,
                           Diagnostics& diagnostics, const std::function<void(uint64_t, uint64_t)>& progress,
                           TextureBlocks* blocks);

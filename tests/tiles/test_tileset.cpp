@@ -22,6 +22,7 @@
 #include "ingest/synth/write_town.h"
 #include "tests/ingest/test_support.h"
 #include "tiles/glb_writer.h"
+#include "tiles/inspect.h"
 #include "tiles/texture_blocks.h"
 #include "tiles/tileset.h"
 
@@ -48,7 +49,9 @@ struct Built {
 // A town of `buildings` (textures of 64 px: fast), moved by `offset` in its
 // local frame, built into a tile folder.
 std::unique_ptr<Built> buildTown(const std::string& name, uint32_t buildings, const Vec3d& offset,
-                                 const TilesParams& params, double d_min_m = 150) {
+                                 const TilesParams& params, double d_min_m = 150,
+                                 const std::function<void(const Built&)>& before_tiles = {},
+                                 Diagnostics* tiles_diagnostics = nullptr) {
     auto b = std::make_unique<Built>();
     b->dir = test::scratchPath("tileset", name);
     synth::TownSettings settings;
@@ -67,9 +70,11 @@ std::unique_ptr<Built> buildTown(const std::string& name, uint32_t buildings, co
     Diagnostics diagnostics;
     const Status st = atlas::buildAtlasTree(b->scene, ap, b->atlas_dir, diagnostics, {}, &b->tree);
     EXPECT_TRUE(st.ok()) << st.error;
+    if (before_tiles) before_tiles(*b);
     fs::create_directories(b->dir / "tiles");
+    Diagnostics& tiles_diag = tiles_diagnostics ? *tiles_diagnostics : diagnostics;
     const Status w =
-        writeTileset(b->scene, b->tree, b->atlas_dir, params, b->dir / "tiles", "0123456789abcdef", diagnostics, {}, &b->stats);
+        writeTileset(b->scene, b->tree, b->atlas_dir, params, b->dir / "tiles", "0123456789abcdef", tiles_diag, {}, &b->stats);
     EXPECT_TRUE(w.ok()) << w.error;
     std::ifstream f(b->dir / "tiles" / "tileset.json");
     b->tileset = json::parse(f);
@@ -325,6 +330,36 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
     std::cout << "[dds] " << plan.textures.size() << " original textures (64 px): mean PSNR "
               << sum / static_cast<double>(plan.textures.size()) << " dB\n";
     EXPECT_GT(checked, 0);
+}
+
+// Originals that vanish between the atlas and the tiles stage (a network share
+// going away): each is a counted warning, the leaves keep their atlases, and a
+// block left with nothing readable is not written, so every block in the index
+// is a non-empty file and the folder still passes inspect.
+TEST(Tileset, UnreadableOriginalsAreCountedAndLeaveNoEmptyBlocks) {
+    Diagnostics diagnostics;
+    size_t removed = 0;
+    const auto b = buildTown("unreadable", 40, {}, defaults(), 150, [&](const Built& built) {
+        // All but the last texture: every block but one is left with nothing readable.
+        for (size_t t = 0; t + 1 < built.scene.textures.size(); ++t)
+            removed += fs::remove(built.scene.textures[t].path) ? 1 : 0;
+    }, &diagnostics);
+    ASSERT_FALSE(HasFailure());
+    ASSERT_GT(removed, 0u);
+    EXPECT_EQ(b->stats.textures_unreadable, diagnostics.count(warn::kTextureUnreadable));
+    EXPECT_GT(b->stats.textures_unreadable, 0u);
+    EXPECT_GT(b->stats.textures_written, 0u);
+    const json& blocks = b->tileset["extras"]["cityatlas"]["texture_blocks"];
+    // 40 textures of 64^2 fill about three 256^2 blocks; one texture remains readable.
+    ASSERT_EQ(blocks.size(), 1u);
+    for (size_t k = 0; k < blocks.size(); ++k) {
+        EXPECT_EQ(blocks[k]["uri"], fmt::format("textures/{}.bin", k));
+        EXPECT_GE(blocks[k]["bytes"].get<uint64_t>(), 1u);
+        EXPECT_EQ(fs::file_size(b->dir / "tiles" / blocks[k]["uri"].get<std::string>()), blocks[k]["bytes"].get<uint64_t>());
+    }
+    EXPECT_FALSE(fs::exists(b->dir / "tiles" / "textures" / fmt::format("{}.bin", blocks.size())));
+    const InspectResult r = inspectTileFolder(b->dir / "tiles", 2);
+    EXPECT_TRUE(r.defects.empty()) << (r.defects.empty() ? "" : r.defects.front());
 }
 
 TEST(Tileset, SchemaAcceptsTheWrittenTileset) {
