@@ -4,9 +4,12 @@
 # output bytes by kind, and the size/accuracy trade of the encoders:
 # position bits 11/14/16 (with the per-node error target off, so the bits are
 # exactly those) and BC quality fast/best.
-# Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all|main|bits|bc]
-# Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>.json (one record per run) and
-# prints a table. Every run rebuilds everything (--force), so each record's
+# Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all]
+#   RUNS: all, main, bits, bc, or a comma list of run names
+#   (default, bits11, bits14, bits16, bc-best).
+# Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>.json (one record per run,
+# updated after each run; records of runs not repeated are kept) and prints a
+# table. Every run rebuilds everything (--force), so each record's
 # stage times are complete. The town is made once and not timed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,11 +24,16 @@ TAG="$N-${DMIN//\//_}"
 /usr/bin/python3 - "$TOWN" "$DMIN" "$TAG" "$RUNS" <<'PY'
 import json, os, platform, resource, subprocess, sys, time
 town, dmin, tag, runs = sys.argv[1:5]
-variants = []
-if runs in ("all", "main"): variants.append(("default", []))
-if runs in ("all", "bits"):
-    variants += [(f"bits{b}", ["--position-bits", str(b), "--position-error-mm", "0"]) for b in (11, 14, 16)]
-if runs in ("all", "bc"): variants.append(("bc-best", ["--bc-quality", "best"]))
+all_variants = [("default", [])]
+all_variants += [(f"bits{b}", ["--position-bits", str(b), "--position-error-mm", "0"]) for b in (11, 14, 16)]
+all_variants.append(("bc-best", ["--bc-quality", "best"]))
+groups = {"all": [n for n, _ in all_variants], "main": ["default"], "bits": ["bits11", "bits14", "bits16"], "bc": ["bc-best"]}
+wanted = groups.get(runs, runs.split(","))
+unknown = set(wanted) - {n for n, _ in all_variants}
+if unknown: sys.exit(f"unknown runs: {', '.join(sorted(unknown))}")
+variants = [v for v in all_variants if v[0] in wanted]
+result = f"out/benchmarks/build-{tag}.json"
+previous = json.load(open(result))["runs"] if os.path.exists(result) else []
 records = []
 for name, extra in variants:
     out = f"out/benchmarks/build-{tag}-{name}"
@@ -47,13 +55,13 @@ for name, extra in variants:
            "bytes": rep["bytes"], "counts": rep["counts"], "errors": rep["errors"], "encoding": rep["encoding"],
            "d_min": rep["d_min"], "root": {"features": rep["root"]["features"], "dropped": len(rep["root"]["features_dropped"])}}
     records.append(rec)
+    kept = [r for r in previous if r["run"] not in {x["run"] for x in records}]
+    json.dump({"benchmark": "build", "town": town, "d_min": dmin, "cores": os.cpu_count(), "machine": platform.machine(),
+               "runs": kept + records}, open(result, "w"), indent=2)
     print(f"{name:8s} wall {rec['wall_s']:7.1f} s  read {rec['stages']['read']:6.1f}  atlas {rec['stages']['atlas']:7.1f}  "
           f"tiles {rec['stages']['tiles']:7.1f}  peak {rec['peak_rss_mb']:7.0f} MB  geometry {rep['bytes']['geometry']/1e6:7.2f} MB  "
           f"atlases {rep['bytes']['atlases']/1e6:8.1f} MB  textures {rep['bytes']['textures']/1e6:7.1f} MB  "
           f"pos err {rep['errors']['position_mm_max']:7.2f} mm  PSNR min/mean {rep['errors']['atlas_psnr_db_min']:.2f}/"
           f"{rep['errors']['atlas_psnr_db_mean']:.2f} dB  BC {rep['encoding']['atlas_mpix_per_s']:.1f} MP/s", flush=True)
-result = f"out/benchmarks/build-{tag}.json"
-json.dump({"benchmark": "build", "town": town, "d_min": dmin, "cores": os.cpu_count(), "machine": platform.machine(),
-           "runs": records}, open(result, "w"), indent=2)
 print(f"written {result}")
 PY
