@@ -60,6 +60,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
                             atlas::filterName(a.filter), atlas::packingMethodName(a.packing), a.critical_fraction));
     const tiles::TilesParams& t = opt.tiles;
     k.push_back(fmt::format("position_error={}", t.position_error_target_m));
+    k.push_back(fmt::format("writer={} revision={}", kCityAtlasVersion, tiles::kWriterRevision));
     k.push_back(fmt::format("bits={}/{} speed={} bc={} node_triangles={} feature_block={}", t.draco.position_bits,
                             t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality), t.node_triangles,
                             t.feature_block_size));

@@ -108,7 +108,9 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
             Vertex& v = tri[static_cast<size_t>(k)];
             v.position = t.position_local[static_cast<size_t>(k)];
             v.feature = t.feature;
-            v.material = t.material;
+            // The material colours untextured surfaces only (Scene::Triangle); a
+            // textured vertex says -1, so a renderer needs no texture id to choose.
+            v.material = textured ? -1 : t.material;
             if (textured) {
                 v.texture = texture_index[static_cast<size_t>(t.texture)];
                 v.uv_original = {t.uv[static_cast<size_t>(k)].x - shift.x, t.uv[static_cast<size_t>(k)].y - shift.y};

@@ -28,7 +28,8 @@
 /// (named by the primitive's extras.cityatlas_texcoords: "original" in leaves,
 /// "atlas" everywhere), _FEATURE_ID_0 (building index), _TEXTURE_ID (leaves;
 /// index into tileset textures, -1 untextured), _MATERIAL_ID (index into
-/// tileset materials, -1 none).
+/// tileset materials for an untextured vertex; -1 for textured ones and for
+/// untextured ones without a material).
 
 #include <cstdint>
 #include <filesystem>
@@ -46,6 +47,10 @@
 #include "tiles/texture_codec.h"
 
 namespace cityatlas::tiles {
+
+/// Bumped whenever the writer's output changes for the same inputs and
+/// parameters, so `cityatlas build` does not take an older folder as up to date.
+inline constexpr int kWriterRevision = 2;
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default

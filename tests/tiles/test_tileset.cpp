@@ -100,7 +100,8 @@ std::map<uint32_t, std::vector<Corner>> cornersByFeature(const atlas::AtlasTree&
         const atlas::TreeTriangle& t = tree.triangles[i];
         for (size_t k = 0; k < 3; ++k)
             out[t.tri.feature].push_back(
-                {t.tri.position_local[k], t.tri.uv[k], t.atlas_uv[k], t.tri.texture, t.tri.material});
+                {t.tri.position_local[k], t.tri.uv[k], t.atlas_uv[k], t.tri.texture,
+                 t.tri.texture >= 0 ? -1 : t.tri.material});
     }
     return out;
 }
