@@ -1,0 +1,211 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "render/core/selection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+namespace cityatlas::render {
+namespace {
+
+double farthestCorner(const Vec3d& p, const Box3d& b) {
+    const double dx = std::max(std::abs(p.x - b.min.x), std::abs(p.x - b.max.x));
+    const double dy = std::max(std::abs(p.y - b.min.y), std::abs(p.y - b.max.y));
+    const double dz = std::max(std::abs(p.z - b.min.z), std::abs(p.z - b.max.z));
+    return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+// The sort key within a usage category.
+double priorityKey(const TileNode& node, double distance, const Camera& camera, PriorityMode mode) {
+    if (mode == PriorityMode::Distance) return distance;
+    const Vec3d centre = 0.5 * (node.bounds.min + node.bounds.max);
+    const Vec3d to = centre - camera.position;
+    const double l = length(to);
+    if (l < 1e-9) return 0;
+    const double cosine = dot((1.0 / l) * to, normalized(camera.direction));
+    return distance * (1.0 - cosine);
+}
+
+template <typename Fn>
+void forEachNodeBlock(const TileNode& node, Fn&& fn) {
+    for (const NodeLayer& layer : node.layers) {
+        if (!layer.present) continue;
+        if (layer.geometry != kNoBlock) fn(layer.geometry);
+        if (layer.atlas != kNoBlock) fn(layer.atlas);
+    }
+}
+
+}  // namespace
+
+const char* usageName(Usage usage) {
+    switch (usage) {
+        case Usage::Needed: return "needed";
+        case Usage::Culled: return "culled";
+        case Usage::ParentNeeded: return "parent_needed";
+        case Usage::Unused: return "unused";
+    }
+    return "?";
+}
+
+const char* priorityModeName(PriorityMode mode) { return mode == PriorityMode::ViewWeighted ? "view" : "distance"; }
+
+double distanceScale(const BuildInfo& build, const Camera& camera, const SelectionParams& params) {
+    const double viewport = camera.focalPx() * camera.cornerFactor();
+    const double assumed = build.focal_px * build.corner_factor;
+    return viewport / assumed * build.tau / params.tau;
+}
+
+bool before(const BlockPriority& pa, BlockId a, const BlockPriority& pb, BlockId b) {
+    return std::tie(pa.usage, pa.key, pa.level, a) < std::tie(pb.usage, pb.key, pb.level, b);
+}
+
+Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, const SelectionParams& params) {
+    Classification c;
+    c.priority.assign(index.blocks.size(), BlockPriority{});
+    if (index.nodes.empty()) return c;
+    const Frustum frustum = frustumOf(camera);
+    const double scale = distanceScale(index.build, camera, params);
+
+    std::vector<double> distance(index.nodes.size());
+    std::vector<double> key(index.nodes.size());
+    for (size_t i = 0; i < index.nodes.size(); ++i) {
+        distance[i] = distanceToBox(camera.position, index.nodes[i].bounds);
+        key[i] = priorityKey(index.nodes[i], distance[i], camera, params.priority);
+    }
+    // Highest-priority wins when a block qualifies several times (a texture
+    // block shared by leaves): usage first, then key, then level.
+    auto mark = [&](BlockId b, Usage usage, double k, int level) {
+        BlockPriority& p = c.priority[b];
+        const BlockPriority q{usage, k, level};
+        if (std::tie(q.usage, q.key, q.level) < std::tie(p.usage, p.key, p.level)) p = q;
+    };
+    // Every block starts Unused with its node's key, so eviction has an order too.
+    for (BlockPriority& p : c.priority) p = {Usage::Unused, 1e300, 1 << 20};
+    for (size_t i = 0; i < index.nodes.size(); ++i) {
+        const TileNode& n = index.nodes[i];
+        forEachNodeBlock(n, [&](BlockId b) { mark(b, Usage::Unused, key[i], n.level); });
+        for (const BlockId b : n.texture_blocks) mark(b, Usage::Unused, key[i], n.level + 1);
+    }
+
+    auto markNode = [&](int32_t id, Usage usage) {
+        const TileNode& n = index.nodes[static_cast<size_t>(id)];
+        forEachNodeBlock(n, [&](BlockId b) { mark(b, usage, key[static_cast<size_t>(id)], n.level); });
+    };
+    auto markTextures = [&](int32_t id, Usage usage) {
+        const TileNode& n = index.nodes[static_cast<size_t>(id)];
+        for (const BlockId b : n.texture_blocks) mark(b, usage, key[static_cast<size_t>(id)], n.level + 1);
+    };
+
+    // The rendering traversal, as if every block were resident.
+    std::vector<int32_t> stack{0};
+    if (outsideFrustum(frustum, index.nodes[0].bounds)) stack.clear();
+    while (!stack.empty()) {
+        const int32_t id = stack.back();
+        stack.pop_back();
+        const TileNode& n = index.nodes[static_cast<size_t>(id)];
+        markNode(id, Usage::Needed);
+        ++c.nodes_needed;
+        const bool sharp = distance[static_cast<size_t>(id)] >= n.min_distance_m * scale;
+        if (sharp) {
+            // Drawn with its own atlas: the next refinement step is prefetched.
+            if (n.leaf()) {
+                if (params.originals) markTextures(id, Usage::ParentNeeded);
+            } else {
+                for (const int32_t ch : n.children) {
+                    markNode(ch, Usage::ParentNeeded);
+                    ++c.nodes_parent_needed;
+                }
+            }
+            continue;
+        }
+        if (n.leaf()) {
+            if (params.originals) markTextures(id, Usage::Needed);
+            continue;
+        }
+        std::vector<int32_t> visible, culled;
+        for (const int32_t ch : n.children)
+            (outsideFrustum(frustum, index.nodes[static_cast<size_t>(ch)].bounds) ? culled : visible).push_back(ch);
+        if (!visible.empty()) {
+            for (const int32_t ch : culled) {
+                markNode(ch, Usage::Culled);
+                ++c.nodes_culled;
+            }
+        }
+        for (auto it = visible.rbegin(); it != visible.rend(); ++it) stack.push_back(*it);
+    }
+
+    // Candidates: the root's blocks first (pinned), then every used block by priority.
+    std::vector<BlockId> root_blocks;
+    forEachNodeBlock(index.nodes[0], [&](BlockId b) { root_blocks.push_back(b); });
+    std::sort(root_blocks.begin(), root_blocks.end());
+    for (BlockId b = 0; b < index.blocks.size(); ++b)
+        if (c.priority[b].usage != Usage::Unused && !std::binary_search(root_blocks.begin(), root_blocks.end(), b))
+            c.candidates.push_back(b);
+    std::sort(c.candidates.begin(), c.candidates.end(),
+              [&](BlockId a, BlockId b) { return before(c.priority[a], a, c.priority[b], b); });
+    c.candidates.insert(c.candidates.begin(), root_blocks.begin(), root_blocks.end());
+    return c;
+}
+
+bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident) {
+    bool all = true;
+    forEachNodeBlock(index.nodes[static_cast<size_t>(node)], [&](BlockId b) { all = all && resident(b); });
+    return all;
+}
+
+bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& frustum,
+                        const std::function<bool(BlockId)>& resident) {
+    const TileNode& n = index.nodes[static_cast<size_t>(node)];
+    if (n.leaf()) {
+        return std::all_of(n.texture_blocks.begin(), n.texture_blocks.end(), [&](BlockId b) { return resident(b); });
+    }
+    for (const int32_t ch : n.children) {
+        if (!nodeDrawable(index, ch, resident) && !outsideFrustum(frustum, index.nodes[static_cast<size_t>(ch)].bounds))
+            return false;
+    }
+    return true;
+}
+
+Selection selectDraws(const TilesetIndex& index, const Camera& camera, const SelectionParams& params,
+                      const std::function<bool(BlockId)>& resident) {
+    Selection s;
+    if (index.nodes.empty()) return s;
+    if (!nodeDrawable(index, 0, resident)) {
+        s.root_missing = true;
+        return s;
+    }
+    const Frustum frustum = frustumOf(camera);
+    const double scale = distanceScale(index.build, camera, params);
+    s.nearest_m = 1e300;
+    std::vector<int32_t> stack{0};
+    while (!stack.empty()) {
+        const int32_t id = stack.back();
+        stack.pop_back();
+        const TileNode& n = index.nodes[static_cast<size_t>(id)];
+        ++s.nodes_visited;
+        if (outsideFrustum(frustum, n.bounds)) {
+            ++s.nodes_culled;
+            continue;
+        }
+        const double d = distanceToBox(camera.position, n.bounds);
+        bool use_atlas = d >= n.min_distance_m * scale;
+        bool coarse = false;
+        if (!use_atlas && n.leaf() && !params.originals) use_atlas = true;  // the atlas is the finest there is
+        if (!use_atlas && !refinementPossible(index, id, frustum, resident)) {
+            use_atlas = true;
+            coarse = true;
+        }
+        if (use_atlas || n.leaf()) {
+            s.draws.push_back({id, use_atlas ? DrawMode::Atlas : DrawMode::Originals, coarse, d});
+            s.coarse_draws += coarse ? 1 : 0;
+            s.nearest_m = std::min(s.nearest_m, d);
+            s.farthest_m = std::max(s.farthest_m, farthestCorner(camera.position, n.bounds));
+            continue;
+        }
+        for (auto it = n.children.rbegin(); it != n.children.rend(); ++it) stack.push_back(*it);
+    }
+    if (s.draws.empty()) s.nearest_m = 0;
+    return s;
+}
+
+}  // namespace cityatlas::render

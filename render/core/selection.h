@@ -1,0 +1,98 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// Per-frame work on the atlas tree, GL-free (papers/000 §4.4, §4.6; papers/001 §4, §6):
+///
+/// - classifyBlocks(): the traversal "as if everything were loaded" that gives
+///   every block a usage category — Needed, Culled, Parent needed, Unused —
+///   and a priority (usage, then camera distance, then lower level), and the
+///   candidate list in priority order from which the ideal block set is cut.
+/// - selectDraws(): the rendering traversal with Fig. 30's modification: a
+///   node whose atlas is not sharp enough is refined only when refinement is
+///   possible (every child in the frustum drawable; for a leaf, its original
+///   textures resident), so every visible triangle always has some texture.
+///
+/// The selection threshold: a node's atlas is sharp enough at camera distance
+/// d when d >= min_distance_m * scale, scale = (f * c) / (f_b * c_b) * tau_b / tau,
+/// where f is the viewport's focal length in pixels and c its corner factor
+/// (f_b, c_b, tau_b the build's): min distances scale with the actual
+/// viewport width, height and fov, and tau (pixels per texel) relaxes them.
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "render/core/tileset_index.h"
+#include "render/core/view.h"
+
+namespace cityatlas::render {
+
+enum class Usage : uint8_t { Needed = 0, Culled = 1, ParentNeeded = 2, Unused = 3 };
+const char* usageName(Usage usage);  ///< "needed", "culled", "parent_needed", "unused"
+
+/// How blocks of one usage category are ordered among themselves.
+enum class PriorityMode : uint8_t {
+    Distance,      ///< the papers: camera distance to the node's box, then lower level
+    ViewWeighted,  ///< cesium-native's: distance * (1 - cos(angle between view direction and box centre))
+};
+const char* priorityModeName(PriorityMode mode);  ///< "distance", "view"
+
+struct SelectionParams {
+    double tau = 1.0;                 ///< pixels per texel: > 1 accepts coarser atlases (fewer loads)
+    bool originals = true;            ///< leaves closer than their min distance draw original textures
+    PriorityMode priority = PriorityMode::Distance;
+};
+
+/// min_distance_m multiplier for this viewport (see the file comment).
+double distanceScale(const BuildInfo& build, const Camera& camera, const SelectionParams& params);
+
+struct BlockPriority {
+    Usage usage = Usage::Unused;
+    double key = 0;   ///< distance (or the view-weighted distance); smaller first
+    int level = 0;    ///< node level (texture blocks: their leaf's level + 1); smaller first
+};
+
+/// True when block a (with priority pa) comes before block b.
+bool before(const BlockPriority& pa, BlockId a, const BlockPriority& pb, BlockId b);
+
+struct Classification {
+    std::vector<BlockPriority> priority;  ///< per block
+    /// Every block that is not Unused, highest priority first: the ideal block
+    /// set is a prefix of it (BlockManager). The root's blocks are pinned: they
+    /// lead the list whatever their usage.
+    std::vector<BlockId> candidates;
+    uint32_t nodes_needed = 0, nodes_culled = 0, nodes_parent_needed = 0;
+};
+
+Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, const SelectionParams& params);
+
+/// All blocks of a node (both layers' geometry and atlases) are resident.
+bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident);
+
+/// Fig. 30's refinementPossible: an inner node's children are each drawable
+/// or outside the frustum; a leaf's original textures are all resident.
+bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& frustum,
+                        const std::function<bool(BlockId)>& resident);
+
+enum class DrawMode : uint8_t { Atlas, Originals };
+
+struct DrawItem {
+    int32_t node = 0;
+    DrawMode mode = DrawMode::Atlas;
+    /// Drawn with its atlas although the camera is closer than its min distance
+    /// (refinement impossible: blocks missing). The frame is still fully textured.
+    bool coarse = false;
+    double distance_m = 0;
+};
+
+struct Selection {
+    std::vector<DrawItem> draws;     ///< depth-first order
+    bool root_missing = false;       ///< the root is not drawable yet: nothing can be drawn
+    uint32_t nodes_visited = 0, nodes_culled = 0, coarse_draws = 0;
+    double nearest_m = 0, farthest_m = 0;  ///< over the drawn boxes (for near/far planes)
+};
+
+Selection selectDraws(const TilesetIndex& index, const Camera& camera, const SelectionParams& params,
+                      const std::function<bool(BlockId)>& resident);
+
+}  // namespace cityatlas::render

@@ -1,0 +1,292 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Usage categories, priorities and the draw selection on a scripted tree whose
+// expected outcome follows by hand from papers/000 §4.4 / §4.6:
+//
+//   root [0,400] x [0,100] x [0,20], min distance 1000, children along x:
+//     c0 [0,100]  c1 [100,200]  c2 [200,300]  c3 [300,400]   (min distance 100)
+//   each with four leaves 25 m wide along x (min distance 25, one texture block each).
+//   Camera at (140, 50, 5) looking along +x, 60 degree fov, square viewport.
+//
+//   root: d = 0 < 1000            -> refined, Needed
+//   c0: behind the camera         -> outside the frustum; a sibling is Needed -> Culled
+//   c1: contains the camera, d = 0 -> refined, Needed
+//     leaf [100,125]: behind       -> Culled
+//     leaf [125,150]: d = 0 < 25   -> originals: Needed, its textures Needed
+//     leaf [150,175]: d = 10 < 25  -> originals: Needed, textures Needed
+//     leaf [175,200]: d = 35 >= 25 -> atlas: Needed, textures Parent needed
+//   c2: d = 60 < 100               -> refined, Needed; its leaves d >= 60 >= 25 -> atlas, Needed,
+//                                     textures Parent needed
+//   c3: d = 160 >= 100             -> atlas, Needed; its leaves Parent needed, their textures Unused
+//   c0's leaves and textures, leaf [100,125]'s textures: Unused
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "render/core/selection.h"
+#include "tests/render/core/scripted_tree.h"
+
+namespace cityatlas::render {
+namespace {
+using test::box;
+
+// Node ids in preorder: root 0; c0 1 (leaves 2-5), c1 6 (7-10), c2 11 (12-15), c3 16 (17-20).
+std::vector<test::ScriptedNode> rowTree() {
+    std::vector<test::ScriptedNode> s;
+    s.push_back({box(0, 0, 0, 400, 100, 20), 1000, {}, false});
+    for (int c = 0; c < 4; ++c) {
+        const int child = static_cast<int>(s.size());
+        s[0].children.push_back(child);
+        s.push_back({box(100.0 * c, 0, 0, 100.0 * (c + 1), 100, 20), 100, {}, false});
+        for (int l = 0; l < 4; ++l) {
+            s[static_cast<size_t>(child)].children.push_back(static_cast<int>(s.size()));
+            const double x0 = 100.0 * c + 25.0 * l;
+            s.push_back({box(x0, 0, 0, x0 + 25, 100, 20), 25, {}, true});
+        }
+    }
+    return s;
+}
+
+struct Fixture {
+    Camera camera = test::unitCamera({140, 50, 5}, {1, 0, 0});
+    TilesetIndex index = test::makeIndex(rowTree(), test::buildFor(camera));
+    Usage nodeUsage(const Classification& c, int node) const {
+        const NodeLayer& l = index.nodes[static_cast<size_t>(node)].layers[0];
+        EXPECT_EQ(c.priority[l.geometry].usage, c.priority[l.atlas].usage) << "node " << node;
+        return c.priority[l.atlas].usage;
+    }
+    Usage textureUsage(const Classification& c, int leaf) const {
+        return c.priority[index.nodes[static_cast<size_t>(leaf)].texture_blocks.at(0)].usage;
+    }
+};
+
+TEST(Selection, DistanceScaleFollowsViewportFovAndTau) {
+    Fixture f;
+    SelectionParams p;
+    EXPECT_DOUBLE_EQ(distanceScale(f.index.build, f.camera, p), 1.0);
+    Camera twice = f.camera;
+    twice.width_px *= 2;
+    twice.height_px *= 2;  // same fov and aspect: focal doubles, the corner factor stays
+    EXPECT_NEAR(distanceScale(f.index.build, twice, p), 2.0, 1e-12);
+    p.tau = 2;
+    EXPECT_NEAR(distanceScale(f.index.build, f.camera, p), 0.5, 1e-12);
+    Camera wide = f.camera;
+    wide.vertical_fov_deg = 90;  // a wider fov: fewer pixels per radian, but larger corner factor
+    const double fw = 400.0 / std::tan(M_PI / 4), cw = 1.0 + (2 * 400.0 * 400.0) / (fw * fw);
+    p.tau = 1;
+    EXPECT_NEAR(distanceScale(f.index.build, wide, p), fw * cw / (f.camera.focalPx() * f.camera.cornerFactor()), 1e-12);
+}
+
+TEST(Selection, UsageCategoriesAsPapersDefineThem) {
+    Fixture f;
+    const Classification c = classifyBlocks(f.index, f.camera, {});
+    const std::map<int, Usage> nodes = {
+        {0, Usage::Needed},   {1, Usage::Culled},  {2, Usage::Unused},  {3, Usage::Unused},  {4, Usage::Unused},
+        {5, Usage::Unused},   {6, Usage::Needed},  {7, Usage::Culled},  {8, Usage::Needed},  {9, Usage::Needed},
+        {10, Usage::Needed},  {11, Usage::Needed}, {12, Usage::Needed}, {13, Usage::Needed}, {14, Usage::Needed},
+        {15, Usage::Needed},  {16, Usage::Needed}, {17, Usage::ParentNeeded}, {18, Usage::ParentNeeded},
+        {19, Usage::ParentNeeded}, {20, Usage::ParentNeeded}};
+    for (const auto& [node, usage] : nodes)
+        EXPECT_EQ(usageName(f.nodeUsage(c, node)), std::string(usageName(usage))) << "node " << node;
+    const std::map<int, Usage> textures = {
+        {2, Usage::Unused},        {3, Usage::Unused},        {4, Usage::Unused},        {5, Usage::Unused},
+        {7, Usage::Unused},        {8, Usage::Needed},        {9, Usage::Needed},        {10, Usage::ParentNeeded},
+        {12, Usage::ParentNeeded}, {13, Usage::ParentNeeded}, {14, Usage::ParentNeeded}, {15, Usage::ParentNeeded},
+        {17, Usage::Unused},       {18, Usage::Unused},       {19, Usage::Unused},       {20, Usage::Unused}};
+    for (const auto& [leaf, usage] : textures)
+        EXPECT_EQ(usageName(f.textureUsage(c, leaf)), std::string(usageName(usage))) << "textures of leaf " << leaf;
+    EXPECT_EQ(c.nodes_needed, 11u);
+
+    // Without original textures, leaves never need their blocks.
+    SelectionParams no_originals;
+    no_originals.originals = false;
+    const Classification c2 = classifyBlocks(f.index, f.camera, no_originals);
+    for (const auto& [leaf, usage] : textures) EXPECT_EQ(f.textureUsage(c2, leaf), Usage::Unused) << "leaf " << leaf;
+}
+
+TEST(Selection, EveryNeededNodesAncestorsAreNeeded) {
+    // §4.6: "for each node N in the Needed category each node on the path from
+    // the root to N is in the Needed category as well" — on a bigger tree and
+    // many cameras.
+    const Camera base = test::unitCamera({0, 0, 0}, {1, 0, 0});
+    const TilesetIndex ix = test::makeIndex(test::quadtree(4, 1600, 30, 3200), test::buildFor(base));
+    for (int k = 0; k < 40; ++k) {
+        Camera cam = base;
+        cam.position = {40.0 * k, std::fmod(37.0 * k, 1600.0), 2.0 + k % 7 * 30.0};
+        cam.direction = normalized({std::cos(k * 0.7), std::sin(k * 0.7), -0.2 * (k % 3)});
+        const Classification c = classifyBlocks(ix, cam, {});
+        for (const TileNode& n : ix.nodes) {
+            if (c.priority[n.layers[0].atlas].usage != Usage::Needed) continue;
+            for (int32_t p = n.parent; p >= 0; p = ix.nodes[static_cast<size_t>(p)].parent)
+                EXPECT_EQ(c.priority[ix.nodes[static_cast<size_t>(p)].layers[0].atlas].usage, Usage::Needed)
+                    << "camera " << k << " node " << n.id << " ancestor " << p;
+            // Culled and parent-needed nodes hang below a Needed parent.
+        }
+        for (const TileNode& n : ix.nodes) {
+            const Usage u = c.priority[n.layers[0].atlas].usage;
+            if ((u == Usage::Culled || u == Usage::ParentNeeded) && n.parent >= 0) {
+                EXPECT_EQ(c.priority[ix.nodes[static_cast<size_t>(n.parent)].layers[0].atlas].usage, Usage::Needed)
+                    << "camera " << k << " node " << n.id;
+            }
+        }
+    }
+}
+
+TEST(Selection, CandidatesInPriorityOrderRootPinnedParentsFirst) {
+    Fixture f;
+    const Classification c = classifyBlocks(f.index, f.camera, {});
+    // Root pinned in front.
+    ASSERT_GE(c.candidates.size(), 2u);
+    const std::set<BlockId> root = {f.index.nodes[0].layers[0].geometry, f.index.nodes[0].layers[0].atlas};
+    EXPECT_TRUE(root.count(c.candidates[0]) && root.count(c.candidates[1]));
+    // Then usage ascending; within a usage, distance ascending; then level.
+    for (size_t i = 3; i < c.candidates.size(); ++i) {
+        const BlockPriority& a = c.priority[c.candidates[i - 1]];
+        const BlockPriority& b = c.priority[c.candidates[i]];
+        ASSERT_LE(static_cast<int>(a.usage), static_cast<int>(b.usage)) << i;
+        if (a.usage == b.usage) {
+            ASSERT_LE(a.key, b.key) << i;
+            if (a.key == b.key) {
+                ASSERT_LE(a.level, b.level) << i;
+            }
+        }
+    }
+    // No unused block is a candidate; every used one is.
+    std::set<BlockId> listed(c.candidates.begin(), c.candidates.end());
+    for (BlockId b = 0; b < f.index.blocks.size(); ++b)
+        EXPECT_EQ(listed.count(b) == 1, c.priority[b].usage != Usage::Unused || root.count(b)) << b;
+    // A parent precedes its children wherever both are listed.
+    std::map<BlockId, size_t> pos;
+    for (size_t i = 0; i < c.candidates.size(); ++i) pos[c.candidates[i]] = i;
+    for (const TileNode& n : f.index.nodes) {
+        if (n.parent < 0 || !pos.count(n.layers[0].atlas)) continue;
+        const BlockId pa = f.index.nodes[static_cast<size_t>(n.parent)].layers[0].atlas;
+        ASSERT_TRUE(pos.count(pa)) << "node " << n.id << " listed without its parent";
+        EXPECT_LT(pos[pa], pos[n.layers[0].atlas]) << "node " << n.id;
+        for (const BlockId t : n.texture_blocks)
+            if (pos.count(t)) {
+                EXPECT_LT(pos[n.layers[0].atlas], pos[t]) << "textures of " << n.id;
+            }
+    }
+    // Needed leaves' textures: the nearer leaf [125,150] (d 0) before [150,175] (d 10).
+    EXPECT_LT(pos[f.index.nodes[8].texture_blocks[0]], pos[f.index.nodes[9].texture_blocks[0]]);
+}
+
+TEST(Selection, ViewWeightedPriorityPrefersWhatIsAhead) {
+    // Two leaves at the same distance, one straight ahead and one off to the side:
+    // by distance they tie (broken by id); view-weighted, the one ahead comes first.
+    std::vector<test::ScriptedNode> s;
+    s.push_back({box(-200, -200, 0, 200, 200, 10), 1e6, {1, 2}, false});
+    s.push_back({box(-10, 100, 0, 10, 120, 10), 1, {}, true});    // off to the side (+y), d = 100
+    s.push_back({box(100, -10, 0, 120, 10, 10), 1, {}, true});    // ahead (+x), d = 100
+    const Camera cam = test::unitCamera({0, 0, 5}, {1, 0, 0});
+    Camera wide = cam;
+    wide.vertical_fov_deg = 120;  // both in view
+    TilesetIndex ix = test::makeIndex(s, test::buildFor(wide));
+    ix.nodes[0].min_distance_m = 0;  // the root is sharp: children are Parent needed, ordered by key
+    SelectionParams by_distance, by_view;
+    by_view.priority = PriorityMode::ViewWeighted;
+    const Classification a = classifyBlocks(ix, wide, by_distance);
+    const Classification b = classifyBlocks(ix, wide, by_view);
+    const BlockId side = ix.nodes[1].layers[0].atlas, ahead = ix.nodes[2].layers[0].atlas;
+    EXPECT_EQ(a.priority[side].usage, Usage::ParentNeeded);
+    EXPECT_DOUBLE_EQ(a.priority[side].key, a.priority[ahead].key);
+    EXPECT_TRUE(before(b.priority[ahead], ahead, b.priority[side], side));
+    EXPECT_LT(b.priority[ahead].key, 1e-9);
+}
+
+TEST(Selection, DrawsWithEverythingResident) {
+    Fixture f;
+    const Selection s = selectDraws(f.index, f.camera, {}, [](BlockId) { return true; });
+    ASSERT_FALSE(s.root_missing);
+    std::vector<std::pair<int, DrawMode>> got;
+    for (const DrawItem& d : s.draws) {
+        got.emplace_back(d.node, d.mode);
+        EXPECT_FALSE(d.coarse);
+    }
+    const std::vector<std::pair<int, DrawMode>> want = {
+        {8, DrawMode::Originals}, {9, DrawMode::Originals}, {10, DrawMode::Atlas}, {12, DrawMode::Atlas},
+        {13, DrawMode::Atlas},    {14, DrawMode::Atlas},    {15, DrawMode::Atlas}, {16, DrawMode::Atlas}};
+    EXPECT_EQ(got, want);
+    EXPECT_EQ(s.nodes_culled, 2u);  // c0 and leaf [100,125]
+}
+
+std::function<bool(BlockId)> allBut(const std::set<BlockId>& missing) {
+    return [missing](BlockId b) { return !missing.count(b); };
+}
+
+TEST(Selection, RefinementOnlyWhenPossible) {
+    Fixture f;
+    auto nodesOf = [](const Selection& s) {
+        std::vector<std::pair<int, bool>> v;
+        for (const DrawItem& d : s.draws) v.emplace_back(d.node, d.coarse);
+        return v;
+    };
+    // Leaf [150,175]'s originals missing: it draws its atlas, flagged coarse.
+    Selection s = selectDraws(f.index, f.camera, {}, allBut({f.index.nodes[9].texture_blocks[0]}));
+    ASSERT_EQ(s.draws.size(), 8u);
+    EXPECT_EQ(s.draws[1].node, 9);
+    EXPECT_EQ(s.draws[1].mode, DrawMode::Atlas);
+    EXPECT_TRUE(s.draws[1].coarse);
+    EXPECT_EQ(s.coarse_draws, 1u);
+    // A visible child of c2 missing its geometry: c2 cannot refine and draws its own atlas.
+    s = selectDraws(f.index, f.camera, {}, allBut({f.index.nodes[14].layers[0].geometry}));
+    EXPECT_EQ(nodesOf(s), (std::vector<std::pair<int, bool>>{{8, false}, {9, false}, {10, false}, {11, true}, {16, false}}));
+    // Culled children missing do not block refinement (Fig. 30: "in memory or invisible").
+    std::set<BlockId> culled;
+    for (const int n : {1, 2, 3, 4, 5, 7})
+        for (const BlockId b : {f.index.nodes[static_cast<size_t>(n)].layers[0].geometry, f.index.nodes[static_cast<size_t>(n)].layers[0].atlas})
+            culled.insert(b);
+    s = selectDraws(f.index, f.camera, {}, allBut(culled));
+    EXPECT_EQ(s.draws.size(), 8u);
+    EXPECT_EQ(s.coarse_draws, 0u);
+    // c1's visible leaf missing: c1 draws coarse, the rest unchanged.
+    s = selectDraws(f.index, f.camera, {}, allBut({f.index.nodes[10].layers[0].atlas}));
+    EXPECT_EQ(nodesOf(s), (std::vector<std::pair<int, bool>>{{6, true}, {12, false}, {13, false}, {14, false}, {15, false}, {16, false}}));
+    // Nothing below the root: the root alone, coarse.
+    std::set<BlockId> below_root;
+    for (BlockId b = 2; b < f.index.blocks.size(); ++b) below_root.insert(b);
+    s = selectDraws(f.index, f.camera, {}, allBut(below_root));
+    EXPECT_EQ(nodesOf(s), (std::vector<std::pair<int, bool>>{{0, true}}));
+    // The root missing: nothing can be drawn, and the selection says so.
+    s = selectDraws(f.index, f.camera, {}, allBut({f.index.nodes[0].layers[0].atlas}));
+    EXPECT_TRUE(s.root_missing);
+    EXPECT_TRUE(s.draws.empty());
+}
+
+TEST(Selection, RefinementPossibleSemantics) {
+    Fixture f;
+    const Frustum fr = frustumOf(f.camera);
+    const auto all = [](BlockId) { return true; };
+    EXPECT_TRUE(refinementPossible(f.index, 0, fr, all));
+    // Leaf: only its original textures matter.
+    EXPECT_FALSE(refinementPossible(f.index, 8, fr, allBut({f.index.nodes[8].texture_blocks[0]})));
+    EXPECT_TRUE(refinementPossible(f.index, 8, fr, allBut({f.index.nodes[8].layers[0].atlas})));
+    // Inner: a visible child's atlas or geometry missing blocks it; an invisible child's does not.
+    EXPECT_FALSE(refinementPossible(f.index, 6, fr, allBut({f.index.nodes[8].layers[0].atlas})));
+    EXPECT_FALSE(refinementPossible(f.index, 6, fr, allBut({f.index.nodes[8].layers[0].geometry})));
+    EXPECT_TRUE(refinementPossible(f.index, 6, fr, allBut({f.index.nodes[7].layers[0].atlas})));
+    // Grandchildren do not matter to the root.
+    EXPECT_TRUE(refinementPossible(f.index, 0, fr, allBut({f.index.nodes[8].layers[0].atlas})));
+}
+
+TEST(Selection, TauAndViewportChangeWhereRefinementStops) {
+    Fixture f;
+    SelectionParams coarse;
+    coarse.tau = 2;  // threshold 50: c2 (d 60) is sharp enough
+    Selection s = selectDraws(f.index, f.camera, coarse, [](BlockId) { return true; });
+    bool c2_atlas = false;
+    for (const DrawItem& d : s.draws) c2_atlas |= d.node == 11;
+    EXPECT_TRUE(c2_atlas);
+    Camera big = f.camera;
+    big.width_px *= 2;
+    big.height_px *= 2;  // threshold 200: c3 (d 160) refines
+    s = selectDraws(f.index, big, {}, [](BlockId) { return true; });
+    int c3_leaves = 0;
+    for (const DrawItem& d : s.draws) c3_leaves += d.node >= 17 ? 1 : 0;
+    EXPECT_EQ(c3_leaves, 4);
+}
+
+}  // namespace
+}  // namespace cityatlas::render
