@@ -1,0 +1,201 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "render/core/camera_path.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "render/core/view.h"
+
+namespace cityatlas::render {
+namespace {
+using nlohmann::json;
+
+bool vec3(const json& j, Vec3d* out) {
+    if (!j.is_array() || j.size() != 3) return false;
+    for (const json& v : j)
+        if (!v.is_number() || !std::isfinite(v.get<double>())) return false;
+    *out = {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+    return true;
+}
+
+Vec3d lerp(const Vec3d& a, const Vec3d& b, double s) { return a + s * (b - a); }
+
+Vec3d catmullRom(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, const Vec3d& p3, double s) {
+    const double s2 = s * s, s3 = s2 * s;
+    return 0.5 * ((2.0 * p1) + s * (p2 - p0) + s2 * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) +
+                  s3 * (3.0 * p1 - p0 - 3.0 * p2 + p3));
+}
+
+}  // namespace
+
+size_t CameraPath::frameCount() const {
+    if (keys.empty()) return 0;
+    return static_cast<size_t>(std::floor(duration() * frame_rate + 1e-9)) + 1;
+}
+
+Status parseCameraPath(const std::string& text, const std::string& where, CameraPath* out) {
+    *out = CameraPath{};
+    json doc;
+    try {
+        doc = json::parse(text);
+    } catch (const json::parse_error& e) {
+        return Status::Fail(fmt::format("{}: not JSON (byte {})", where, e.byte));
+    }
+    if (!doc.is_object()) return Status::Fail(where + ": not a JSON object");
+    CameraPath p;
+    if (const auto it = doc.find("interpolation"); it != doc.end()) {
+        if (*it == "linear") p.interpolation = Interpolation::Linear;
+        else if (*it == "catmull-rom") p.interpolation = Interpolation::CatmullRom;
+        else return Status::Fail(where + ": interpolation must be \"linear\" or \"catmull-rom\"");
+    }
+    if (const auto it = doc.find("frame_rate"); it != doc.end()) {
+        if (!it->is_number() || !(it->get<double>() > 0 && it->get<double>() <= 1000))
+            return Status::Fail(where + ": frame_rate must be a number in (0, 1000]");
+        p.frame_rate = it->get<double>();
+    }
+    const auto keys = doc.find("keyframes");
+    if (keys == doc.end() || !keys->is_array() || keys->empty())
+        return Status::Fail(where + ": \"keyframes\" must be a non-empty array");
+    for (size_t i = 0; i < keys->size(); ++i) {
+        const json& k = (*keys)[i];
+        const std::string kw = fmt::format("{}: keyframes[{}]", where, i);
+        if (!k.is_object()) return Status::Fail(kw + ": not an object");
+        CameraKey key;
+        const auto t = k.find("time_s");
+        if (t == k.end() || !t->is_number() || !std::isfinite(t->get<double>()))
+            return Status::Fail(kw + ": \"time_s\" must be a number");
+        key.time_s = t->get<double>();
+        if (!p.keys.empty() && key.time_s <= p.keys.back().time_s)
+            return Status::Fail(fmt::format("{}: time_s {} is not after the previous keyframe's {}", kw, key.time_s,
+                                            p.keys.back().time_s));
+        const auto pos = k.find("position");
+        if (pos == k.end() || !vec3(*pos, &key.position)) return Status::Fail(kw + ": \"position\" must be [x, y, z]");
+        const auto dir = k.find("direction");
+        const auto at = k.find("look_at");
+        if ((dir != k.end()) == (at != k.end())) return Status::Fail(kw + ": give exactly one of \"direction\" and \"look_at\"");
+        Vec3d d;
+        if (dir != k.end()) {
+            if (!vec3(*dir, &d)) return Status::Fail(kw + ": \"direction\" must be [x, y, z]");
+        } else {
+            Vec3d target;
+            if (!vec3(*at, &target)) return Status::Fail(kw + ": \"look_at\" must be [x, y, z]");
+            d = target - key.position;
+        }
+        if (length(d) < 1e-12) return Status::Fail(kw + ": the view direction has zero length");
+        key.direction = normalized(d);
+        if (const auto f = k.find("fov_deg"); f != k.end()) {
+            if (!f->is_number() || !(f->get<double>() > 1 && f->get<double>() < 170))
+                return Status::Fail(kw + ": \"fov_deg\" must be in (1, 170)");
+            key.fov_deg = f->get<double>();
+        }
+        if (const auto c = k.find("cut"); c != k.end()) {
+            if (!c->is_boolean()) return Status::Fail(kw + ": \"cut\" must be true or false");
+            key.cut = c->get<bool>();
+        }
+        if (const auto l = k.find("label"); l != k.end()) {
+            if (!l->is_string()) return Status::Fail(kw + ": \"label\" must be a string");
+            key.label = l->get<std::string>();
+        }
+        p.keys.push_back(key);
+    }
+    *out = std::move(p);
+    return Status::Ok();
+}
+
+std::string cameraPathToJson(const CameraPath& path) {
+    json keys = json::array();
+    for (const CameraKey& k : path.keys) {
+        json j = {{"time_s", k.time_s},
+                  {"position", {k.position.x, k.position.y, k.position.z}},
+                  {"direction", {k.direction.x, k.direction.y, k.direction.z}},
+                  {"fov_deg", k.fov_deg}};
+        if (k.cut) j["cut"] = true;
+        if (!k.label.empty()) j["label"] = k.label;
+        keys.push_back(j);
+    }
+    return json{{"interpolation", path.interpolation == Interpolation::Linear ? "linear" : "catmull-rom"},
+                {"frame_rate", path.frame_rate},
+                {"keyframes", keys}}
+        .dump(2);
+}
+
+CameraSample sampleAt(const CameraPath& path, double time_s) {
+    CameraSample s;
+    s.time_s = time_s;
+    if (path.keys.empty()) return s;
+    const std::vector<CameraKey>& k = path.keys;
+    auto pose = [&](const CameraKey& key) {
+        s.position = key.position;
+        s.direction = key.direction;
+        s.fov_deg = key.fov_deg;
+        s.label = key.label;
+        return s;
+    };
+    if (time_s <= k.front().time_s) return pose(k.front());
+    if (time_s >= k.back().time_s) return pose(k.back());
+    // The segment [i, i+1] holding the time.
+    size_t i = 0;
+    while (i + 1 < k.size() && k[i + 1].time_s <= time_s) ++i;
+    const CameraKey& a = k[i];
+    const CameraKey& b = k[i + 1];
+    if (b.cut) return pose(a);  // hold, then jump at b's time
+    const double u = (time_s - a.time_s) / (b.time_s - a.time_s);
+    // Neighbours for the spline; a cut ends the curve like the path's ends do.
+    const CameraKey& before = (i > 0 && !a.cut) ? k[i - 1] : a;
+    const CameraKey& after = (i + 2 < k.size() && !k[i + 2].cut) ? k[i + 2] : b;
+    s.position = path.interpolation == Interpolation::Linear
+                     ? lerp(a.position, b.position, u)
+                     : catmullRom(before.position, a.position, b.position, after.position, u);
+    Vec3d d = lerp(a.direction, b.direction, u);
+    s.direction = length(d) > 1e-9 ? normalized(d) : a.direction;
+    s.fov_deg = a.fov_deg + u * (b.fov_deg - a.fov_deg);
+    s.label = a.label;
+    return s;
+}
+
+CameraSample sampleFrame(const CameraPath& path, size_t frame) {
+    const double t0 = path.keys.empty() ? 0 : path.keys.front().time_s;
+    return sampleAt(path, t0 + static_cast<double>(frame) / path.frame_rate);
+}
+
+CameraPath defaultPath(const Box3d& b, double frame_rate) {
+    const Vec3d c = 0.5 * (b.min + b.max);
+    const double rx = 0.5 * (b.max.x - b.min.x), ry = 0.5 * (b.max.y - b.min.y);
+    const double r = std::max({rx, ry, 10.0});
+    const double top = b.max.z, eye = b.min.z + 1.7;
+    const double fly = std::max(top + 25.0, b.min.z + 40.0);
+    CameraPath p;
+    p.frame_rate = frame_rate;
+    p.interpolation = Interpolation::CatmullRom;
+    const Vec3d centre_ground{c.x, c.y, b.min.z};
+    auto key = [&](double t, const Vec3d& pos, const Vec3d& look_at, const char* label) {
+        CameraKey k;
+        k.time_s = t;
+        k.position = pos;
+        k.direction = normalized(look_at - pos);
+        k.label = label;
+        p.keys.push_back(k);
+    };
+    // Overview: south of the town, high enough to see all of it at 60 degrees.
+    key(0, {c.x, c.y - 1.6 * r, top + 1.4 * r}, centre_ground, "overview");
+    key(3, {c.x - 0.4 * rx, c.y - 1.1 * r, top + 0.7 * r}, centre_ground, "overview");
+    // Oblique flight, descending diagonally across the town and looking ahead.
+    key(6, {b.min.x + 0.2 * rx, b.min.y + 0.3 * ry, fly + 0.3 * r}, {c.x, c.y, b.min.z}, "oblique");
+    key(10, {c.x, c.y, fly}, {b.max.x, b.max.y, b.min.z}, "oblique");
+    key(13, {b.max.x - 0.3 * rx, b.max.y - 0.3 * ry, fly}, {b.max.x + rx, b.max.y + ry, b.min.z}, "oblique");
+    // Street level: at eye height along the southern edge, looking into the town.
+    CameraKey street;
+    street.time_s = 14;
+    street.position = {b.min.x + 0.2 * rx, b.min.y - 3.0, eye};
+    street.direction = normalized(Vec3d{0.3, 1, 0});
+    street.cut = true;
+    street.label = "street";
+    p.keys.push_back(street);
+    key(20, {b.min.x + 1.2 * rx, b.min.y - 3.0, eye}, {b.min.x + 1.6 * rx, c.y, eye}, "street");
+    return p;
+}
+
+}  // namespace cityatlas::render
