@@ -100,10 +100,8 @@ int runAtlas(const AtlasCliOptions& opt) {
 
     // Everything goes to a sibling working folder renamed into place at the
     // end: a failed or interrupted run never leaves a half-written tree.
-    const fs::path tmp = target.parent_path() / (target.filename().string() + ".partial");
-    fs::remove_all(tmp, ec);
-    fs::create_directories(tmp, ec);
-    if (ec) return fail(progress, fmt::format("{}: cannot create the working folder: {}", tmp.string(), ec.message()));
+    fs::path tmp;
+    if (const Status st = startWorkingFolder(target, {}, &tmp); !st.ok()) return fail(progress, st.error);
     auto abandon = [&](const std::string& message) {
         std::error_code ignored;
         fs::remove_all(tmp, ignored);

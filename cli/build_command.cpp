@@ -202,11 +202,9 @@ int runBuild(const BuildCliOptions& opt_in) {
     endStage("read");
 
     // --- Atlas tree and tiles, into a sibling folder renamed into place at the end.
-    const fs::path tmp = target.parent_path() / (target.filename().string() + ".partial");
+    fs::path tmp;
+    if (const Status st = startWorkingFolder(target, ".atlas-png", &tmp); !st.ok()) return fail(progress, st.error);
     const fs::path work = tmp / ".atlas-png";
-    fs::remove_all(tmp, ec);
-    fs::create_directories(work, ec);
-    if (ec) return fail(progress, fmt::format("{}: cannot create the working folder: {}", tmp.string(), ec.message()));
     auto abandon = [&](const std::string& message) {
         std::error_code ignored;
         fs::remove_all(tmp, ignored);

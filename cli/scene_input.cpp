@@ -241,4 +241,15 @@ Status replaceFolder(const fs::path& finished, const fs::path& target) {
     return Status::Ok();
 }
 
+Status startWorkingFolder(const std::filesystem::path& target, const std::filesystem::path& subfolder,
+                          std::filesystem::path* working) {
+    namespace fs = std::filesystem;
+    *working = target.parent_path() / (target.filename().string() + ".partial");
+    std::error_code ec;
+    fs::remove_all(*working, ec);
+    fs::create_directories(subfolder.empty() ? *working : *working / subfolder, ec);
+    if (ec) return Status::Fail(fmt::format("{}: cannot create the working folder: {}", working->string(), ec.message()));
+    return Status::Ok();
+}
+
 }  // namespace cityatlas::cli

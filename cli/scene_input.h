@@ -55,4 +55,11 @@ Status writeTextAtomically(const std::filesystem::path& path, const std::string&
 /// (moved aside first and removed after, so no half state stays behind).
 Status replaceFolder(const std::filesystem::path& finished, const std::filesystem::path& target);
 
+/// The sibling working folder `target`.partial, emptied and created (with
+/// `subfolder` inside when given): commands write there and replaceFolder() it
+/// into place at the end, so a failed or interrupted run never leaves a
+/// half-written output. The error names the folder.
+Status startWorkingFolder(const std::filesystem::path& target, const std::filesystem::path& subfolder,
+                          std::filesystem::path* working);
+
 }  // namespace cityatlas::cli
