@@ -1,0 +1,648 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "render/gl/gl_renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <epoxy/gl.h>
+#include <fmt/format.h>
+
+#include "render/gl/gl_context.h"
+#include "tiles/texture_codec.h"
+
+namespace cityatlas::render {
+namespace {
+
+// Attribute locations, fixed in the shader so VAOs need no program.
+constexpr GLuint kPosition = 0, kUvAtlas = 1, kUvOriginal = 2, kMaterial = 3;
+
+// Shader modes: what a fragment's colour comes from.
+constexpr int kModeTextured = 0;  // material colour if material_id >= 0, else the texture
+constexpr int kModeColours = 1;   // material colour if material_id >= 0, else the neutral grey
+constexpr int kModeDummy = 2;     // the (dummy) texture everywhere
+
+constexpr const char* kVertexShader = R"(#version 330 core
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec2 a_uv_atlas;
+layout(location = 2) in vec2 a_uv_original;
+layout(location = 3) in int a_material;
+uniform mat4 u_view_projection;  // projection * viewRotation: no translation
+uniform vec3 u_offset;           // node centre - camera position, computed in double
+uniform int u_uv_set;            // 0: uv_atlas, 1: uv_original
+out vec2 v_uv;
+flat out int v_material;
+void main() {
+    gl_Position = u_view_projection * vec4(a_position + u_offset, 1.0);
+    vec2 uv = u_uv_set == 1 ? a_uv_original : a_uv_atlas;
+    v_uv = vec2(uv.x, 1.0 - uv.y);  // v = 0 at the image bottom; texture rows are stored top first
+    v_material = a_material;
+}
+)";
+
+constexpr const char* kFragmentShader = R"(#version 330 core
+in vec2 v_uv;
+flat in int v_material;
+uniform sampler2D u_texture;
+uniform samplerBuffer u_materials;  // linear rgb, alpha = 1 - transparency
+uniform int u_material_count;
+uniform int u_mode;
+uniform bool u_opaque;
+uniform float u_grey;
+out vec4 o_colour;
+void main() {
+    vec4 c;
+    if (u_mode == 2) {
+        c = texture(u_texture, v_uv);
+    } else if (v_material >= 0) {
+        c = v_material < u_material_count ? texelFetch(u_materials, v_material) : vec4(vec3(u_grey), 1.0);
+    } else if (u_mode == 0) {
+        c = texture(u_texture, v_uv);
+    } else {
+        c = vec4(vec3(u_grey), 1.0);
+    }
+    o_colour = vec4(c.rgb, u_opaque ? 1.0 : c.a);
+}
+)";
+
+std::string firstLine(const std::string& log) {
+    std::string line = log.substr(0, log.find('\n'));
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    return line.empty() ? "(no message)" : line;
+}
+
+GLuint compileShader(GLenum type, const char* source, const char* name, std::string* error) {
+    const GLuint shader = glCreateShader(type);
+    glShaderSource(shader, 1, &source, nullptr);
+    glCompileShader(shader);
+    GLint ok = GL_FALSE;
+    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    if (ok != GL_TRUE) {
+        GLint length = 0;
+        glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
+        glGetShaderInfoLog(shader, length, nullptr, log.data());
+        *error = fmt::format("GL renderer: {} shader does not compile: {}", name, firstLine(log.c_str()));
+        glDeleteShader(shader);
+        return 0;
+    }
+    return shader;
+}
+
+GLuint linkProgram(std::string* error) {
+    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertexShader, "vertex", error);
+    if (vs == 0) return 0;
+    const GLuint fs = compileShader(GL_FRAGMENT_SHADER, kFragmentShader, "fragment", error);
+    if (fs == 0) {
+        glDeleteShader(vs);
+        return 0;
+    }
+    const GLuint program = glCreateProgram();
+    glAttachShader(program, vs);
+    glAttachShader(program, fs);
+    glLinkProgram(program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = GL_FALSE;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (ok != GL_TRUE) {
+        GLint length = 0;
+        glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
+        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
+        glGetProgramInfoLog(program, length, nullptr, log.data());
+        *error = fmt::format("GL renderer: shader program does not link: {}", firstLine(log.c_str()));
+        glDeleteProgram(program);
+        return 0;
+    }
+    return program;
+}
+
+void setStatus(Status* status, Status value) {
+    if (status != nullptr) *status = std::move(value);
+}
+
+double elapsedMs(std::chrono::steady_clock::time_point since) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+// Column-major 4x4 product a * b, in double so the one rounding is at the end.
+std::array<float, 16> multiply(const std::array<float, 16>& a, const std::array<float, 16>& b) {
+    std::array<float, 16> m{};
+    for (int c = 0; c < 4; ++c) {
+        for (int r = 0; r < 4; ++r) {
+            double s = 0;
+            for (int k = 0; k < 4; ++k) s += static_cast<double>(a[k * 4 + r]) * b[c * 4 + k];
+            m[c * 4 + r] = static_cast<float>(s);
+        }
+    }
+    return m;
+}
+
+Status checkTexture(const CompressedTexture& t, GLint max_size) {
+    if (t.channels != 3 && t.channels != 4)
+        return Status::Fail(fmt::format("texture: {} channels (3: BC1 or 4: BC3 expected)", t.channels));
+    if (t.width < 1 || t.height < 1 || t.width > max_size || t.height > max_size)
+        return Status::Fail(fmt::format("texture: size {}x{} outside 1..{}", t.width, t.height, max_size));
+    if (t.levels.empty()) return Status::Fail("texture: no mip levels");
+    int w = t.width, h = t.height;
+    for (size_t i = 0; i < t.levels.size(); ++i) {
+        const CompressedTexture::Level& level = t.levels[i];
+        if (level.width != w || level.height != h)
+            return Status::Fail(fmt::format("texture: level {} is {}x{}, expected {}x{}", i, level.width,
+                                            level.height, w, h));
+        if (level.bytes != tiles::bcBlockBytes(w, h, t.channels))
+            return Status::Fail(fmt::format("texture: level {} has {} bytes, {}x{} BC{} needs {}", i, level.bytes, w,
+                                            h, t.channels == 3 ? 1 : 3, tiles::bcBlockBytes(w, h, t.channels)));
+        if (level.offset > t.data.size() || level.bytes > t.data.size() - level.offset)
+            return Status::Fail(fmt::format("texture: level {} lies outside the {} data bytes", i, t.data.size()));
+        if (w == 1 && h == 1 && i + 1 < t.levels.size())
+            return Status::Fail("texture: levels continue past 1x1");
+        w = std::max(1, w / 2);
+        h = std::max(1, h / 2);
+    }
+    return Status::Ok();
+}
+
+Status checkMesh(const MeshData& m) {
+    if (m.positions.size() % 3 != 0) return Status::Fail("mesh: positions are not xyz triples");
+    const size_t n = m.positions.size() / 3;
+    if (n > std::numeric_limits<uint32_t>::max()) return Status::Fail("mesh: more than 2^32 - 1 vertices");
+    if (!m.uv_atlas.empty() && m.uv_atlas.size() != 2 * n)
+        return Status::Fail(fmt::format("mesh: {} uv_atlas values for {} vertices", m.uv_atlas.size(), n));
+    if (!m.uv_original.empty() && m.uv_original.size() != 2 * n)
+        return Status::Fail(fmt::format("mesh: {} uv_original values for {} vertices", m.uv_original.size(), n));
+    if (!m.material_id.empty() && m.material_id.size() != n)
+        return Status::Fail(fmt::format("mesh: {} material ids for {} vertices", m.material_id.size(), n));
+    if (m.indices.size() % 3 != 0) return Status::Fail("mesh: index count is not a multiple of 3");
+    if (m.indices.size() > std::numeric_limits<uint32_t>::max()) return Status::Fail("mesh: too many indices");
+    for (size_t i = 0; i < m.indices.size(); ++i) {
+        if (m.indices[i] >= n)
+            return Status::Fail(fmt::format("mesh: index {} is {}, only {} vertices", i, m.indices[i], n));
+    }
+    for (const MeshData::TextureRange& r : m.texture_ranges) {
+        if (r.first_index > m.indices.size() || r.index_count > m.indices.size() - r.first_index)
+            return Status::Fail(fmt::format("mesh: texture {} range [{}, +{}) outside the {} indices", r.texture,
+                                            r.first_index, r.index_count, m.indices.size()));
+    }
+    return Status::Ok();
+}
+
+void setSampling(bool wrap, bool anisotropic, float anisotropy, int levels) {
+    const GLint mode = wrap ? GL_REPEAT : GL_CLAMP_TO_EDGE;
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, mode);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, mode);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_BASE_LEVEL, 0);
+    // A chain may stop before 1x1: the texture is complete with the levels it has.
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, levels - 1);
+    if (anisotropic) glTexParameterf(GL_TEXTURE_2D, GL_TEXTURE_MAX_ANISOTROPY, anisotropy);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- OffscreenTarget
+
+std::unique_ptr<OffscreenTarget> OffscreenTarget::create(int width, int height, Status* status) {
+    GLint max_size = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
+    if (width < 1 || height < 1 || width > max_size || height > max_size) {
+        *status = Status::Fail(fmt::format("offscreen target: size {}x{} outside 1..{}", width, height, max_size));
+        return nullptr;
+    }
+    std::unique_ptr<OffscreenTarget> t(new OffscreenTarget());
+    t->width_ = width;
+    t->height_ = height;
+    glGenRenderbuffers(1, &t->colour_);
+    glBindRenderbuffer(GL_RENDERBUFFER, t->colour_);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_SRGB8_ALPHA8, width, height);
+    glGenRenderbuffers(1, &t->depth_);
+    glBindRenderbuffer(GL_RENDERBUFFER, t->depth_);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
+    glBindRenderbuffer(GL_RENDERBUFFER, 0);
+    glGenFramebuffers(1, &t->fbo_);
+    glBindFramebuffer(GL_FRAMEBUFFER, t->fbo_);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, t->colour_);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t->depth_);
+    const GLenum complete = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (complete != GL_FRAMEBUFFER_COMPLETE) {
+        *status = Status::Fail(fmt::format("offscreen target: {}x{} sRGB8_ALPHA8 + depth24 framebuffer is "
+                                           "incomplete (0x{:x})", width, height, complete));
+        return nullptr;
+    }
+    *status = Status::Ok();
+    return t;
+}
+
+OffscreenTarget::~OffscreenTarget() {
+    if (fbo_ != 0) glDeleteFramebuffers(1, &fbo_);
+    if (colour_ != 0) glDeleteRenderbuffers(1, &colour_);
+    if (depth_ != 0) glDeleteRenderbuffers(1, &depth_);
+}
+
+void OffscreenTarget::bind() const {
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+    glViewport(0, 0, width_, height_);
+}
+
+void OffscreenTarget::readPixels(std::vector<uint8_t>* rgba) const {
+    const size_t row = static_cast<size_t>(width_) * 4;
+    std::vector<uint8_t> bottom_up(row * height_);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, bottom_up.data());
+    // GL's first row is the bottom one; callers get images in file order.
+    rgba->resize(bottom_up.size());
+    for (int y = 0; y < height_; ++y)
+        std::copy_n(bottom_up.data() + row * (height_ - 1 - y), row, rgba->data() + row * y);
+}
+
+// ---------------------------------------------------------------- GlRenderer
+
+std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& materials, Status* status) {
+    return create(materials, RendererOptions{}, status);
+}
+
+std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& materials,
+                                               const RendererOptions& options, Status* status) {
+    const GlInfo info = queryGlInfo();
+    if (info.major * 10 + info.minor < 33) {
+        *status = Status::Fail(fmt::format("GL renderer: OpenGL {} is below 3.3 ({})", info.version, info.renderer));
+        return nullptr;
+    }
+    std::unique_ptr<GlRenderer> r(new GlRenderer());
+    r->options_ = options;
+    // sRGB S3TC keeps the sampler decoding to linear light like the CPU path;
+    // plain S3TC alone would sample sRGB bytes as linear, so decode instead.
+    r->cpu_decode_ = options.force_cpu_decode || !info.srgb_s3tc;
+    r->anisotropic_ = info.anisotropic;
+    r->anisotropy_ = std::clamp(options.max_anisotropy, 1.0F, info.max_anisotropy);
+
+    std::string error;
+    r->program_ = linkProgram(&error);
+    if (r->program_ == 0) {
+        *status = Status::Fail(error);
+        return nullptr;
+    }
+    const GLuint p = r->program_;
+    r->u_view_projection_ = glGetUniformLocation(p, "u_view_projection");
+    r->u_offset_ = glGetUniformLocation(p, "u_offset");
+    r->u_uv_set_ = glGetUniformLocation(p, "u_uv_set");
+    r->u_mode_ = glGetUniformLocation(p, "u_mode");
+    r->u_opaque_ = glGetUniformLocation(p, "u_opaque");
+    r->u_texture_ = glGetUniformLocation(p, "u_texture");
+    r->u_materials_ = glGetUniformLocation(p, "u_materials");
+    r->u_material_count_ = glGetUniformLocation(p, "u_material_count");
+    glUseProgram(p);
+    glUniform1i(r->u_texture_, 0);
+    glUniform1i(r->u_materials_, 1);
+    glUniform1i(r->u_material_count_, static_cast<GLint>(materials.size()));
+    glUniform1f(glGetUniformLocation(p, "u_grey"), kNeutralGrey);
+    glUseProgram(0);
+
+    // Materials as a buffer texture: any count, one texelFetch per fragment.
+    std::vector<float> table;
+    table.reserve(4 * std::max<size_t>(materials.size(), 1));
+    for (const MaterialInfo& m : materials) {
+        table.insert(table.end(), {m.diffuse[0], m.diffuse[1], m.diffuse[2], 1.0F - m.transparency});
+    }
+    if (table.empty()) table = {kNeutralGrey, kNeutralGrey, kNeutralGrey, 1};  // a TBO needs a store
+    r->material_count_ = static_cast<int>(materials.size());
+    glGenBuffers(1, &r->material_buffer_);
+    glBindBuffer(GL_TEXTURE_BUFFER, r->material_buffer_);
+    glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(table.size() * sizeof(float)), table.data(),
+                 GL_STATIC_DRAW);
+    glGenTextures(1, &r->material_texture_);
+    glBindTexture(GL_TEXTURE_BUFFER, r->material_texture_);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA32F, r->material_buffer_);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+
+    // The dummy: a 4x4 sRGB texture of one colour, one level.
+    std::vector<uint8_t> dummy(4 * 4 * 4);
+    for (size_t i = 0; i < dummy.size(); ++i) dummy[i] = kDummyColour[i % 4];
+    glGenTextures(1, &r->dummy_.id);
+    glBindTexture(GL_TEXTURE_2D, r->dummy_.id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8_ALPHA8, 4, 4, 0, GL_RGBA, GL_UNSIGNED_BYTE, dummy.data());
+    setSampling(true, false, 1, 1);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    r->dummy_.width = r->dummy_.height = 4;
+    r->dummy_.channels = 4;
+    r->dummy_.levels = 1;
+    r->dummy_.wrap = true;
+    r->dummy_.gpu_bytes = dummy.size();
+
+    if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
+        *status = Status::Fail(fmt::format("GL renderer: setup failed with GL error 0x{:x}", e));
+        return nullptr;
+    }
+    *status = Status::Ok();
+    return r;
+}
+
+GlRenderer::~GlRenderer() {
+    if (program_ != 0) glDeleteProgram(program_);
+    if (material_texture_ != 0) glDeleteTextures(1, &material_texture_);
+    if (material_buffer_ != 0) glDeleteBuffers(1, &material_buffer_);
+    release(&dummy_);
+}
+
+GpuMesh GlRenderer::upload(const MeshData& m, Status* status) {
+    const auto start = std::chrono::steady_clock::now();
+    GpuMesh g;
+    if (Status s = checkMesh(m); !s.ok()) {
+        setStatus(status, std::move(s));
+        return g;
+    }
+    setStatus(status, Status::Ok());
+    const size_t n = m.positions.size() / 3;
+    if (n == 0 || m.indices.empty()) return g;
+
+    g.vertex_count = static_cast<uint32_t>(n);
+    g.index_count = static_cast<uint32_t>(m.indices.size());
+    g.has_uv_atlas = !m.uv_atlas.empty();
+    g.has_uv_original = !m.uv_original.empty();
+    g.has_material_id = !m.material_id.empty();
+    g.texture_ranges = m.texture_ranges;
+
+    // One buffer, one block per attribute (no interleaving: absent attributes cost nothing).
+    const size_t pos_bytes = m.positions.size() * sizeof(float);
+    const size_t atlas_bytes = m.uv_atlas.size() * sizeof(float);
+    const size_t orig_bytes = m.uv_original.size() * sizeof(float);
+    const size_t mat_bytes = m.material_id.size() * sizeof(int32_t);
+    const size_t atlas_at = pos_bytes, orig_at = atlas_at + atlas_bytes, mat_at = orig_at + orig_bytes;
+    const size_t vbo_bytes = mat_at + mat_bytes;
+
+    glGenVertexArrays(1, &g.vao);
+    glBindVertexArray(g.vao);
+    glGenBuffers(1, &g.vbo);
+    glBindBuffer(GL_ARRAY_BUFFER, g.vbo);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vbo_bytes), nullptr, GL_STATIC_DRAW);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(pos_bytes), m.positions.data());
+    glEnableVertexAttribArray(kPosition);
+    glVertexAttribPointer(kPosition, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    auto at = [](size_t offset) { return reinterpret_cast<const void*>(offset); };
+    if (g.has_uv_atlas) {
+        glBufferSubData(GL_ARRAY_BUFFER, static_cast<GLintptr>(atlas_at), static_cast<GLsizeiptr>(atlas_bytes),
+                        m.uv_atlas.data());
+        glEnableVertexAttribArray(kUvAtlas);
+        glVertexAttribPointer(kUvAtlas, 2, GL_FLOAT, GL_FALSE, 0, at(atlas_at));
+    }
+    if (g.has_uv_original) {
+        glBufferSubData(GL_ARRAY_BUFFER, static_cast<GLintptr>(orig_at), static_cast<GLsizeiptr>(orig_bytes),
+                        m.uv_original.data());
+        glEnableVertexAttribArray(kUvOriginal);
+        glVertexAttribPointer(kUvOriginal, 2, GL_FLOAT, GL_FALSE, 0, at(orig_at));
+    }
+    if (g.has_material_id) {
+        glBufferSubData(GL_ARRAY_BUFFER, static_cast<GLintptr>(mat_at), static_cast<GLsizeiptr>(mat_bytes),
+                        m.material_id.data());
+        glEnableVertexAttribArray(kMaterial);
+        glVertexAttribIPointer(kMaterial, 1, GL_INT, 0, at(mat_at));
+    }
+
+    // 16-bit indices when they fit: half the index memory for most nodes.
+    glGenBuffers(1, &g.ibo);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g.ibo);  // recorded in the VAO
+    size_t ibo_bytes = 0;
+    if (n <= 65536) {
+        std::vector<uint16_t> shorts(m.indices.begin(), m.indices.end());
+        ibo_bytes = shorts.size() * sizeof(uint16_t);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibo_bytes), shorts.data(), GL_STATIC_DRAW);
+        g.index_type = GL_UNSIGNED_SHORT;
+    } else {
+        ibo_bytes = m.indices.size() * sizeof(uint32_t);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibo_bytes), m.indices.data(), GL_STATIC_DRAW);
+        g.index_type = GL_UNSIGNED_INT;
+    }
+    glBindVertexArray(0);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    g.gpu_bytes = vbo_bytes + ibo_bytes;
+    upload_bytes_ += g.gpu_bytes;
+    upload_ms_ += elapsedMs(start);
+    return g;
+}
+
+GpuTexture GlRenderer::upload(const CompressedTexture& t, bool wrap, Status* status) {
+    const auto start = std::chrono::steady_clock::now();
+    GpuTexture g;
+    GLint max_size = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+    if (Status s = checkTexture(t, max_size); !s.ok()) {
+        setStatus(status, std::move(s));
+        return g;
+    }
+    g.width = t.width;
+    g.height = t.height;
+    g.channels = t.channels;
+    g.levels = static_cast<int>(t.levels.size());
+    g.wrap = wrap;
+    g.decoded_on_cpu = cpu_decode_;
+    glGenTextures(1, &g.id);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, g.id);
+    const GLenum format =
+        t.channels == 3 ? GL_COMPRESSED_SRGB_S3TC_DXT1_EXT : GL_COMPRESSED_SRGB_ALPHA_S3TC_DXT5_EXT;
+    for (size_t i = 0; i < t.levels.size(); ++i) {
+        const CompressedTexture::Level& level = t.levels[i];
+        const uint8_t* blocks = t.data.data() + level.offset;
+        if (!cpu_decode_) {
+            glCompressedTexImage2D(GL_TEXTURE_2D, static_cast<GLint>(i), format, level.width, level.height, 0,
+                                   static_cast<GLsizei>(level.bytes), blocks);
+            g.gpu_bytes += level.bytes;
+            continue;
+        }
+        const tiles::Image8 image =
+            tiles::decodeBc(std::vector<uint8_t>(blocks, blocks + level.bytes), level.width, level.height, t.channels);
+        std::vector<uint8_t> rgba(static_cast<size_t>(level.width) * level.height * 4, 255);
+        const size_t texels = static_cast<size_t>(level.width) * level.height;
+        for (size_t p = 0; p < texels; ++p)
+            std::copy_n(image.pixels.data() + p * t.channels, t.channels, rgba.data() + p * 4);
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        glTexImage2D(GL_TEXTURE_2D, static_cast<GLint>(i), GL_SRGB8_ALPHA8, level.width, level.height, 0, GL_RGBA,
+                     GL_UNSIGNED_BYTE, rgba.data());
+        g.gpu_bytes += rgba.size();
+    }
+    setSampling(wrap, anisotropic_, anisotropy_, g.levels);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
+        glDeleteTextures(1, &g.id);
+        setStatus(status, Status::Fail(fmt::format("texture: {}x{} BC{} upload failed with GL error 0x{:x}", t.width,
+                                                   t.height, t.channels == 3 ? 1 : 3, e)));
+        return GpuTexture{};
+    }
+    setStatus(status, Status::Ok());
+    upload_bytes_ += g.gpu_bytes;
+    upload_ms_ += elapsedMs(start);
+    return g;
+}
+
+void GlRenderer::release(GpuMesh* mesh) {
+    if (mesh->vao != 0) glDeleteVertexArrays(1, &mesh->vao);
+    if (mesh->vbo != 0) glDeleteBuffers(1, &mesh->vbo);
+    if (mesh->ibo != 0) glDeleteBuffers(1, &mesh->ibo);
+    *mesh = GpuMesh{};
+}
+
+void GlRenderer::release(GpuTexture* texture) {
+    if (texture->id != 0) glDeleteTextures(1, &texture->id);
+    *texture = GpuTexture{};
+}
+
+// ---------------------------------------------------------------- frames
+
+void GlRenderer::beginFrame(const Camera& camera, const std::array<float, 4>& clear_linear) {
+    camera_ = camera;
+    draws_.clear();
+    nodes_.clear();
+    glViewport(0, 0, camera.width_px, camera.height_px);
+    glEnable(GL_FRAMEBUFFER_SRGB);  // the clear colour is linear too
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthMask(GL_TRUE);
+    glClearColor(clear_linear[0], clear_linear[1], clear_linear[2], clear_linear[3]);
+    glClearDepth(1.0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+}
+
+int GlRenderer::beginNode(const Vec3d& node_centre, int layer) {
+    // The one place where world coordinates meet the camera: in double.
+    const Vec3d offset = node_centre - camera_.position;
+    NodeDraw node;
+    node.offset = {static_cast<float>(offset.x), static_cast<float>(offset.y), static_cast<float>(offset.z)};
+    node.distance = length(offset);
+    node.layer = layer == 1 ? 1 : 0;
+    nodes_.push_back(node);
+    return static_cast<int>(nodes_.size()) - 1;
+}
+
+void GlRenderer::queue(const GpuMesh& mesh, const GpuTexture* texture, int mode, bool uv_original, uint32_t first,
+                       uint32_t count) {
+    if (count == 0) return;
+    Draw d;
+    d.mesh = &mesh;
+    d.texture = texture != nullptr && texture->valid() ? texture : nullptr;
+    d.mode = mode;
+    if (d.texture == nullptr && mode == kModeTextured) d.mode = kModeColours;
+    d.uv_original = uv_original;
+    d.first_index = first;
+    d.index_count = count;
+    d.node = static_cast<int>(nodes_.size()) - 1;
+    draws_.push_back(d);
+}
+
+void GlRenderer::drawAtlas(const GpuMesh& mesh, const GpuTexture* atlas, const Vec3d& node_centre, int layer) {
+    if (!mesh.valid()) return;
+    beginNode(node_centre, layer);
+    queue(mesh, atlas, kModeTextured, false, 0, mesh.index_count);
+}
+
+void GlRenderer::drawOriginals(const GpuMesh& mesh, const std::function<const GpuTexture*(int32_t)>& original,
+                               const GpuTexture* atlas_fallback, const Vec3d& node_centre, int layer) {
+    if (!mesh.valid()) return;
+    beginNode(node_centre, layer);
+    if (mesh.texture_ranges.empty()) {
+        queue(mesh, atlas_fallback, kModeTextured, false, 0, mesh.index_count);
+        return;
+    }
+    for (const MeshData::TextureRange& range : mesh.texture_ranges) {
+        if (range.texture < 0) {
+            queue(mesh, nullptr, kModeColours, false, range.first_index, range.index_count);
+            continue;
+        }
+        const GpuTexture* texture = original ? original(range.texture) : nullptr;
+        if (texture != nullptr && texture->valid() && mesh.has_uv_original) {
+            queue(mesh, texture, kModeTextured, true, range.first_index, range.index_count);
+        } else {
+            // Not resident (or never written): the node's atlas stands in.
+            queue(mesh, atlas_fallback, kModeTextured, false, range.first_index, range.index_count);
+        }
+    }
+}
+
+void GlRenderer::drawDummy(const GpuMesh& mesh, const Vec3d& node_centre, int layer) {
+    if (!mesh.valid()) return;
+    beginNode(node_centre, layer);
+    queue(mesh, &dummy_, kModeDummy, false, 0, mesh.index_count);
+}
+
+void GlRenderer::issue(const Draw& d, FrameStats* stats) {
+    const GpuMesh& mesh = *d.mesh;
+    const NodeDraw& node = nodes_[static_cast<size_t>(d.node)];
+    glUniform3f(u_offset_, node.offset[0], node.offset[1], node.offset[2]);
+    glUniform1i(u_mode_, d.mode);
+    glUniform1i(u_uv_set_, d.uv_original ? 1 : 0);
+    if (d.mode != kModeColours && d.texture != nullptr && d.texture->id != bound_texture_) {
+        glBindTexture(GL_TEXTURE_2D, d.texture->id);
+        bound_texture_ = d.texture->id;
+        ++stats->texture_binds;
+    }
+    glBindVertexArray(mesh.vao);
+    // Absent attributes read the context's current value (not VAO state): set it.
+    if (!mesh.has_uv_atlas) glVertexAttrib2f(kUvAtlas, 0, 0);
+    if (!mesh.has_uv_original) glVertexAttrib2f(kUvOriginal, 0, 0);
+    if (!mesh.has_material_id) glVertexAttribI4i(kMaterial, -1, 0, 0, 0);
+    const size_t index_size = mesh.index_type == GL_UNSIGNED_SHORT ? 2 : 4;
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(d.index_count), mesh.index_type,
+                   reinterpret_cast<const void*>(static_cast<size_t>(d.first_index) * index_size));
+    ++stats->draw_calls;
+    stats->triangles += d.index_count / 3;
+}
+
+FrameStats GlRenderer::endFrame() {
+    FrameStats stats;
+    stats.nodes = static_cast<uint32_t>(nodes_.size());
+    stats.gpu_upload_ms = upload_ms_;
+    stats.upload_bytes = upload_bytes_;
+    upload_ms_ = 0;
+    upload_bytes_ = 0;
+
+    glUseProgram(program_);
+    const std::array<float, 16> view_projection = multiply(projection(camera_), viewRotation(camera_));
+    glUniformMatrix4fv(u_view_projection_, 1, GL_FALSE, view_projection.data());
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_BUFFER, material_texture_);
+    glActiveTexture(GL_TEXTURE0);
+    bound_texture_ = 0;  // uploads and other code bind textures too: issue the first bind
+    glEnable(GL_FRAMEBUFFER_SRGB);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDisable(GL_CULL_FACE);  // city data has inconsistent winding
+
+    // Opaque first, in call order, writing depth.
+    glDisable(GL_BLEND);
+    glDepthMask(GL_TRUE);
+    glUniform1i(u_opaque_, 1);
+    for (const Draw& d : draws_) {
+        if (nodes_[static_cast<size_t>(d.node)].layer == 0) issue(d, &stats);
+    }
+
+    // Then the alpha layer, far nodes first (per node: triangles within a node
+    // keep their order), tested against the opaque depth but not writing it.
+    std::vector<const Draw*> alpha;
+    for (const Draw& d : draws_) {
+        if (nodes_[static_cast<size_t>(d.node)].layer == 1) alpha.push_back(&d);
+    }
+    std::stable_sort(alpha.begin(), alpha.end(), [&](const Draw* a, const Draw* b) {
+        return nodes_[static_cast<size_t>(a->node)].distance > nodes_[static_cast<size_t>(b->node)].distance;
+    });
+    if (!alpha.empty()) {
+        glEnable(GL_BLEND);
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        glDepthMask(GL_FALSE);
+        glUniform1i(u_opaque_, 0);
+        for (const Draw* d : alpha) issue(*d, &stats);
+    }
+
+    glDepthMask(GL_TRUE);
+    glDisable(GL_BLEND);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glBindVertexArray(0);
+    glUseProgram(0);
+    draws_.clear();
+    nodes_.clear();
+    return stats;
+}
+
+}  // namespace cityatlas::render

@@ -1,0 +1,225 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// The thin OpenGL 3.3 core backend: uploads decoded blocks (render/core/
+/// decoded.h) and draws node layers camera-relative. Needs a current context
+/// (gl_context.h) for every call, on the thread it is current on.
+///
+/// Colour: linear light
+/// --------------------
+/// Textures are sRGB-encoded and their mips were made in linear light
+/// (tiles/texture_codec.h); material colours are linear (MaterialInfo). So
+/// textures are uploaded with sRGB formats (the sampler decodes to linear,
+/// filtering and mip blending happen in linear light as in the build), the
+/// shader works in linear light, and the target is GL_SRGB8_ALPHA8 with
+/// GL_FRAMEBUFFER_SRGB (the blend happens in linear light, the stored bytes are
+/// sRGB). A texel seen at 1:1 therefore reads back as its own sRGB byte; a
+/// material diffuse d reads back as srgb(d). The same holds in all three modes
+/// and in the CPU-decode fallback (decoded blocks go up as GL_SRGB8_ALPHA8).
+///
+/// Frames and precision
+/// --------------------
+/// Mesh positions are float32 relative to their node's centre; each draw's
+/// translation (node_centre - camera.position) is computed in double on the
+/// CPU and only then rounded to float, the view matrix is viewRotation(camera)
+/// (no translation) and the projection projection(camera). float32 therefore
+/// never holds an ECEF-sized coordinate.
+///
+/// Near and far planes are the caller's: pick them per frame from the boxes of
+/// the drawn nodes (near = the smallest distance to a box, clamped to >= 0.1 m,
+/// far = the largest distance to a box corner) so the 24-bit depth buffer keeps
+/// its resolution where the geometry is.
+///
+/// Texture coordinates follow the project convention (v = 0 at the BOTTOM of
+/// the image, as decodeTileGlb returns them); DDS rows are stored top row
+/// first, so the shader samples (u, 1 - v).
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "ingest/scene.h"
+#include "ingest/status.h"
+#include "render/core/decoded.h"
+#include "render/core/tileset_index.h"
+#include "render/core/view.h"
+
+namespace cityatlas::render {
+
+/// A framebuffer object to render into without a window: GL_SRGB8_ALPHA8
+/// colour and 24-bit depth renderbuffers.
+class OffscreenTarget {
+public:
+    /// Fails (nullptr, one line) on a non-positive size, a size above
+    /// GL_MAX_RENDERBUFFER_SIZE or an incomplete framebuffer.
+    static std::unique_ptr<OffscreenTarget> create(int width, int height, Status* status);
+    ~OffscreenTarget();
+    OffscreenTarget(const OffscreenTarget&) = delete;
+    OffscreenTarget& operator=(const OffscreenTarget&) = delete;
+
+    /// Binds the framebuffer for drawing and reading and sets the viewport to it.
+    void bind() const;
+    /// The colour buffer as RGBA8 (sRGB-encoded bytes, as stored), rows top-down
+    /// (first row = top of the picture), width * height * 4 bytes.
+    void readPixels(std::vector<uint8_t>* rgba) const;
+
+    int width() const { return width_; }
+    int height() const { return height_; }
+    uint32_t framebuffer() const { return fbo_; }
+
+private:
+    OffscreenTarget() = default;
+    int width_ = 0, height_ = 0;
+    uint32_t fbo_ = 0, colour_ = 0, depth_ = 0;
+};
+
+/// A node layer's geometry on the GPU. A plain handle: free it with
+/// GlRenderer::release; copying it copies the handle, not the buffers.
+struct GpuMesh {
+    uint32_t vao = 0, vbo = 0, ibo = 0;
+    uint32_t vertex_count = 0, index_count = 0;
+    uint32_t index_type = 0;          ///< GL_UNSIGNED_SHORT up to 65536 vertices, else GL_UNSIGNED_INT
+    bool has_uv_atlas = false, has_uv_original = false, has_material_id = false;
+    std::vector<MeshData::TextureRange> texture_ranges;  ///< leaves: per original texture (MeshData's)
+    uint64_t gpu_bytes = 0;           ///< vertex + index buffer bytes
+    bool valid() const { return vao != 0; }
+};
+
+/// A texture on the GPU (an atlas or a leaf's original). A plain handle like GpuMesh.
+struct GpuTexture {
+    uint32_t id = 0;
+    int width = 0, height = 0;
+    int channels = 3;                 ///< 3: BC1, 4: BC3 (the source's)
+    int levels = 0;
+    bool wrap = false;                ///< GL_REPEAT (true) or GL_CLAMP_TO_EDGE
+    bool decoded_on_cpu = false;      ///< uploaded as RGBA8 after tiles::decodeBc
+    uint64_t gpu_bytes = 0;           ///< bytes of every level as stored on the GPU
+    bool valid() const { return id != 0; }
+};
+
+/// What one frame did (endFrame).
+struct FrameStats {
+    uint32_t draw_calls = 0;
+    uint32_t texture_binds = 0;  ///< texture binds actually issued (a bind of the texture already bound is skipped)
+    uint32_t triangles = 0;
+    uint32_t nodes = 0;          ///< node layers drawn: one per drawAtlas / drawOriginals / drawDummy call
+    /// Wall time spent in upload() since the previous endFrame, milliseconds
+    /// (CPU time of the GL calls, which on llvmpipe includes the copy).
+    double gpu_upload_ms = 0;
+    uint64_t upload_bytes = 0;   ///< GPU bytes uploaded since the previous endFrame
+};
+
+struct RendererOptions {
+    /// Test hook: decode BC1/BC3 on the CPU even when the context samples
+    /// S3TC, to compare both paths (see GlRenderer::decodesOnCpu).
+    bool force_cpu_decode = false;
+    /// Upper bound of anisotropic filtering (clamped to what the context offers).
+    float max_anisotropy = 16;
+};
+
+class GlRenderer {
+public:
+    /// The dummy texture's colour (sRGB bytes, opaque), drawn by drawDummy.
+    static constexpr std::array<uint8_t, 4> kDummyColour{200, 120, 40, 255};
+    /// The colour of untextured vertices without a material (and of textured
+    /// ones drawn without a texture), linear.
+    static constexpr float kNeutralGrey = 0.7F;
+
+    /// Compiles the shaders and makes the material table and dummy texture;
+    /// needs a current OpenGL 3.3 core context. Fails (nullptr, one line
+    /// naming the shader and the compiler's first message) on errors.
+    static std::unique_ptr<GlRenderer> create(const std::vector<MaterialInfo>& materials, Status* status);
+    static std::unique_ptr<GlRenderer> create(const std::vector<MaterialInfo>& materials,
+                                              const RendererOptions& options, Status* status);
+    ~GlRenderer();
+    GlRenderer(const GlRenderer&) = delete;
+    GlRenderer& operator=(const GlRenderer&) = delete;
+
+    /// Uploads a mesh. Refuses (an invalid handle and a one-line reason in
+    /// *status, when given) arrays of the wrong size, an index out of range, an
+    /// index count not a multiple of 3, texture ranges outside the indices, or
+    /// more than 2^32 - 1 vertices. An empty mesh gives an invalid handle and ok.
+    GpuMesh upload(const MeshData& mesh, Status* status = nullptr);
+    /// Uploads a BC1 (channels 3) / BC3 (channels 4) texture with every level it
+    /// has, trilinear and anisotropic filtering, repeat (wrap) or clamp to edge.
+    /// Without sRGB S3TC support the blocks are decoded on the CPU
+    /// (tiles::decodeBc) and uploaded as RGBA8; decodesOnCpu() says so.
+    /// Refuses (invalid handle, *status) sizes, levels or byte ranges that do
+    /// not match the data.
+    GpuTexture upload(const CompressedTexture& texture, bool wrap, Status* status = nullptr);
+    void release(GpuMesh* mesh);
+    void release(GpuTexture* texture);
+
+    /// True when textures are decoded on the CPU (no sRGB S3TC in the context,
+    /// or RendererOptions::force_cpu_decode): textures then take 4 bytes per
+    /// texel (8x BC1, 4x BC3) on the GPU.
+    bool decodesOnCpu() const { return cpu_decode_; }
+
+    /// Starts a frame into the framebuffer bound now: viewport (0, 0,
+    /// camera.width_px, camera.height_px), clear to `clear_linear` (linear RGBA)
+    /// and depth 1. Draws are queued and issued by endFrame.
+    void beginFrame(const Camera& camera, const std::array<float, 4>& clear_linear);
+    /// Draws a node layer with its atlas (uv_atlas): textured vertices sample
+    /// the atlas (nullptr: they get the neutral grey), vertices with a material
+    /// id >= 0 get its colour. `layer` 0 is opaque, 1 is blended.
+    void drawAtlas(const GpuMesh& mesh, const GpuTexture* atlas, const Vec3d& node_centre, int layer);
+    /// Draws a leaf with its original textures: one bind and one draw per
+    /// texture range; `original(texture)` gives the resident texture or nullptr,
+    /// in which case that range is drawn with `atlas_fallback` and uv_atlas
+    /// (nullptr too: colours only). Range -1 (untextured) draws material
+    /// colours. A mesh without ranges (an inner node) draws as drawAtlas with
+    /// atlas_fallback. `original` is called here, not at endFrame.
+    void drawOriginals(const GpuMesh& mesh, const std::function<const GpuTexture*(int32_t texture)>& original,
+                       const GpuTexture* atlas_fallback, const Vec3d& node_centre, int layer);
+    /// Draws the whole mesh with one shared dummy texture (uv_atlas), materials
+    /// ignored: the papers' upper bound with no texture switches.
+    void drawDummy(const GpuMesh& mesh, const Vec3d& node_centre, int layer);
+    /// Issues the queued draws: the opaque layer in call order with depth
+    /// writes, then the alpha layer, far nodes first, blended (src alpha, one
+    /// minus src alpha) with depth test on and depth writes off. Leaves
+    /// GL_FRAMEBUFFER_SRGB and blending off. The meshes and textures passed to
+    /// the draw calls must stay alive until here.
+    FrameStats endFrame();
+
+private:
+    GlRenderer() = default;
+    struct Draw {
+        const GpuMesh* mesh = nullptr;
+        const GpuTexture* texture = nullptr;  ///< nullptr: colours only
+        int mode = 0;                          ///< shader mode (gl_renderer.cpp)
+        bool uv_original = false;
+        uint32_t first_index = 0, index_count = 0;
+        int node = 0;                          ///< index of the draw*() call that queued it
+    };
+    struct NodeDraw {
+        std::array<float, 3> offset{};         ///< node_centre - camera.position, rounded once
+        double distance = 0;                   ///< |offset| in double, for the alpha order
+        int layer = 0;
+    };
+    void queue(const GpuMesh& mesh, const GpuTexture* texture, int mode, bool uv_original, uint32_t first,
+               uint32_t count);
+    int beginNode(const Vec3d& node_centre, int layer);
+    void issue(const Draw& draw, FrameStats* stats);
+
+    RendererOptions options_;
+    bool cpu_decode_ = false;
+    bool anisotropic_ = false;
+    float anisotropy_ = 1;
+    uint32_t program_ = 0;
+    int u_view_projection_ = -1, u_offset_ = -1, u_uv_set_ = -1, u_mode_ = -1, u_opaque_ = -1,
+        u_texture_ = -1, u_materials_ = -1, u_material_count_ = -1;
+    uint32_t material_buffer_ = 0, material_texture_ = 0;
+    int material_count_ = 0;
+    GpuTexture dummy_;
+
+    Camera camera_;
+    std::vector<Draw> draws_;
+    std::vector<NodeDraw> nodes_;
+    uint32_t bound_texture_ = 0;  ///< on unit 0, as far as this frame knows
+    double upload_ms_ = 0;
+    uint64_t upload_bytes_ = 0;
+};
+
+}  // namespace cityatlas::render

@@ -1,0 +1,736 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Tests of render/gl on Mesa llvmpipe through EGL surfaceless (no display, no
+// GPU). Pictures are read back from an OffscreenTarget and compared with
+// independent ground truth: tiles::decodeBc (squish) for texels, the sRGB
+// transfer function for linear colours and blends, and the same scene drawn
+// near the origin for camera-relative precision.
+//
+// Tolerances, in 8-bit sRGB codes per channel:
+// * 1 for a texel seen at 1:1 (texel centres on pixel centres): Mesa's S3TC
+//   decoder and squish may round the 1/3-2/3 interpolants differently by one,
+//   and the sRGB -> linear -> sRGB round trip with bilinear weights of
+//   (1 - e, e) can move a value by one.
+// * 2 for blends: the framebuffer stores sRGB bytes, so a blend reads the
+//   destination back through 8-bit quantization, plus the texel's own 1.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <epoxy/gl.h>
+
+#include "render/gl/gl_context.h"
+#include "render/gl/gl_renderer.h"
+#include "tiles/texture_codec.h"
+
+namespace cityatlas::render {
+namespace {
+
+// ---------------------------------------------------------------- colour maths (independent of GL)
+
+double srgbToLinear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+double linearToSrgb(double l) { return l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1.0 / 2.4) - 0.055; }
+double byteToLinear(uint8_t b) { return srgbToLinear(b / 255.0); }
+int linearToByte(double l) { return static_cast<int>(std::lround(std::clamp(linearToSrgb(l), 0.0, 1.0) * 255.0)); }
+
+struct Rgba {
+    int r = 0, g = 0, b = 0, a = 0;
+};
+
+Rgba pixelAt(const std::vector<uint8_t>& rgba, int width, int x, int y) {
+    const size_t i = (static_cast<size_t>(y) * width + x) * 4;
+    return {rgba[i], rgba[i + 1], rgba[i + 2], rgba[i + 3]};
+}
+
+int maxRgbDiff(const Rgba& a, const Rgba& b) {
+    return std::max({std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)});
+}
+
+std::string str(const Rgba& c) {
+    char text[64];
+    std::snprintf(text, sizeof text, "(%d, %d, %d, %d)", c.r, c.g, c.b, c.a);
+    return text;
+}
+
+// ---------------------------------------------------------------- fixtures
+
+// A structured test picture: gradients, a checkerboard and (RGBA) an alpha ramp,
+// so a flip, a shift or a wrong channel shows.
+tiles::Image8 pattern(int w, int h, int channels) {
+    tiles::Image8 img{w, h, channels, std::vector<uint8_t>(static_cast<size_t>(w) * h * channels)};
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            uint8_t* p = img.pixels.data() + (static_cast<size_t>(y) * w + x) * channels;
+            p[0] = static_cast<uint8_t>(x * 255 / std::max(1, w - 1));
+            p[1] = static_cast<uint8_t>(y * 255 / std::max(1, h - 1));
+            p[2] = ((x / 8 + y / 8) % 2) != 0 ? 220 : 30;
+            if (channels == 4) p[3] = static_cast<uint8_t>(40 + (x + 2 * y) * 180 / (3 * std::max(1, w - 1)));
+        }
+    }
+    return img;
+}
+
+tiles::Image8 solid(int w, int h, int channels, std::array<uint8_t, 4> c) {
+    tiles::Image8 img{w, h, channels, {}};
+    for (int i = 0; i < w * h; ++i) img.pixels.insert(img.pixels.end(), c.begin(), c.begin() + channels);
+    return img;
+}
+
+// What the loader hands over: the DDS without its 128-byte header.
+CompressedTexture compress(const tiles::Image8& image, bool mips) {
+    const std::vector<tiles::Image8> chain = mips ? tiles::mipChain(image) : std::vector<tiles::Image8>{image};
+    const std::vector<uint8_t> dds = tiles::encodeDds(chain, tiles::BcQuality::Fast);
+    tiles::DdsInfo info;
+    EXPECT_TRUE(tiles::parseDdsHeader(dds.data(), dds.size(), &info).ok());
+    CompressedTexture t;
+    t.width = info.width;
+    t.height = info.height;
+    t.channels = info.channels;
+    uint64_t offset = 0;
+    int w = t.width, h = t.height;
+    for (int i = 0; i < info.mips; ++i) {
+        const uint64_t bytes = tiles::bcBlockBytes(w, h, t.channels);
+        t.levels.push_back({w, h, offset, bytes});
+        offset += bytes;
+        w = std::max(1, w / 2);
+        h = std::max(1, h / 2);
+    }
+    t.data.assign(dds.begin() + 128, dds.end());
+    EXPECT_EQ(t.data.size(), offset);
+    return t;
+}
+
+// Level 0 decoded by squish: what the GPU must show at 1:1.
+tiles::Image8 decodeLevel0(const CompressedTexture& t) {
+    const auto first = t.data.begin() + static_cast<std::ptrdiff_t>(t.levels[0].offset);
+    return tiles::decodeBc(std::vector<uint8_t>(first, first + static_cast<std::ptrdiff_t>(t.levels[0].bytes)),
+                           t.width, t.height, t.channels);
+}
+
+Rgba texel(const tiles::Image8& img, int x, int y) {
+    const uint8_t* p = img.pixels.data() + (static_cast<size_t>(y) * img.width + x) * img.channels;
+    return {p[0], p[1], p[2], img.channels == 4 ? p[3] : 255};
+}
+
+// llvmpipe's anisotropic filter is an elliptical weighted average that blurs
+// even at 1:1 (measured: 2995 of 4096 pixels of the BC1 pattern off by up to
+// 105 codes at 16x, none at 1x), so the exactness tests turn it off; the
+// filtering test below checks it is on by default.
+RendererOptions exactFiltering() {
+    RendererOptions o;
+    o.max_anisotropy = 1;
+    return o;
+}
+
+struct QuadUv {
+    float u0 = 0, v0 = 0, u1 = 1, v1 = 1;
+};
+
+// A quad in the node's x-z plane (y = 0), facing -y: x0..x1 left to right,
+// z0..z1 bottom to top as a camera looking along +y with z up sees it; v = 0
+// at the bottom (the project convention).
+void addQuad(MeshData* m, float x0, float x1, float z0, float z1, QuadUv atlas, QuadUv original, int32_t material,
+             float y = 0) {
+    const auto base = static_cast<uint32_t>(m->positions.size() / 3);
+    const float xs[4] = {x0, x1, x1, x0}, zs[4] = {z0, z0, z1, z1};
+    const float ua[4] = {atlas.u0, atlas.u1, atlas.u1, atlas.u0}, va[4] = {atlas.v0, atlas.v0, atlas.v1, atlas.v1};
+    const float uo[4] = {original.u0, original.u1, original.u1, original.u0};
+    const float vo[4] = {original.v0, original.v0, original.v1, original.v1};
+    for (int i = 0; i < 4; ++i) {
+        m->positions.insert(m->positions.end(), {xs[i], y, zs[i]});
+        m->uv_atlas.insert(m->uv_atlas.end(), {ua[i], va[i]});
+        m->uv_original.insert(m->uv_original.end(), {uo[i], vo[i]});
+        m->material_id.push_back(material);
+        m->texture_id.push_back(-1);
+        m->feature_id.push_back(0);
+    }
+    m->indices.insert(m->indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+}
+
+// Looking along +y from `position`, z up: with fov 90 and a square viewport a
+// quad 1 m ahead spanning [-1, 1]^2 covers the viewport exactly, texel centres
+// on pixel centres when the texture has the viewport's size.
+Camera frontCamera(int size_px, const Vec3d& position = {0, 0, 0}, double fov_deg = 90) {
+    Camera c;
+    c.position = position;
+    c.direction = {0, 1, 0};
+    c.up = {0, 0, 1};
+    c.vertical_fov_deg = fov_deg;
+    c.width_px = c.height_px = size_px;
+    c.near_m = 0.1;
+    c.far_m = 100;
+    return c;
+}
+
+class GlTest : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        // The tests must not depend on a display: EGL surfaceless only.
+        unsetenv("DISPLAY");
+        unsetenv("WAYLAND_DISPLAY");
+        Status status;
+        context_ = HeadlessContext::create(&status).release();
+        ASSERT_NE(context_, nullptr) << status.error;
+        ASSERT_TRUE(status.ok());
+    }
+    static void TearDownTestSuite() {
+        delete context_;
+        context_ = nullptr;
+    }
+    void SetUp() override {
+        ASSERT_NE(context_, nullptr);
+        ASSERT_TRUE(context_->makeCurrent());
+    }
+    void TearDown() override { EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR)); }
+
+    std::unique_ptr<GlRenderer> renderer(const std::vector<MaterialInfo>& materials = {},
+                                         RendererOptions options = {}) {
+        Status status;
+        auto r = GlRenderer::create(materials, options, &status);
+        EXPECT_TRUE(status.ok()) << status.error;
+        return r;
+    }
+    std::unique_ptr<OffscreenTarget> target(int w, int h) {
+        Status status;
+        auto t = OffscreenTarget::create(w, h, &status);
+        EXPECT_TRUE(status.ok()) << status.error;
+        if (t) t->bind();
+        return t;
+    }
+
+    static HeadlessContext* context_;
+};
+HeadlessContext* GlTest::context_ = nullptr;
+
+// Renders `texture` on the viewport-filling quad (one layer) and reads back.
+std::vector<uint8_t> renderFullQuad(GlRenderer& r, OffscreenTarget& target, const GpuTexture& texture, int layer,
+                                    std::array<float, 4> clear, FrameStats* stats = nullptr) {
+    MeshData m;
+    addQuad(&m, -1, 1, -1, 1, {}, {}, -1);
+    Status status;
+    GpuMesh mesh = r.upload(m, &status);
+    EXPECT_TRUE(status.ok()) << status.error;
+    target.bind();
+    r.beginFrame(frontCamera(target.width()), clear);
+    r.drawAtlas(mesh, &texture, Vec3d{0, 1, 0}, layer);
+    const FrameStats s = r.endFrame();
+    if (stats != nullptr) *stats = s;
+    std::vector<uint8_t> pixels;
+    target.readPixels(&pixels);
+    r.release(&mesh);
+    return pixels;
+}
+
+// ---------------------------------------------------------------- context
+
+TEST_F(GlTest, HeadlessContextIsCore33WithS3tcAndNeedsNoDisplay) {
+    EXPECT_EQ(std::getenv("DISPLAY"), nullptr);
+    const GlInfo info = queryGlInfo();
+    EXPECT_GE(info.major * 10 + info.minor, 33) << info.version;
+    EXPECT_TRUE(info.core_profile) << info.version;
+    EXPECT_TRUE(info.s3tc);
+    EXPECT_TRUE(info.srgb_s3tc);
+    EXPECT_FALSE(info.renderer.empty());
+    EXPECT_GE(info.max_anisotropy, 1.0F);
+    EXPECT_TRUE(context_->platform() == "surfaceless" || context_->platform() == "device") << context_->platform();
+    std::printf("GL: %s | %s | %s | EGL %s | aniso %.0f\n", info.vendor.c_str(), info.renderer.c_str(),
+                info.version.c_str(), context_->platform().c_str(), static_cast<double>(info.max_anisotropy));
+}
+
+TEST_F(GlTest, WindowWithoutDisplayFailsWithOneClearLine) {
+    Status status;
+    auto window = Window::create(64, 64, "test", &status);
+    EXPECT_EQ(window, nullptr);
+    EXPECT_NE(status.error.find("no display"), std::string::npos) << status.error;
+    EXPECT_NE(status.error.find("xvfb-run"), std::string::npos) << status.error;
+}
+
+TEST_F(GlTest, OffscreenTargetRefusesBadSizes) {
+    Status status;
+    EXPECT_EQ(OffscreenTarget::create(0, 16, &status), nullptr);
+    EXPECT_FALSE(status.ok());
+    EXPECT_EQ(OffscreenTarget::create(16, 1 << 30, &status), nullptr);
+    EXPECT_FALSE(status.ok());
+}
+
+// ---------------------------------------------------------------- textures
+
+TEST_F(GlTest, Bc1TextureAtOneToOneShowsItsDecodedTexelsUpright) {
+    constexpr int kSize = 64;
+    auto r = renderer({}, exactFiltering());
+    auto t = target(kSize, kSize);
+    const CompressedTexture tex = compress(pattern(kSize, kSize, 3), /*mips=*/true);
+    ASSERT_EQ(tex.levels.size(), 7U);
+    Status status;
+    GpuTexture gpu = r->upload(tex, /*wrap=*/false, &status);
+    ASSERT_TRUE(status.ok()) << status.error;
+    ASSERT_TRUE(gpu.valid());
+    EXPECT_FALSE(gpu.decoded_on_cpu);
+    EXPECT_FALSE(r->decodesOnCpu());
+    uint64_t bc_bytes = 0;
+    for (const auto& level : tex.levels) bc_bytes += level.bytes;
+    EXPECT_EQ(gpu.gpu_bytes, bc_bytes);  // stays compressed: 2736 bytes, not 64*64*4
+
+    FrameStats stats;
+    const std::vector<uint8_t> pixels = renderFullQuad(*r, *t, gpu, 0, {0, 0, 0, 1}, &stats);
+    const tiles::Image8 expected = decodeLevel0(tex);
+    int worst = 0, worst_flipped = 0;
+    for (int y = 0; y < kSize; ++y) {
+        for (int x = 0; x < kSize; ++x) {
+            const Rgba got = pixelAt(pixels, kSize, x, y);
+            worst = std::max(worst, maxRgbDiff(got, texel(expected, x, y)));
+            worst_flipped = std::max(worst_flipped, maxRgbDiff(got, texel(expected, x, kSize - 1 - y)));
+            EXPECT_EQ(got.a, 255);
+        }
+    }
+    EXPECT_LE(worst, 1);
+    std::printf("BC1 1:1: largest difference %d codes (flipped: %d)\n", worst, worst_flipped);
+    EXPECT_GT(worst_flipped, 100);  // the comparison sees orientation
+    EXPECT_EQ(stats.draw_calls, 1U);
+    EXPECT_EQ(stats.texture_binds, 1U);
+    EXPECT_EQ(stats.triangles, 2U);
+    EXPECT_EQ(stats.nodes, 1U);
+    r->release(&gpu);
+    EXPECT_FALSE(gpu.valid());
+}
+
+TEST_F(GlTest, Bc3TextureInTheAlphaLayerBlendsOverTheClearColourInLinearLight) {
+    constexpr int kSize = 32;
+    auto r = renderer({}, exactFiltering());
+    auto t = target(kSize, kSize);
+    const CompressedTexture tex = compress(pattern(kSize, kSize, 4), /*mips=*/false);
+    Status status;
+    GpuTexture gpu = r->upload(tex, false, &status);
+    ASSERT_TRUE(status.ok()) << status.error;
+    EXPECT_EQ(gpu.gpu_bytes, static_cast<uint64_t>(kSize * kSize));  // BC3: one byte per texel
+    const std::array<float, 4> clear{0.2F, 0.4F, 0.05F, 1};
+    const std::vector<uint8_t> pixels = renderFullQuad(*r, *t, gpu, 1, clear);
+    const tiles::Image8 src = decodeLevel0(tex);
+    int worst = 0, alpha_min = 255, alpha_max = 0;
+    for (int y = 0; y < kSize; ++y) {
+        for (int x = 0; x < kSize; ++x) {
+            const Rgba s = texel(src, x, y);
+            const double a = s.a / 255.0;
+            alpha_min = std::min(alpha_min, s.a);
+            alpha_max = std::max(alpha_max, s.a);
+            const Rgba want{linearToByte(a * byteToLinear(static_cast<uint8_t>(s.r)) + (1 - a) * clear[0]),
+                            linearToByte(a * byteToLinear(static_cast<uint8_t>(s.g)) + (1 - a) * clear[1]),
+                            linearToByte(a * byteToLinear(static_cast<uint8_t>(s.b)) + (1 - a) * clear[2]), 255};
+            const Rgba got = pixelAt(pixels, kSize, x, y);
+            worst = std::max(worst, maxRgbDiff(got, want));
+            // Alpha is coverage, "over": a + (1 - a) * 1.
+            EXPECT_EQ(got.a, 255);
+        }
+    }
+    EXPECT_LT(alpha_min, 80);   // the blend is really exercised
+    EXPECT_GT(alpha_max, 180);
+    EXPECT_LE(worst, 2);
+    std::printf("BC3 blend: largest difference %d codes, alpha %d..%d\n", worst, alpha_min, alpha_max);
+    r->release(&gpu);
+}
+
+TEST_F(GlTest, TexturesGetTrilinearAnisotropicFilteringAndTheirWrapMode) {
+    auto r = renderer();
+    const GlInfo info = queryGlInfo();
+    const CompressedTexture tex = compress(pattern(16, 16, 3), true);
+    for (bool wrap : {true, false}) {
+        GpuTexture g = r->upload(tex, wrap);
+        ASSERT_TRUE(g.valid());
+        EXPECT_EQ(g.levels, 5);
+        glBindTexture(GL_TEXTURE_2D, g.id);
+        GLint min_filter = 0, mag_filter = 0, max_level = 0, wrap_s = 0, wrap_t = 0, compressed = 0, format = 0;
+        glGetTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, &min_filter);
+        glGetTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, &mag_filter);
+        glGetTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, &max_level);
+        glGetTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, &wrap_s);
+        glGetTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, &wrap_t);
+        glGetTexLevelParameteriv(GL_TEXTURE_2D, 4, GL_TEXTURE_COMPRESSED, &compressed);
+        glGetTexLevelParameteriv(GL_TEXTURE_2D, 0, GL_TEXTURE_INTERNAL_FORMAT, &format);
+        EXPECT_EQ(min_filter, GL_LINEAR_MIPMAP_LINEAR);
+        EXPECT_EQ(mag_filter, GL_LINEAR);
+        EXPECT_EQ(max_level, 4);
+        EXPECT_EQ(wrap_s, wrap ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+        EXPECT_EQ(wrap_t, wrap ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+        EXPECT_EQ(compressed, GL_TRUE);  // every level went up as blocks
+        EXPECT_EQ(format, GL_COMPRESSED_SRGB_S3TC_DXT1_EXT);
+        if (info.anisotropic) {
+            GLfloat aniso = 0;
+            glGetTexParameterfv(GL_TEXTURE_2D, GL_TEXTURE_MAX_ANISOTROPY, &aniso);
+            EXPECT_EQ(aniso, std::min(16.0F, info.max_anisotropy));
+        }
+        glBindTexture(GL_TEXTURE_2D, 0);
+        r->release(&g);
+    }
+}
+
+TEST_F(GlTest, CpuDecodeFallbackShowsTheSamePixelsAsS3tcUpload) {
+    constexpr int kSize = 64;
+    auto gpu_renderer = renderer();
+    RendererOptions cpu_options;
+    cpu_options.force_cpu_decode = true;
+    auto cpu_renderer = renderer({}, cpu_options);
+    ASSERT_TRUE(cpu_renderer->decodesOnCpu());
+    auto t = target(kSize, kSize);
+    for (int channels : {3, 4}) {
+        const CompressedTexture tex = compress(pattern(kSize, kSize, channels), true);
+        GpuTexture on_gpu = gpu_renderer->upload(tex, true);
+        GpuTexture on_cpu = cpu_renderer->upload(tex, true);
+        ASSERT_TRUE(on_gpu.valid() && on_cpu.valid());
+        EXPECT_TRUE(on_cpu.decoded_on_cpu);
+        uint64_t texels = 0;
+        for (const auto& level : tex.levels) texels += static_cast<uint64_t>(level.width) * level.height;
+        EXPECT_EQ(on_cpu.gpu_bytes, 4 * texels);
+        const int layer = channels == 4 ? 1 : 0;
+        const auto a = renderFullQuad(*gpu_renderer, *t, on_gpu, layer, {0.3F, 0.1F, 0.6F, 1});
+        const auto b = renderFullQuad(*cpu_renderer, *t, on_cpu, layer, {0.3F, 0.1F, 0.6F, 1});
+        int worst = 0;
+        for (int y = 0; y < kSize; ++y)
+            for (int x = 0; x < kSize; ++x)
+                worst = std::max(worst, maxRgbDiff(pixelAt(a, kSize, x, y), pixelAt(b, kSize, x, y)));
+        EXPECT_LE(worst, 2) << channels << " channels";
+        std::printf("CPU decode vs S3TC, %d channels: largest difference %d codes\n", channels, worst);
+        gpu_renderer->release(&on_gpu);
+        cpu_renderer->release(&on_cpu);
+    }
+}
+
+TEST_F(GlTest, UploadsRefuseMalformedDataWithOneLine) {
+    auto r = renderer();
+    CompressedTexture tex = compress(pattern(16, 16, 3), true);
+    CompressedTexture short_level = tex;
+    short_level.levels[1].bytes -= 8;
+    Status status;
+    EXPECT_FALSE(r->upload(short_level, false, &status).valid());
+    EXPECT_NE(status.error.find("level 1"), std::string::npos) << status.error;
+    CompressedTexture outside = tex;
+    outside.data.resize(outside.data.size() - 1);
+    EXPECT_FALSE(r->upload(outside, false, &status).valid());
+    EXPECT_FALSE(status.ok());
+    CompressedTexture bad_channels = tex;
+    bad_channels.channels = 2;
+    EXPECT_FALSE(r->upload(bad_channels, false, &status).valid());
+    EXPECT_FALSE(status.ok());
+
+    MeshData m;
+    addQuad(&m, -1, 1, -1, 1, {}, {}, -1);
+    MeshData bad_index = m;
+    bad_index.indices[4] = 99;
+    EXPECT_FALSE(r->upload(bad_index, &status).valid());
+    EXPECT_NE(status.error.find("index 4 is 99"), std::string::npos) << status.error;
+    MeshData bad_range = m;
+    bad_range.texture_ranges = {{3, 3, 6}};
+    EXPECT_FALSE(r->upload(bad_range, &status).valid());
+    EXPECT_FALSE(status.ok());
+    MeshData bad_uv = m;
+    bad_uv.uv_atlas.pop_back();
+    EXPECT_FALSE(r->upload(bad_uv, &status).valid());
+    EXPECT_FALSE(status.ok());
+
+    GpuMesh ok = r->upload(m, &status);
+    EXPECT_TRUE(status.ok() && ok.valid());
+    // 4 vertices x (xyz + 2 uv sets + material id) + 6 16-bit indices.
+    EXPECT_EQ(ok.gpu_bytes, 4U * (12 + 8 + 8 + 4) + 6U * 2);
+    r->release(&ok);
+}
+
+// ---------------------------------------------------------------- leaves: original textures
+
+TEST_F(GlTest, DrawOriginalsBindsEachTextureOnceAndFallsBackToTheAtlas) {
+    constexpr int kSize = 32;
+    auto r = renderer();
+    auto t = target(kSize, kSize);
+    const std::array<uint8_t, 4> red{220, 30, 40, 255}, blue{30, 60, 230, 255}, green{40, 200, 60, 255};
+    const CompressedTexture tex5 = compress(solid(8, 8, 3, red), true);
+    const CompressedTexture tex7 = compress(solid(8, 8, 3, blue), true);
+    const CompressedTexture atlas = compress(solid(8, 8, 3, green), true);
+    GpuTexture g5 = r->upload(tex5, true), g7 = r->upload(tex7, true), ga = r->upload(atlas, false);
+    const Rgba want5 = texel(decodeLevel0(tex5), 0, 0), want7 = texel(decodeLevel0(tex7), 0, 0),
+               want_atlas = texel(decodeLevel0(atlas), 0, 0);
+    ASSERT_GT(maxRgbDiff(want5, want7), 100);
+
+    // Left half texture 5, right half texture 7, each repeated twice (wrap);
+    // atlas coordinates split the atlas between them.
+    MeshData m;
+    addQuad(&m, -1, 0, -1, 1, {0, 0, 0.5F, 1}, {0, 0, 2, 2}, -1);
+    addQuad(&m, 0, 1, -1, 1, {0.5F, 0, 1, 1}, {0, 0, 2, 2}, -1);
+    m.texture_id = {5, 5, 5, 5, 7, 7, 7, 7};
+    m.texture_ranges = {{5, 0, 6}, {7, 6, 6}};
+    Status status;
+    GpuMesh mesh = r->upload(m, &status);
+    ASSERT_TRUE(status.ok()) << status.error;
+
+    auto frame = [&](const std::function<const GpuTexture*(int32_t)>& original, FrameStats* stats) {
+        r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+        r->drawOriginals(mesh, original, &ga, {0, 1, 0}, 0);
+        *stats = r->endFrame();
+        std::vector<uint8_t> pixels;
+        t->readPixels(&pixels);
+        return pixels;
+    };
+    auto halves = [&](const std::vector<uint8_t>& px, const Rgba& left, const Rgba& right) {
+        int worst = 0;
+        for (int y = 0; y < kSize; ++y) {
+            for (int x = 0; x < kSize; ++x)
+                worst = std::max(worst, maxRgbDiff(pixelAt(px, kSize, x, y), x < kSize / 2 ? left : right));
+        }
+        return worst;
+    };
+
+    FrameStats stats;
+    auto both = frame([&](int32_t id) -> const GpuTexture* { return id == 5 ? &g5 : id == 7 ? &g7 : nullptr; },
+                      &stats);
+    EXPECT_LE(halves(both, want5, want7), 1);
+    EXPECT_EQ(stats.draw_calls, 2U);
+    EXPECT_EQ(stats.texture_binds, 2U);
+    EXPECT_EQ(stats.triangles, 4U);
+    EXPECT_EQ(stats.nodes, 1U);
+
+    auto missing7 = frame([&](int32_t id) -> const GpuTexture* { return id == 5 ? &g5 : nullptr; }, &stats);
+    EXPECT_LE(halves(missing7, want5, want_atlas), 1);
+    EXPECT_EQ(stats.draw_calls, 2U);
+    EXPECT_EQ(stats.texture_binds, 2U);
+
+    // Both missing: both ranges use the atlas, bound once.
+    auto none = frame([](int32_t) -> const GpuTexture* { return nullptr; }, &stats);
+    EXPECT_LE(halves(none, want_atlas, want_atlas), 1);
+    EXPECT_EQ(stats.draw_calls, 2U);
+    EXPECT_EQ(stats.texture_binds, 1U);
+
+    // Two leaves with the same texture in a row: the second bind is skipped.
+    r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+    auto only5 = [&](int32_t) -> const GpuTexture* { return &g5; };
+    r->drawOriginals(mesh, only5, &ga, {0, 1, 0}, 0);
+    r->drawOriginals(mesh, only5, &ga, {0, 1.5, 0}, 0);
+    stats = r->endFrame();
+    EXPECT_EQ(stats.draw_calls, 4U);
+    EXPECT_EQ(stats.texture_binds, 1U);
+    EXPECT_EQ(stats.nodes, 2U);
+
+    r->release(&mesh);
+    for (GpuTexture* g : {&g5, &g7, &ga}) r->release(g);
+}
+
+// ---------------------------------------------------------------- dummy, materials
+
+TEST_F(GlTest, DrawDummyPaintsEveryPixelOfTheMeshWithOneBindPerFrame) {
+    constexpr int kSize = 32;
+    auto r = renderer({MaterialInfo{{0.1F, 0.9F, 0.1F}, 0}});
+    auto t = target(kSize, kSize);
+    // Left: a textured quad; right: a material-coloured one. The dummy ignores both.
+    MeshData m;
+    addQuad(&m, -1, 0, -0.5F, 0.5F, {}, {}, -1);
+    addQuad(&m, 0, 0.5F, -0.5F, 0.5F, {}, {}, 0);
+    GpuMesh mesh = r->upload(m);
+    const std::array<float, 4> clear{0, 0, 0, 1};
+    for (int frame = 0; frame < 2; ++frame) {
+        r->beginFrame(frontCamera(kSize), clear);
+        r->drawDummy(mesh, {0, 1, 0}, 0);
+        r->drawDummy(mesh, {0, 3, 0}, 0);  // behind, hidden
+        const FrameStats stats = r->endFrame();
+        EXPECT_EQ(stats.texture_binds, 1U);
+        EXPECT_EQ(stats.draw_calls, 2U);
+        EXPECT_EQ(stats.nodes, 2U);
+    }
+    std::vector<uint8_t> px;
+    t->readPixels(&px);
+    const Rgba dummy{GlRenderer::kDummyColour[0], GlRenderer::kDummyColour[1], GlRenderer::kDummyColour[2], 255};
+    int covered = 0;
+    for (int y = 0; y < kSize; ++y) {
+        for (int x = 0; x < kSize; ++x) {
+            // Mesh: x in [-1, 0.5] -> columns 0..23, z in [-0.5, 0.5] -> rows 8..23.
+            const bool inside = x < 24 && y >= 8 && y < 24;
+            const Rgba got = pixelAt(px, kSize, x, y);
+            if (inside) {
+                ++covered;
+                EXPECT_LE(maxRgbDiff(got, dummy), 1) << x << "," << y << " " << str(got);
+            } else {
+                EXPECT_EQ(maxRgbDiff(got, {0, 0, 0, 255}), 0) << x << "," << y << " " << str(got);
+            }
+        }
+    }
+    EXPECT_EQ(covered, 24 * 16);
+    r->release(&mesh);
+}
+
+TEST_F(GlTest, UntexturedVerticesShowTheirMaterialOrNeutralGrey) {
+    constexpr int kSize = 32;
+    const std::vector<MaterialInfo> materials{{{0.9F, 0.1F, 0.1F}, 0}, {{0.05F, 0.5F, 0.8F}, 0}};
+    auto r = renderer(materials);
+    auto t = target(kSize, kSize);
+    // Material 1 on the left; no material on the right; an atlas is given but
+    // material-coloured vertices must ignore it, and the right half (textured
+    // vertices) shows it.
+    const CompressedTexture atlas = compress(solid(8, 8, 3, {250, 250, 0, 255}), true);
+    GpuTexture ga = r->upload(atlas, false);
+    MeshData m;
+    addQuad(&m, -1, 0, -1, 1, {}, {}, 1);
+    addQuad(&m, 0, 1, -1, 1, {}, {}, -1);
+    GpuMesh mesh = r->upload(m);
+    const Rgba want_material{linearToByte(0.05), linearToByte(0.5), linearToByte(0.8), 255};
+    const Rgba want_atlas = texel(decodeLevel0(atlas), 0, 0);
+    const Rgba grey{linearToByte(GlRenderer::kNeutralGrey), linearToByte(GlRenderer::kNeutralGrey),
+                    linearToByte(GlRenderer::kNeutralGrey), 255};
+
+    for (const GpuTexture* tex : {static_cast<const GpuTexture*>(&ga), static_cast<const GpuTexture*>(nullptr)}) {
+        r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+        r->drawAtlas(mesh, tex, {0, 1, 0}, 0);
+        const FrameStats stats = r->endFrame();
+        EXPECT_EQ(stats.texture_binds, tex != nullptr ? 1U : 0U);
+        std::vector<uint8_t> px;
+        t->readPixels(&px);
+        for (int y = 0; y < kSize; ++y) {
+            EXPECT_LE(maxRgbDiff(pixelAt(px, kSize, 5, y), want_material), 1) << str(pixelAt(px, kSize, 5, y));
+            const Rgba right = pixelAt(px, kSize, 25, y);
+            EXPECT_LE(maxRgbDiff(right, tex != nullptr ? want_atlas : grey), 1) << str(right);
+        }
+    }
+    // A material id beyond the table is bad data: grey, no crash.
+    MeshData bad;
+    addQuad(&bad, -1, 1, -1, 1, {}, {}, 7);
+    GpuMesh bad_mesh = r->upload(bad);
+    r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+    r->drawAtlas(bad_mesh, nullptr, {0, 1, 0}, 0);
+    r->endFrame();
+    std::vector<uint8_t> px;
+    t->readPixels(&px);
+    EXPECT_LE(maxRgbDiff(pixelAt(px, kSize, 16, 16), grey), 1);
+    r->release(&mesh);
+    r->release(&bad_mesh);
+    r->release(&ga);
+}
+
+// ---------------------------------------------------------------- precision
+
+TEST_F(GlTest, QuadAtEcefMagnitudesRendersLikeTheSameQuadAtTheOrigin) {
+    constexpr int kSize = 128;
+    auto r = renderer();
+    auto t = target(kSize, kSize);
+    const CompressedTexture tex = compress(pattern(64, 64, 3), true);
+    GpuTexture gpu = r->upload(tex, false);
+    // A 1 m quad, textured, seen from 10 m away, obliquely and off-grid.
+    MeshData m;
+    addQuad(&m, -0.5F, 0.5F, -0.5F, 0.5F, {}, {}, -1);
+    GpuMesh mesh = r->upload(m);
+    const Vec3d eye_offset{-6.1, -7.9, 0.37};  // camera relative to the quad's centre, |.| ~ 10 m
+    auto camera = [&](const Vec3d& quad_centre) {
+        Camera c = frontCamera(kSize, quad_centre + eye_offset, 8);
+        c.direction = normalized(-1.0 * eye_offset);
+        c.near_m = 1;
+        c.far_m = 50;
+        return c;
+    };
+    auto render = [&](const GpuMesh& g, const Vec3d& node_centre, const Camera& c) {
+        r->beginFrame(c, {0, 0, 0, 1});
+        r->drawAtlas(g, &gpu, node_centre, 0);
+        r->endFrame();
+        std::vector<uint8_t> px;
+        t->readPixels(&px);
+        return px;
+    };
+    const Vec3d ecef{4.0e6, 1.0e6, 4.9e6};
+    const auto at_origin = render(mesh, {0, 0, 0}, camera({0, 0, 0}));
+    const auto at_ecef = render(mesh, ecef, camera(ecef));
+
+    int covered = 0;
+    for (size_t i = 0; i < at_origin.size(); i += 4) covered += at_origin[i] + at_origin[i + 1] + at_origin[i + 2] > 0;
+    EXPECT_GT(covered, kSize * kSize / 4);  // the quad is big on screen
+    // Only the quad's edges may differ by a pixel: (node - camera) is the same
+    // double to ~1e-9 m in both cases.
+    int differing = 0;
+    for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x)
+            differing += maxRgbDiff(pixelAt(at_origin, kSize, x, y), pixelAt(at_ecef, kSize, x, y)) > 1;
+    EXPECT_LE(differing, 4 * kSize) << "of " << covered << " covered pixels";
+
+    // The control: the same quad with absolute float32 positions (what a
+    // renderer without camera-relative offsets does) is visibly wrong, so the
+    // comparison above can fail.
+    MeshData absolute = m;
+    for (size_t i = 0; i < absolute.positions.size(); i += 3) {
+        absolute.positions[i] = static_cast<float>(ecef.x + m.positions[i]);
+        absolute.positions[i + 1] = static_cast<float>(ecef.y + m.positions[i + 1]);
+        absolute.positions[i + 2] = static_cast<float>(ecef.z + m.positions[i + 2]);
+    }
+    GpuMesh absolute_mesh = r->upload(absolute);
+    const auto naive = render(absolute_mesh, {0, 0, 0}, camera(ecef));
+    int naive_differing = 0;
+    for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x)
+            naive_differing += maxRgbDiff(pixelAt(at_origin, kSize, x, y), pixelAt(naive, kSize, x, y)) > 1;
+    EXPECT_GT(naive_differing, covered / 10);
+    std::printf("precision: %d covered, %d differ camera-relative, %d differ with float32 world positions\n",
+                covered, differing, naive_differing);
+    r->release(&mesh);
+    r->release(&absolute_mesh);
+    r->release(&gpu);
+}
+
+// ---------------------------------------------------------------- layers
+
+TEST_F(GlTest, AlphaLayerDrawsAfterOpaqueAndFarToNearWhateverTheCallOrder) {
+    constexpr int kSize = 16;
+    const std::vector<MaterialInfo> materials{
+        {{0.8F, 0.05F, 0.05F}, 0},     // 0: opaque red
+        {{0.05F, 0.05F, 0.9F}, 0.5F},  // 1: half-transparent blue
+        {{0.05F, 0.9F, 0.05F}, 0.75F}  // 2: quarter-opaque green
+    };
+    auto r = renderer(materials);
+    auto t = target(kSize, kSize);
+    auto quadWith = [&](int32_t material) {
+        MeshData m;
+        addQuad(&m, -1, 1, -1, 1, {}, {}, material);
+        return r->upload(m);
+    };
+    GpuMesh red = quadWith(0), blue = quadWith(1), green = quadWith(2);
+    auto centre = [&]() {
+        std::vector<uint8_t> px;
+        t->readPixels(&px);
+        return pixelAt(px, kSize, kSize / 2, kSize / 2);
+    };
+    auto over = [](const std::array<float, 3>& src, double a, const std::array<double, 3>& dst) {
+        return std::array<double, 3>{a * src[0] + (1 - a) * dst[0], a * src[1] + (1 - a) * dst[1],
+                                     a * src[2] + (1 - a) * dst[2]};
+    };
+    auto toRgba = [](const std::array<double, 3>& l) {
+        return Rgba{linearToByte(l[0]), linearToByte(l[1]), linearToByte(l[2]), 255};
+    };
+    const std::array<double, 3> red_lin{0.8, 0.05, 0.05};
+
+    // Blue (alpha, in front at 1 m) is called before red (opaque, behind at 2 m).
+    r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+    r->drawAtlas(blue, nullptr, {0, 1, 0}, 1);
+    r->drawAtlas(red, nullptr, {0, 2, 0}, 0);
+    r->endFrame();
+    const Rgba want_blue_over_red = toRgba(over(materials[1].diffuse, 0.5, red_lin));
+    EXPECT_LE(maxRgbDiff(centre(), want_blue_over_red), 2) << str(centre()) << " vs " << str(want_blue_over_red);
+
+    // An alpha quad behind the opaque one is hidden (depth test stays on).
+    r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+    r->drawAtlas(blue, nullptr, {0, 3, 0}, 1);
+    r->drawAtlas(red, nullptr, {0, 2, 0}, 0);
+    r->endFrame();
+    EXPECT_LE(maxRgbDiff(centre(), toRgba(red_lin)), 1) << str(centre());
+
+    // Two alpha quads called near first: drawn far first, so the near one is on top.
+    r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+    r->drawAtlas(green, nullptr, {0, 1, 0}, 1);  // near
+    r->drawAtlas(blue, nullptr, {0, 1.5, 0}, 1);  // far
+    r->drawAtlas(red, nullptr, {0, 2, 0}, 0);
+    r->endFrame();
+    const Rgba want = toRgba(over(materials[2].diffuse, 0.25, over(materials[1].diffuse, 0.5, red_lin)));
+    const Rgba wrong_order = toRgba(over(materials[1].diffuse, 0.5, over(materials[2].diffuse, 0.25, red_lin)));
+    ASSERT_GT(maxRgbDiff(want, wrong_order), 10);
+    EXPECT_LE(maxRgbDiff(centre(), want), 2) << str(centre()) << " vs " << str(want);
+
+    for (GpuMesh* g : {&red, &blue, &green}) r->release(g);
+}
+
+}  // namespace
+}  // namespace cityatlas::render
