@@ -645,4 +645,6 @@ FrameStats GlRenderer::endFrame() {
     return stats;
 }
 
+void GlRenderer::finish() { glFinish(); }
+
 }  // namespace cityatlas::render

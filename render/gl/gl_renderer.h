@@ -182,6 +182,9 @@ public:
     /// GL_FRAMEBUFFER_SRGB and blending off. The meshes and textures passed to
     /// the draw calls must stay alive until here.
     FrameStats endFrame();
+    /// Waits until the GL has executed every command issued (glFinish): frame
+    /// times then include the GPU's (llvmpipe's) work, not just the CPU's.
+    void finish();
 
 private:
     GlRenderer() = default;
