@@ -259,6 +259,18 @@ void OffscreenTarget::readPixels(std::vector<uint8_t>* rgba) const {
         std::copy_n(bottom_up.data() + row * (height_ - 1 - y), row, rgba->data() + row * y);
 }
 
+void bindDefaultFramebuffer(int width, int height) {
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glViewport(0, 0, width, height);
+}
+
+void OffscreenTarget::blitToDefault(int width, int height) const {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+    glBlitFramebuffer(0, 0, width_, height_, 0, 0, width, height, GL_COLOR_BUFFER_BIT, GL_LINEAR);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
 // ---------------------------------------------------------------- GlRenderer
 
 std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& materials, Status* status) {

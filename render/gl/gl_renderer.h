@@ -64,6 +64,9 @@ public:
     /// The colour buffer as RGBA8 (sRGB-encoded bytes, as stored), rows top-down
     /// (first row = top of the picture), width * height * 4 bytes.
     void readPixels(std::vector<uint8_t>* rgba) const;
+    /// Copies the colour buffer to the window's default framebuffer (same
+    /// size or scaled), for windows whose default framebuffer is not sRGB.
+    void blitToDefault(int width, int height) const;
 
     int width() const { return width_; }
     int height() const { return height_; }
@@ -74,6 +77,9 @@ private:
     int width_ = 0, height_ = 0;
     uint32_t fbo_ = 0, colour_ = 0, depth_ = 0;
 };
+
+/// Binds the window's default framebuffer for drawing, viewport (0, 0, w, h).
+void bindDefaultFramebuffer(int width, int height);
 
 /// A node layer's geometry on the GPU. A plain handle: free it with
 /// GlRenderer::release; copying it copies the handle, not the buffers.
