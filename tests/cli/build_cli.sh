@@ -30,7 +30,9 @@ set +e; node "$GLTF_TOOLS/validate.mjs" $(find tiles/geometry -name '*.glb' | so
 [ $rc -eq 0 ] || { grep -v ' 0 errors' validate.txt | head -20 >&2; fail "the glTF validator found errors"; }
 check_eq "GLBs with 0 errors" "$(find tiles/geometry -name '*.glb' | wc -l)" "$(grep -c ': 0 errors' validate.txt)"
 # ... and every atlas through OpenImageIO's DDS reader (full mip chain).
-for f in $(find tiles/atlas -name '*.dds' | sort | head -20); do
+# Globs, not `ls | head`: head closing the pipe early kills ls with SIGPIPE, which pipefail reports.
+atlases=(tiles/atlas/*/*.dds)
+for f in "${atlases[@]:0:20}"; do
   info=$(iinfo -v "$f")  # captured: `grep -q` would close the pipe early (SIGPIPE under pipefail)
   grep -Eq 'compression: "DXT[15]"' <<<"$info" || fail "$f: OpenImageIO does not read it as DXT1/DXT5"
 done
@@ -45,7 +47,7 @@ check_eq "tileset.json untouched by the rerun" "$stamp" "$(stat -c %y tiles/tile
 "$CITYATLAS" build town/town.gml -o tiles --d-min 150 --position-bits 16 -q > rebuild.txt
 grep -q "up to date" rebuild.txt && fail "a changed parameter was not rebuilt"
 check_eq "position bits recorded" "16" "$(json tiles/tileset.json "j['extras']['cityatlas']['build']['position_bits']")"
-tex=$(ls town/textures/*.png | head -1)
+textures=(town/textures/*.png); tex=${textures[0]}
 oiiotool "$tex" --invert -o "$tex"
 "$CITYATLAS" build town/town.gml -o tiles --d-min 150 --position-bits 16 > rebuild2.txt 2> rebuild2.err
 grep -q "up to date" rebuild2.txt && fail "a changed texture was not rebuilt"
@@ -69,9 +71,10 @@ damage() {  # damage NAME COMMAND...: copy the folder, damage it, inspect must f
   grep -q -- "$3" "bad_$1.err" || { cat "bad_$1.err" >&2; fail "inspect on $1 does not name $3"; }
   echo "ok: inspect finds $1: $(grep -m1 -- "$3" "bad_$1.err")"
 }
-block=$(cd tiles && ls textures/*.bin | head -1)
-glb=$(cd tiles && ls geometry/opaque/*.glb | head -1)
-dds=$(cd tiles && ls atlas/opaque/*.dds | head -1)
+first_of() { echo "${1#tiles/}"; }  # first_of GLOB...: the first match, relative to tiles/
+block=$(first_of tiles/textures/*.bin)
+glb=$(first_of tiles/geometry/opaque/*.glb)
+dds=$(first_of tiles/atlas/opaque/*.dds)
 damage "deleted block" "rm $block" "$block"
 damage "truncated glb" "truncate -s \$((\$(stat -c %s $glb) / 2)) $glb" "$glb"
 damage "corrupted DDS header" "printf 'XXXX' | dd of=$dds bs=1 seek=84 conv=notrunc status=none" "$dds"
