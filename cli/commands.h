@@ -19,5 +19,7 @@ RunFn addIngestCommand(CLI::App& app);
 RunFn addAtlasCommand(CLI::App& app);
 RunFn addBuildCommand(CLI::App& app);
 RunFn addInspectCommand(CLI::App& app);
+RunFn addRenderCommand(CLI::App& app);
+RunFn addViewCommand(CLI::App& app);
 
 }  // namespace cityatlas::cli

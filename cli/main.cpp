@@ -22,6 +22,8 @@ int main(int argc, char** argv) {
     RunFn run_atlas = addAtlasCommand(app);
     RunFn run_build = addBuildCommand(app);
     RunFn run_inspect = addInspectCommand(app);
+    RunFn run_render = addRenderCommand(app);
+    RunFn run_view = addViewCommand(app);
 
     try {
         app.parse(argc, argv);
@@ -36,6 +38,8 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "atlas") return run_atlas();
             if (sub->get_name() == "build") return run_build();
             if (sub->get_name() == "inspect") return run_inspect();
+            if (sub->get_name() == "render") return run_render();
+            if (sub->get_name() == "view") return run_view();
         }
     } catch (const std::exception& e) {
         // Library code reports expected failures as Status; reaching this is

@@ -1,0 +1,411 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// `cityatlas render`: plays a camera path over a tile folder or URL headless
+// (EGL, Mesa llvmpipe without a GPU), writes PNG frames and a per-frame JSON
+// report (schemas/render_report.schema.json).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <OpenImageIO/imageio.h>
+
+#include "cityatlas_version.h"
+#include "cli/commands.h"
+#include "cli/progress.h"
+#include "render/client/streaming_client.h"
+#include "render/core/camera_path.h"
+#include "render/gl/gl_context.h"
+#include "render/gl/gl_renderer.h"
+
+namespace cityatlas::cli {
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+using render::CameraPath;
+using Clock = std::chrono::steady_clock;
+
+struct RenderCliOptions {
+    std::string source;
+    std::string path_file;
+    std::string size = "1280x720";
+    std::string budget = "512M";
+    std::string out_dir;
+    std::string report;
+    std::string mode = "atlas";
+    std::string priority = "distance";
+    bool wait = false;
+    double wait_timeout_s = 300;
+    int every = 1;
+    int frames = 0;
+    double fps = 0;
+    double tau = 1;
+    int max_requests = 16;
+    double upload_ms = 8;
+    float anisotropy = 4;
+    int threads = 2;
+    bool quiet = false;
+};
+
+// "512M", "2G", "1500000", "64k": bytes (powers of 1024).
+bool parseBytes(const std::string& text, uint64_t* out) {
+    static const std::regex re(R"(^\s*([0-9]+(?:\.[0-9]+)?)\s*([kKmMgGtT]?)i?[bB]?\s*$)");
+    std::smatch m;
+    if (!std::regex_match(text, m, re)) return false;
+    double v = std::stod(m[1]);
+    switch (m[2].str().empty() ? ' ' : std::tolower(m[2].str()[0])) {
+        case 't': v *= 1024.0;
+        [[fallthrough]];
+        case 'g': v *= 1024.0;
+        [[fallthrough]];
+        case 'm': v *= 1024.0;
+        [[fallthrough]];
+        case 'k': v *= 1024.0;
+        [[fallthrough]];
+        default: break;
+    }
+    if (!(v >= 1 && v < 1.8e19)) return false;
+    *out = static_cast<uint64_t>(v);
+    return true;
+}
+
+bool parseSize(const std::string& text, int* w, int* h) {
+    static const std::regex re(R"(^([0-9]{1,5})x([0-9]{1,5})$)");
+    std::smatch m;
+    if (!std::regex_match(text, m, re)) return false;
+    *w = std::stoi(m[1]);
+    *h = std::stoi(m[2]);
+    return *w >= 16 && *h >= 16 && *w <= 16384 && *h <= 16384;
+}
+
+bool writePng(const fs::path& path, int w, int h, const std::vector<uint8_t>& rgba, std::string* why) {
+    auto out = OIIO::ImageOutput::create(path.string());
+    if (!out) {
+        *why = OIIO::geterror();
+        return false;
+    }
+    // RGB only: the alpha of the frame buffer is not part of the picture.
+    std::vector<uint8_t> rgb(static_cast<size_t>(w) * h * 3);
+    for (size_t i = 0, n = static_cast<size_t>(w) * h; i < n; ++i)
+        for (int c = 0; c < 3; ++c) rgb[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)];
+    const OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+    if (!out->open(path.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close()) {
+        *why = out->geterror();
+        return false;
+    }
+    return true;
+}
+
+json frameJson(size_t i, const render::CameraSample& s, double wall_s, double waited_ms, bool wait_complete,
+               const render::FrameRecord& r, const std::string& image) {
+    return {{"frame", i},
+            {"time_s", s.time_s},
+            {"label", s.label},
+            {"wall_s", wall_s},
+            {"frame_ms", r.frame_ms},
+            {"waited_ms", waited_ms},
+            {"ideal_set_complete", wait_complete},
+            {"upload_ms", r.upload_ms},
+            {"uploads", r.uploads},
+            {"nodes_drawn", {{"atlas", r.nodes_atlas}, {"originals", r.nodes_originals}, {"coarse", r.nodes_coarse}}},
+            {"draw_calls", r.draw_calls},
+            {"texture_binds", r.texture_binds},
+            {"triangles", r.triangles},
+            {"root_missing", r.root_missing},
+            {"resident_bytes", r.resident_bytes},
+            {"requested_bytes", r.requested_bytes},
+            {"budget_bytes", r.budget_bytes},
+            {"gpu_bytes", r.gpu_bytes},
+            {"bytes_loaded", r.bytes_loaded},
+            {"requests_in_flight", r.requests_in_flight},
+            {"refinement", {{"ideal_blocks", r.ideal_blocks},
+                            {"ideal_missing", r.ideal_missing},
+                            {"needed_missing", r.needed_missing},
+                            {"ideal_cut_by_budget", r.ideal_cut}}},
+            {"errors", r.errors},
+            {"camera", {{"position", {s.position.x, s.position.y, s.position.z}},
+                        {"direction", {s.direction.x, s.direction.y, s.direction.z}},
+                        {"fov_deg", s.fov_deg}}},
+            {"image", image.empty() ? json(nullptr) : json(image)}};
+}
+
+json summaryJson(const json& frames, const std::vector<size_t>& cut_frames, const render::StreamingClient& client,
+                 double seconds) {
+    double sum_ms = 0, max_ms = 0;
+    uint64_t nodes_max = 0, binds_max = 0, resident_max = 0, bytes = 0;
+    double nodes_sum = 0, binds_sum = 0;
+    size_t over_budget = 0, root_missing = 0;
+    for (const json& f : frames) {
+        const double ms = f["frame_ms"];
+        sum_ms += ms;
+        max_ms = std::max(max_ms, ms);
+        const uint64_t nodes = f["nodes_drawn"]["atlas"].get<uint64_t>() + f["nodes_drawn"]["originals"].get<uint64_t>();
+        nodes_sum += static_cast<double>(nodes);
+        nodes_max = std::max(nodes_max, nodes);
+        binds_sum += f["texture_binds"].get<double>();
+        binds_max = std::max(binds_max, f["texture_binds"].get<uint64_t>());
+        resident_max = std::max(resident_max, f["resident_bytes"].get<uint64_t>());
+        bytes += f["bytes_loaded"].get<uint64_t>();
+        over_budget += f["resident_bytes"].get<uint64_t>() > f["budget_bytes"].get<uint64_t>() ? 1 : 0;
+        root_missing += f["root_missing"].get<bool>() ? 1 : 0;
+    }
+    const double n = frames.empty() ? 1.0 : static_cast<double>(frames.size());
+    // Teleports: wall time from the cut's frame until the first frame whose ideal set is complete.
+    json teleports = json::array();
+    for (const size_t c : cut_frames) {
+        if (c >= frames.size()) continue;
+        json t = {{"frame", c}, {"label", frames[c]["label"]}, {"seconds_to_ideal_set", nullptr}};
+        for (size_t k = c; k < frames.size(); ++k) {
+            if (frames[k]["refinement"]["ideal_missing"].get<uint64_t>() == 0) {
+                t["seconds_to_ideal_set"] = frames[k]["wall_s"].get<double>() - frames[c]["wall_s"].get<double>() +
+                                            frames[k]["frame_ms"].get<double>() / 1000.0;
+                t["frames_to_ideal_set"] = k - c;
+                break;
+            }
+        }
+        teleports.push_back(t);
+    }
+    const render::LoaderStats ls = client.loaderStats();
+    json errors = json::array();
+    for (size_t i = 0; i < client.errors().size() && i < 50; ++i) errors.push_back(client.errors()[i]);
+    return {{"frames", frames.size()},
+            {"seconds", seconds},
+            {"frame_ms_mean", sum_ms / n},
+            {"frame_ms_max", max_ms},
+            {"nodes_drawn_mean", nodes_sum / n},
+            {"nodes_drawn_max", nodes_max},
+            {"texture_binds_mean", binds_sum / n},
+            {"texture_binds_max", binds_max},
+            {"bytes_loaded", bytes},
+            {"resident_bytes_max", resident_max},
+            {"frames_over_budget", over_budget},
+            {"frames_root_missing", root_missing},
+            {"requests", ls.requests},
+            {"retries", ls.retries},
+            {"errors", client.errors().size()},
+            {"error_messages", errors},
+            {"teleports", teleports}};
+}
+
+int runRender(const RenderCliOptions& opt) {
+    auto fail = [](const std::string& message) {
+        std::fprintf(stderr, "cityatlas render: %s\n", message.c_str());
+        return kExitFailure;
+    };
+    int width = 0, height = 0;
+    if (!parseSize(opt.size, &width, &height)) return fail(fmt::format("--size {}: expected WxH, 16..16384 each", opt.size));
+    uint64_t budget = 0;
+    if (!parseBytes(opt.budget, &budget)) return fail(fmt::format("--budget {}: expected bytes, e.g. 512M or 2G", opt.budget));
+
+    render::ClientOptions co;
+    co.budget_bytes = budget;
+    co.max_requests = static_cast<uint32_t>(opt.max_requests);
+    co.upload_ms_per_frame = opt.upload_ms;
+    co.selection.tau = opt.tau;
+    co.selection.priority = opt.priority == "view" ? render::PriorityMode::ViewWeighted : render::PriorityMode::Distance;
+    co.mode = opt.mode == "original" ? render::TextureMode::Original
+              : opt.mode == "dummy"  ? render::TextureMode::Dummy
+                                     : render::TextureMode::AtlasTree;
+    co.max_anisotropy = opt.anisotropy;
+    co.loader.decode_threads = opt.threads;
+
+    // The GL context first: it must outlive the client and the target, which free GL objects.
+    Status st;
+    auto context = render::HeadlessContext::create(&st);
+    if (!context) return fail(st.error);
+    auto client = render::StreamingClient::open(opt.source, co, &st);
+    if (!client) return fail(st.error);
+
+    CameraPath path;
+    std::string path_name = "default (overview, oblique flight, street level)";
+    if (!opt.path_file.empty()) {
+        std::ifstream f(opt.path_file);
+        if (!f) return fail(fmt::format("{}: cannot read", opt.path_file));
+        std::stringstream ss;
+        ss << f.rdbuf();
+        if (Status ps = render::parseCameraPath(ss.str(), opt.path_file, &path); !ps.ok()) return fail(ps.error);
+        path_name = opt.path_file;
+    } else {
+        path = render::defaultPath(client->index().nodes[0].bounds);
+    }
+    if (opt.fps > 0) path.frame_rate = opt.fps;
+    size_t frames = path.frameCount();
+    if (opt.frames > 0) frames = std::min(frames, static_cast<size_t>(opt.frames));
+
+    const render::GlInfo gl = render::queryGlInfo();
+    auto target = render::OffscreenTarget::create(width, height, &st);
+    if (!target) return fail(st.error);
+    if (Status gs = client->initGl(); !gs.ok()) return fail(gs.error);
+    if (!opt.quiet && client->usesCpuDecode())
+        std::fprintf(stderr, "cityatlas render: %s has no sRGB S3TC: textures are decoded on the CPU (4 bytes per texel)\n",
+                     gl.renderer.c_str());
+
+    std::error_code ec;
+    if (!opt.out_dir.empty()) {
+        fs::create_directories(opt.out_dir, ec);
+        if (ec) return fail(fmt::format("{}: cannot create: {}", opt.out_dir, ec.message()));
+    }
+    std::vector<size_t> cut_frames;
+    for (const render::CameraKey& k : path.keys) {
+        if (!k.cut) continue;
+        const double f = std::ceil((k.time_s - path.keys.front().time_s) * path.frame_rate - 1e-9);
+        cut_frames.push_back(static_cast<size_t>(std::max(0.0, f)));
+    }
+
+    auto cameraFor = [&](const render::CameraSample& s) {
+        render::Camera c;
+        c.position = s.position;
+        c.direction = s.direction;
+        c.vertical_fov_deg = s.fov_deg;
+        c.width_px = width;
+        c.height_px = height;
+        return c;
+    };
+    // The root comes first: the client never shows a frame without texture.
+    const render::Camera first = cameraFor(render::sampleFrame(path, 0));
+    if (!client->waitForRoot(first, opt.wait_timeout_s))
+        return fail(fmt::format("{}: the root's blocks did not load within {} s{}", opt.source, opt.wait_timeout_s,
+                                client->errors().empty() ? "" : ": " + client->errors().front()));
+
+    Progress progress(opt.quiet);
+    json frame_list = json::array();
+    std::vector<uint8_t> pixels;
+    const auto start = Clock::now();
+    for (size_t i = 0; i < frames; ++i) {
+        const render::CameraSample s = render::sampleFrame(path, i);
+        const render::Camera cam = cameraFor(s);
+        double waited_ms = 0;
+        bool complete = true;
+        if (opt.wait) {
+            const auto w0 = Clock::now();
+            complete = client->waitForIdealSet(cam, opt.wait_timeout_s);
+            waited_ms = std::chrono::duration<double, std::milli>(Clock::now() - w0).count();
+        } else {
+            // Real time: frame i is shown at path time i / fps (never early).
+            const auto due = start + std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>(static_cast<double>(i) / path.frame_rate));
+            std::this_thread::sleep_until(due);
+        }
+        const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+        target->bind();
+        const render::FrameRecord r = client->frame(cam);
+        std::string image;
+        if (!opt.out_dir.empty() && i % static_cast<size_t>(opt.every) == 0) {
+            image = fmt::format("frame_{:05d}.png", i);
+            target->readPixels(&pixels);
+            std::string why;
+            if (!writePng(fs::path(opt.out_dir) / image, width, height, pixels, &why))
+                return fail(fmt::format("{}: cannot write: {}", (fs::path(opt.out_dir) / image).string(), why));
+        }
+        frame_list.push_back(frameJson(i, s, wall_s, waited_ms, complete, r, image));
+        progress.update("frames", i + 1, frames);
+    }
+    progress.finish();
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+
+    const json summary = summaryJson(frame_list, cut_frames, *client, seconds);
+    json report = {{"generator", std::string("cityatlas ") + kCityAtlasVersion},
+                   {"source", opt.source},
+                   {"tileset_version", client->index().tileset_version},
+                   {"settings", {{"size", {width, height}},
+                                 {"budget_bytes", budget},
+                                 {"mode", render::textureModeName(co.mode)},
+                                 {"priority", render::priorityModeName(co.selection.priority)},
+                                 {"tau", opt.tau},
+                                 {"wait_for_ideal_set", opt.wait},
+                                 {"max_requests", opt.max_requests},
+                                 {"upload_ms_per_frame", opt.upload_ms},
+                                 {"anisotropy", opt.anisotropy},
+                                 {"path", path_name},
+                                 {"frame_rate", path.frame_rate}}},
+                   {"gl", {{"vendor", gl.vendor},
+                           {"renderer", gl.renderer},
+                           {"version", gl.version},
+                           {"s3tc", gl.s3tc},
+                           {"cpu_decode", client->usesCpuDecode()}}},
+                   {"tileset", {{"nodes", client->index().nodes.size()},
+                                {"blocks", client->index().blocks.size()},
+                                {"bytes", client->index().bytes_total},
+                                {"bytes_geometry", client->index().bytes_by_kind[0]},
+                                {"bytes_atlases", client->index().bytes_by_kind[1]},
+                                {"bytes_textures", client->index().bytes_by_kind[2]}}},
+                   {"summary", summary},
+                   {"frames", frame_list}};
+    std::string report_path = opt.report;
+    if (report_path.empty() && !opt.out_dir.empty()) report_path = (fs::path(opt.out_dir) / "report.json").string();
+    if (!report_path.empty()) {
+        std::ofstream f(report_path);
+        f << report.dump(1) << "\n";
+        if (!f) return fail(fmt::format("{}: cannot write", report_path));
+    }
+    if (!opt.quiet) {
+        fmt::print("{} frames ({}x{}, {} mode{}) in {:.1f} s: frame {:.1f} ms mean, {:.1f} ms worst; nodes {:.1f} mean, {} "
+                   "worst; texture binds {:.1f} mean; {} loaded; {} errors\n",
+                   frame_list.size(), width, height, render::textureModeName(co.mode), opt.wait ? ", waiting for the ideal set" : "",
+                   seconds, summary["frame_ms_mean"].get<double>(), summary["frame_ms_max"].get<double>(),
+                   summary["nodes_drawn_mean"].get<double>(), summary["nodes_drawn_max"].get<uint64_t>(),
+                   summary["texture_binds_mean"].get<double>(), humanBytes(summary["bytes_loaded"].get<uint64_t>()),
+                   summary["errors"].get<uint64_t>());
+        for (const json& t : summary["teleports"])
+            if (!t["seconds_to_ideal_set"].is_null())
+                fmt::print("teleport at frame {} ({}): ideal set complete after {:.2f} s\n", t["frame"].get<size_t>(),
+                           t["label"].get<std::string>(), t["seconds_to_ideal_set"].get<double>());
+        if (!report_path.empty()) fmt::print("report: {}\n", report_path);
+    }
+    return kExitOk;
+}
+
+}  // namespace
+
+RunFn addRenderCommand(CLI::App& app) {
+    auto opt = std::make_shared<RenderCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "render",
+        "Render a tile folder or URL headless (EGL; Mesa llvmpipe when there is no GPU) along a camera path:\n"
+        "PNG frames and a per-frame JSON report (schemas/render_report.schema.json). Without --path it flies a\n"
+        "default path from the tileset's bounds: overview, oblique flight, street level.");
+    cmd->add_option("source", opt->source, "Tile folder (holding tileset.json) or http(s):// URL of one")->required();
+    cmd->add_option("--path", opt->path_file, "Camera path JSON (schemas/camera_path.schema.json); default: derived from the bounds");
+    cmd->add_option("--size", opt->size, "Frame size WxH")->default_val("1280x720");
+    cmd->add_option("--budget", opt->budget, "Memory budget for resident blocks (tileset.json sizes): bytes or 512M, 2G")
+        ->default_val("512M");
+    cmd->add_option("-o,--output", opt->out_dir, "Folder for the PNG frames (and report.json unless --report)");
+    cmd->add_option("--report", opt->report, "Per-frame JSON report (default OUTPUT/report.json)");
+    cmd->add_option("--every", opt->every, "Write every n-th frame as PNG")->default_val(1)->check(CLI::Range(1, 1000000));
+    cmd->add_option("--frames", opt->frames, "Render at most this many frames (0: the whole path)")->default_val(0)
+        ->check(CLI::Range(0, 10000000));
+    cmd->add_option("--fps", opt->fps, "Frames per second of path time (default: the path's frame_rate)")
+        ->check(CLI::Range(0.01, 1000.0));
+    cmd->add_option("--mode", opt->mode, "atlas: the atlas tree (originals close by); original: every leaf with its "
+                                         "original textures (reference); dummy: the atlas tree's draws with one texture")
+        ->default_val("atlas")
+        ->check(CLI::IsMember({"atlas", "original", "dummy"}));
+    cmd->add_flag("--wait", opt->wait, "Before each frame, load until the ideal block set is resident (images that do not "
+                                       "depend on timing); otherwise frames play in real time while blocks stream");
+    cmd->add_option("--wait-timeout", opt->wait_timeout_s, "Seconds to wait for the root / an ideal set")->default_val(300);
+    cmd->add_option("--tau", opt->tau, "Pixels per texel accepted (> 1: coarser, fewer loads)")->default_val(1.0)
+        ->check(CLI::Range(0.1, 64.0));
+    cmd->add_option("--priority", opt->priority, "Order within a usage category: distance (the papers) or view "
+                                                 "(cesium-native's distance x (1 - cos angle to the view direction))")
+        ->default_val("distance")
+        ->check(CLI::IsMember({"distance", "view"}));
+    cmd->add_option("--max-requests", opt->max_requests, "Requests in flight at most")->default_val(16)->check(CLI::Range(1, 1024));
+    cmd->add_option("--upload-ms", opt->upload_ms, "GPU upload time per frame, milliseconds (at least one block)")
+        ->default_val(8.0)
+        ->check(CLI::Range(0.0, 10000.0));
+    cmd->add_option("--anisotropy", opt->anisotropy, "Anisotropic filtering (1 = off; llvmpipe's is slow and blurry)")
+        ->default_val(4.0F)
+        ->check(CLI::Range(1.0F, 16.0F));
+    cmd->add_option("--threads", opt->threads, "Decoding threads")->default_val(2)->check(CLI::Range(1, 256));
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress and no summary line");
+    return [opt]() { return runRender(*opt); };
+}
+
+}  // namespace cityatlas::cli

@@ -1,0 +1,228 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// `cityatlas view`: a window onto a tile folder or URL, streaming under a
+// memory budget, with fly and orbit navigation and an overlay of statistics
+// and controls (Dear ImGui).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include "cli/commands.h"
+#include "cli/progress.h"
+#include "render/client/streaming_client.h"
+#include "render/core/camera_path.h"
+#include "render/gl/gl_context.h"
+#include "render/gl/gl_renderer.h"
+#include "render/gl/overlay.h"
+
+namespace cityatlas::cli {
+namespace {
+using Clock = std::chrono::steady_clock;
+
+struct ViewCliOptions {
+    std::string source;
+    int width = 1600, height = 900;
+    double budget_mb = 512;
+    double tau = 1;
+    std::string mode = "atlas";
+    std::string priority = "distance";
+    bool no_vsync = false;
+};
+
+// Fly: WASD along the view, Q/E down/up, right mouse drag looks around.
+// Orbit: left mouse drag turns around the pivot, scroll moves towards it.
+// Speed follows the height above the city's floor: slow in the street, fast above the roofs.
+struct Navigation {
+    render::Camera camera;
+    double yaw = 0, pitch = 0;  ///< radians; yaw 0 looks along +y, pitch < 0 looks down
+    Vec3d pivot;
+    double floor_z = 0;
+    bool orbit = false;
+    double last_x = 0, last_y = 0;
+    bool dragging_left = false, dragging_right = false;
+
+    void setDirection(const Vec3d& d) {
+        const Vec3d n = render::normalized(d);
+        yaw = std::atan2(n.x, n.y);
+        pitch = std::asin(std::clamp(n.z, -1.0, 1.0));
+        apply();
+    }
+    void apply() {
+        pitch = std::clamp(pitch, -1.55, 1.55);
+        camera.direction = {std::sin(yaw) * std::cos(pitch), std::cos(yaw) * std::cos(pitch), std::sin(pitch)};
+    }
+    double speed() const { return std::max(3.0, 1.5 * (camera.position.z - floor_z)); }
+};
+
+int runView(const ViewCliOptions& opt) {
+    auto fail = [](const std::string& message) {
+        std::fprintf(stderr, "cityatlas view: %s\n", message.c_str());
+        return kExitFailure;
+    };
+    render::ClientOptions co;
+    co.budget_bytes = static_cast<uint64_t>(opt.budget_mb * 1024 * 1024);
+    co.selection.tau = opt.tau;
+    co.selection.priority = opt.priority == "view" ? render::PriorityMode::ViewWeighted : render::PriorityMode::Distance;
+    co.mode = opt.mode == "original" ? render::TextureMode::Original
+              : opt.mode == "dummy"  ? render::TextureMode::Dummy
+                                     : render::TextureMode::AtlasTree;
+    // The window (and its GL context) first: it must outlive the client, which frees GL objects.
+    Status st;
+    render::Window::Options wo;
+    wo.vsync = !opt.no_vsync;
+    auto window = render::Window::create(opt.width, opt.height, "cityatlas view: " + opt.source, wo, &st);
+    if (!window) return fail(st.error);
+    auto client = render::StreamingClient::open(opt.source, co, &st);
+    if (!client) return fail(st.error);
+    if (Status gs = client->initGl(); !gs.ok()) return fail(gs.error);
+
+    const Box3d& bounds = client->index().nodes[0].bounds;
+    Navigation nav;
+    const render::CameraSample start = render::sampleFrame(render::defaultPath(bounds), 0);
+    nav.camera.position = start.position;
+    nav.camera.vertical_fov_deg = 60;
+    nav.setDirection(start.direction);
+    nav.pivot = 0.5 * (bounds.min + bounds.max);
+    nav.floor_z = bounds.min.z;
+
+    window->on_scroll = [&](double, double dy) {
+        const Vec3d to = nav.pivot - nav.camera.position;
+        nav.camera.position = nav.camera.position + (dy > 0 ? 0.15 : -0.15) * to;
+    };
+    auto overlay = render::Overlay::create(*window, &st);
+    if (!overlay) return fail(st.error);
+
+    // An sRGB-incapable default framebuffer: draw offscreen and blit.
+    std::unique_ptr<render::OffscreenTarget> target;
+    float tau = static_cast<float>(opt.tau);
+    float budget_mb = static_cast<float>(opt.budget_mb);
+    int mode = static_cast<int>(co.mode);
+    double fps = 0;
+    auto last = Clock::now();
+    render::FrameRecord rec;
+    uint64_t loaded_total = 0;
+    while (!window->shouldClose()) {
+        window->pollEvents();
+        const auto now = Clock::now();
+        const double dt = std::min(0.1, std::chrono::duration<double>(now - last).count());
+        last = now;
+        fps = 0.9 * fps + 0.1 * (dt > 0 ? 1.0 / dt : 0);
+
+        // Navigation (unless the overlay has the input).
+        const auto [mx, my] = window->cursorPosition();
+        const bool left = window->mouseButtonDown(GLFW_MOUSE_BUTTON_LEFT) && !overlay->wantsMouse();
+        const bool right = window->mouseButtonDown(GLFW_MOUSE_BUTTON_RIGHT) && !overlay->wantsMouse();
+        const double dx = mx - nav.last_x, dy = my - nav.last_y;
+        nav.last_x = mx;
+        nav.last_y = my;
+        if (right && nav.dragging_right) {
+            nav.yaw += dx * 0.004;
+            nav.pitch -= dy * 0.004;
+            nav.apply();
+        }
+        if (left && nav.dragging_left) {
+            // Orbit around the pivot: turn the offset, then look at the pivot.
+            const Vec3d off = nav.camera.position - nav.pivot;
+            const double r = length(off);
+            double a = std::atan2(off.y, off.x) - dx * 0.005;
+            double e = std::asin(std::clamp(off.z / std::max(r, 1e-9), -1.0, 1.0)) + dy * 0.005;
+            e = std::clamp(e, 0.02, 1.5);
+            nav.camera.position = nav.pivot + r * Vec3d{std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)};
+            nav.setDirection(nav.pivot - nav.camera.position);
+        }
+        nav.dragging_left = left;
+        nav.dragging_right = right;
+        if (!overlay->wantsKeyboard()) {
+            const double v = nav.speed() * dt * (window->keyDown(GLFW_KEY_LEFT_SHIFT) ? 4.0 : 1.0);
+            const Vec3d fwd = nav.camera.direction;
+            const Vec3d side = render::normalized(cross(fwd, Vec3d{0, 0, 1}));
+            Vec3d move{0, 0, 0};
+            if (window->keyDown(GLFW_KEY_W)) move = move + fwd;
+            if (window->keyDown(GLFW_KEY_S)) move = move - fwd;
+            if (window->keyDown(GLFW_KEY_D)) move = move + side;
+            if (window->keyDown(GLFW_KEY_A)) move = move - side;
+            if (window->keyDown(GLFW_KEY_E)) move = move + Vec3d{0, 0, 1};
+            if (window->keyDown(GLFW_KEY_Q)) move = move - Vec3d{0, 0, 1};
+            if (length(move) > 0) nav.camera.position = nav.camera.position + v * render::normalized(move);
+            nav.camera.position.z = std::max(nav.camera.position.z, nav.floor_z + 1.0);
+            if (window->keyDown(GLFW_KEY_ESCAPE)) window->setShouldClose(true);
+        }
+
+        const auto [fw, fh] = window->framebufferSize();
+        if (fw <= 0 || fh <= 0) continue;  // minimised
+        nav.camera.width_px = fw;
+        nav.camera.height_px = fh;
+        if (!window->srgbFramebuffer() && (!target || target->width() != fw || target->height() != fh)) {
+            target = render::OffscreenTarget::create(fw, fh, &st);
+            if (!target) return fail(st.error);
+        }
+        if (target) target->bind();
+        else render::bindDefaultFramebuffer(fw, fh);
+        rec = client->frame(nav.camera);
+        loaded_total += rec.bytes_loaded;
+        if (target) target->blitToDefault(fw, fh);
+        render::bindDefaultFramebuffer(fw, fh);
+
+        overlay->newFrame();
+        ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
+        ImGui::Begin("cityatlas");
+        ImGui::Text("%.1f fps, frame %.1f ms", fps, rec.frame_ms);
+        ImGui::Text("nodes %u atlas, %u originals, %u coarse", rec.nodes_atlas, rec.nodes_originals, rec.nodes_coarse);
+        ImGui::Text("texture binds %u, draw calls %u, %u triangles", rec.texture_binds, rec.draw_calls, rec.triangles);
+        ImGui::Text("resident %s of %s (GPU %s)", humanBytes(rec.resident_bytes).c_str(), humanBytes(rec.budget_bytes).c_str(),
+                    humanBytes(rec.gpu_bytes).c_str());
+        ImGui::Text("queue %u, ideal set %u blocks, %u missing (%u needed)", rec.requests_in_flight, rec.ideal_blocks,
+                    rec.ideal_missing, rec.needed_missing);
+        ImGui::Text("loaded %s, errors %llu", humanBytes(loaded_total).c_str(), static_cast<unsigned long long>(rec.errors));
+        if (!client->errors().empty()) ImGui::TextWrapped("last error: %s", client->errors().back().c_str());
+        if (ImGui::SliderFloat("tau", &tau, 0.25F, 8.0F, "%.2f px/texel")) client->setTau(tau);
+        if (ImGui::SliderFloat("budget MB", &budget_mb, 16.0F, 8192.0F, "%.0f")) {
+            const uint64_t bytes = static_cast<uint64_t>(budget_mb) << 20;
+            if (render::BlockManager::checkBudget(client->index(), bytes).ok()) client->setBudget(bytes);
+        }
+        ImGui::RadioButton("atlas tree", &mode, 0);
+        ImGui::SameLine();
+        ImGui::RadioButton("original", &mode, 1);
+        ImGui::SameLine();
+        ImGui::RadioButton("dummy", &mode, 2);
+        client->setMode(static_cast<render::TextureMode>(mode));
+        ImGui::Text("height %.1f m, speed %.0f m/s (shift x4)", nav.camera.position.z - nav.floor_z, nav.speed());
+        ImGui::TextWrapped("WASD move, Q/E down/up, right drag look, left drag orbit, wheel zoom, Esc quit");
+        ImGui::End();
+        overlay->render();
+        window->swapBuffers();
+    }
+    return kExitOk;
+}
+
+}  // namespace
+
+RunFn addViewCommand(CLI::App& app) {
+    auto opt = std::make_shared<ViewCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "view",
+        "Fly through a tile folder or URL in a window, streaming blocks under a memory budget: WASD + mouse\n"
+        "(fly), left drag (orbit), wheel (zoom); an overlay shows fps, nodes, texture binds, resident bytes and\n"
+        "errors, with sliders for tau and the budget and a switch between atlas tree, original and dummy textures.\n"
+        "Needs a display (use `cityatlas render` headless).");
+    cmd->add_option("source", opt->source, "Tile folder (holding tileset.json) or http(s):// URL of one")->required();
+    cmd->add_option("--width", opt->width, "Window width")->default_val(1600)->check(CLI::Range(64, 16384));
+    cmd->add_option("--height", opt->height, "Window height")->default_val(900)->check(CLI::Range(64, 16384));
+    cmd->add_option("--budget-mb", opt->budget_mb, "Memory budget for resident blocks, MiB")->default_val(512)
+        ->check(CLI::Range(1.0, 1e6));
+    cmd->add_option("--tau", opt->tau, "Pixels per texel accepted")->default_val(1.0)->check(CLI::Range(0.1, 64.0));
+    cmd->add_option("--mode", opt->mode, "atlas, original or dummy")->default_val("atlas")
+        ->check(CLI::IsMember({"atlas", "original", "dummy"}));
+    cmd->add_option("--priority", opt->priority, "distance or view")->default_val("distance")
+        ->check(CLI::IsMember({"distance", "view"}));
+    cmd->add_flag("--no-vsync", opt->no_vsync, "Draw as fast as possible (for measuring)");
+    return [opt]() { return runView(*opt); };
+}
+
+}  // namespace cityatlas::cli

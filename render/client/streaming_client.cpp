@@ -1,0 +1,340 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "render/client/streaming_client.h"
+
+#include <algorithm>
+#include <chrono>
+#include <unordered_map>
+
+#include <fmt/format.h>
+
+#include "render/gl/gl_renderer.h"
+
+namespace cityatlas::render {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+const char* textureModeName(TextureMode mode) {
+    switch (mode) {
+        case TextureMode::AtlasTree: return "atlas";
+        case TextureMode::Original: return "original";
+        case TextureMode::Dummy: return "dummy";
+    }
+    return "?";
+}
+
+// GPU objects of resident blocks, and the lookup from a tileset texture to its GPU texture.
+struct StreamingClient::Resident {
+    std::vector<GpuMesh> meshes;        ///< per block (Geometry)
+    std::vector<GpuTexture> atlases;    ///< per block (Atlas)
+    std::unordered_map<BlockId, std::vector<std::pair<int32_t, GpuTexture>>> textures;  ///< Textures blocks
+    std::vector<const GpuTexture*> original;  ///< per tileset texture: resident or nullptr
+    uint64_t gpu_bytes = 0;
+};
+
+std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, const ClientOptions& options,
+                                                       Status* status) {
+    std::unique_ptr<StreamingClient> c(new StreamingClient());
+    c->base_ = base;
+    c->options_ = options;
+    std::string text;
+    if (Status st = fetchTilesetText(base, &text); !st.ok()) {
+        *status = st;
+        return nullptr;
+    }
+    if (Status st = parseTilesetIndex(text, base, &c->index_); !st.ok()) {
+        *status = st;
+        return nullptr;
+    }
+    if (Status st = BlockManager::checkBudget(c->index_, options.budget_bytes); !st.ok()) {
+        *status = Status::Fail(fmt::format("{}: {}", base, st.error));
+        return nullptr;
+    }
+    c->manager_ = std::make_unique<BlockManager>(c->index_, BudgetParams{options.budget_bytes, options.max_requests});
+    c->loader_ = Loader::open(base, c->index_, options.loader, status);
+    if (!c->loader_) return nullptr;
+    c->resident_ = std::make_unique<Resident>();
+    c->resident_->meshes.resize(c->index_.blocks.size());
+    c->resident_->atlases.resize(c->index_.blocks.size());
+    c->resident_->original.assign(c->index_.textures.size(), nullptr);
+    *status = Status::Ok();
+    return c;
+}
+
+StreamingClient::~StreamingClient() {
+    loader_.reset();  // stop the threads before the GL objects go
+    if (gl_ && resident_) {
+        for (BlockId b = 0; b < index_.blocks.size(); ++b) release(b);
+    }
+}
+
+Status StreamingClient::initGl() {
+    Status st;
+    RendererOptions ro;
+    ro.max_anisotropy = options_.max_anisotropy;
+    gl_ = GlRenderer::create(index_.materials, ro, &st);
+    return gl_ ? Status::Ok() : st;
+}
+
+const LoaderStats StreamingClient::loaderStats() const { return loader_->stats(); }
+
+bool StreamingClient::usesCpuDecode() const { return gl_ && gl_->decodesOnCpu(); }
+
+void StreamingClient::setBudget(uint64_t bytes) {
+    options_.budget_bytes = bytes;
+    manager_->setBudget(bytes);
+}
+
+Classification StreamingClient::classify(const Camera& camera) const {
+    if (options_.mode != TextureMode::Original) return classifyBlocks(index_, camera, options_.selection);
+    // The reference: every leaf's geometry, atlas (the fallback for an unreadable
+    // original) and original textures, nearest first; the root stays pinned.
+    Classification c;
+    c.priority.assign(index_.blocks.size(), BlockPriority{Usage::Unused, 1e300, 1 << 20});
+    for (const TileNode& n : index_.nodes) {
+        const bool root = n.id == 0;
+        if (!n.leaf() && !root) continue;
+        const double d = distanceToBox(camera.position, n.bounds);
+        for (const NodeLayer& l : n.layers) {
+            if (!l.present) continue;
+            c.priority[l.geometry] = {Usage::Needed, d, n.level};
+            if (l.atlas != kNoBlock) c.priority[l.atlas] = {Usage::Needed, d, n.level};
+        }
+        for (const BlockId b : n.texture_blocks) {
+            BlockPriority& p = c.priority[b];
+            if (p.usage == Usage::Unused || d < p.key) p = {Usage::Needed, d, n.level + 1};
+        }
+    }
+    std::vector<BlockId> root;
+    for (const NodeLayer& l : index_.nodes[0].layers) {
+        if (!l.present) continue;
+        root.push_back(l.geometry);
+        if (l.atlas != kNoBlock) root.push_back(l.atlas);
+    }
+    for (BlockId b = 0; b < index_.blocks.size(); ++b)
+        if (c.priority[b].usage != Usage::Unused && std::find(root.begin(), root.end(), b) == root.end())
+            c.candidates.push_back(b);
+    std::sort(c.candidates.begin(), c.candidates.end(),
+              [&](BlockId a, BlockId b) { return before(c.priority[a], a, c.priority[b], b); });
+    c.candidates.insert(c.candidates.begin(), root.begin(), root.end());
+    return c;
+}
+
+void StreamingClient::plan(const Camera& camera) {
+    const BlockActions actions = manager_->update(classify(camera));
+    for (const BlockId b : actions.cancel) loader_->cancel(b);
+    for (const BlockId b : actions.evict) release(b);
+    for (const BlockId b : actions.request) loader_->request(b);
+}
+
+void StreamingClient::takeResults() {
+    for (LoadResult& r : loader_->poll()) arrived_.push_back(std::move(r));
+}
+
+uint32_t StreamingClient::upload(double budget_ms, double* spent_ms) {
+    const auto t0 = Clock::now();
+    uint32_t done = 0;
+    size_t i = 0;
+    for (; i < arrived_.size(); ++i) {
+        if (done > 0 && msSince(t0) >= budget_ms) break;
+        LoadResult& r = arrived_[i];
+        if (manager_->state(r.id) != BlockState::Requested) continue;  // cancelled or evicted meanwhile
+        bool ok = r.error == LoadError::None;
+        Status st;
+        if (ok) {
+            switch (r.block.kind) {
+                case BlockKind::Geometry: {
+                    GpuMesh m = gl_->upload(r.block.mesh, &st);
+                    ok = st.ok();
+                    if (ok) {
+                        resident_->gpu_bytes += m.gpu_bytes;
+                        resident_->meshes[r.id] = std::move(m);
+                    }
+                    break;
+                }
+                case BlockKind::Atlas: {
+                    GpuTexture t = gl_->upload(r.block.atlas, false, &st);
+                    ok = st.ok();
+                    if (ok) {
+                        resident_->gpu_bytes += t.gpu_bytes;
+                        resident_->atlases[r.id] = t;
+                    }
+                    break;
+                }
+                case BlockKind::Textures: {
+                    std::vector<std::pair<int32_t, GpuTexture>>& list = resident_->textures[r.id];
+                    for (const auto& [texture, data] : r.block.textures) {
+                        GpuTexture t = gl_->upload(data, index_.textures[static_cast<size_t>(texture)].wrap, &st);
+                        if (!st.ok()) break;
+                        resident_->gpu_bytes += t.gpu_bytes;
+                        list.emplace_back(texture, t);
+                    }
+                    ok = st.ok();
+                    if (ok) {
+                        for (const auto& [texture, t] : list) resident_->original[static_cast<size_t>(texture)] = &t;
+                    } else {
+                        release(r.id);
+                    }
+                    break;
+                }
+            }
+            if (!ok) r.message = fmt::format("{}: {}", index_.blocks[r.id].uri, st.error);
+        }
+        if (!ok) errors_.push_back(r.message.empty() ? index_.blocks[r.id].uri + ": " + loadErrorName(r.error) : r.message);
+        manager_->finished(r.id, ok);
+        ++done;
+    }
+    arrived_.erase(arrived_.begin(), arrived_.begin() + static_cast<std::ptrdiff_t>(i));
+    if (spent_ms) *spent_ms = msSince(t0);
+    return done;
+}
+
+void StreamingClient::release(BlockId id) {
+    Resident& r = *resident_;
+    if (r.meshes[id].valid()) {
+        r.gpu_bytes -= std::min(r.gpu_bytes, r.meshes[id].gpu_bytes);
+        gl_->release(&r.meshes[id]);
+        r.meshes[id] = GpuMesh{};
+    }
+    if (r.atlases[id].valid()) {
+        r.gpu_bytes -= std::min(r.gpu_bytes, r.atlases[id].gpu_bytes);
+        gl_->release(&r.atlases[id]);
+        r.atlases[id] = GpuTexture{};
+    }
+    if (const auto it = r.textures.find(id); it != r.textures.end()) {
+        for (auto& [texture, t] : it->second) {
+            r.gpu_bytes -= std::min(r.gpu_bytes, t.gpu_bytes);
+            r.original[static_cast<size_t>(texture)] = nullptr;
+            gl_->release(&t);
+        }
+        r.textures.erase(it);
+    }
+}
+
+Selection StreamingClient::selectForMode(const Camera& camera) const {
+    const auto resident = [&](BlockId b) { return manager_->resident(b); };
+    if (options_.mode != TextureMode::Original) return selectDraws(index_, camera, options_.selection, resident);
+    // Every leaf in view with its originals, as far as it is loaded.
+    Selection s;
+    const Frustum frustum = frustumOf(camera);
+    s.nearest_m = 1e300;
+    for (const TileNode& n : index_.nodes) {
+        if (!n.leaf()) continue;
+        ++s.nodes_visited;
+        if (outsideFrustum(frustum, n.bounds)) {
+            ++s.nodes_culled;
+            continue;
+        }
+        if (!nodeDrawable(index_, n.id, resident)) continue;
+        const double d = distanceToBox(camera.position, n.bounds);
+        s.draws.push_back({n.id, DrawMode::Originals, false, d});
+        s.nearest_m = std::min(s.nearest_m, d);
+        const double far = length(Vec3d{std::max(std::abs(camera.position.x - n.bounds.min.x), std::abs(camera.position.x - n.bounds.max.x)),
+                                        std::max(std::abs(camera.position.y - n.bounds.min.y), std::abs(camera.position.y - n.bounds.max.y)),
+                                        std::max(std::abs(camera.position.z - n.bounds.min.z), std::abs(camera.position.z - n.bounds.max.z))});
+        s.farthest_m = std::max(s.farthest_m, far);
+    }
+    if (s.draws.empty()) s.nearest_m = 0;
+    return s;
+}
+
+bool StreamingClient::waitForIdealSet(const Camera& camera, double timeout_s) {
+    const auto t0 = Clock::now();
+    for (;;) {
+        takeResults();
+        upload(1e9, nullptr);
+        plan(camera);
+        if (manager_->idealComplete() && arrived_.empty()) return true;
+        if (msSince(t0) > timeout_s * 1000) return false;
+        loader_->waitForAny(0.05);
+    }
+}
+
+bool StreamingClient::waitForRoot(const Camera& camera, double timeout_s) {
+    const auto t0 = Clock::now();
+    for (;;) {
+        takeResults();
+        upload(1e9, nullptr);
+        plan(camera);
+        bool all = true, failed = false;
+        for (const NodeLayer& l : index_.nodes[0].layers) {
+            if (!l.present) continue;
+            for (const BlockId b : {l.geometry, l.atlas}) {
+                if (b == kNoBlock) continue;
+                all = all && manager_->resident(b);
+                failed = failed || manager_->state(b) == BlockState::Failed;
+            }
+        }
+        if (all) return true;
+        if (failed || msSince(t0) > timeout_s * 1000) return false;
+        loader_->waitForAny(0.05);
+    }
+}
+
+FrameRecord StreamingClient::frame(const Camera& camera_in) {
+    FrameRecord rec;
+    const auto t0 = Clock::now();
+    takeResults();
+    rec.uploads = upload(options_.upload_ms_per_frame, &rec.upload_ms);
+    plan(camera_in);
+    const Selection sel = selectForMode(camera_in);
+
+    // Near and far from the drawn boxes keep the depth buffer's resolution where the geometry is.
+    Camera camera = camera_in;
+    camera.near_m = std::clamp(0.5 * sel.nearest_m, 0.1, 1e4);
+    camera.far_m = std::max(sel.farthest_m * 1.01, camera.near_m * 10);
+    gl_->beginFrame(camera, {0.55F, 0.70F, 0.90F, 1.0F});
+    const Resident& r = *resident_;
+    const auto original = [&](int32_t t) -> const GpuTexture* {
+        return t >= 0 && static_cast<size_t>(t) < r.original.size() ? r.original[static_cast<size_t>(t)] : nullptr;
+    };
+    for (const DrawItem& d : sel.draws) {
+        const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
+        for (int li = 0; li < kLayerCount; ++li) {
+            const NodeLayer& l = n.layers[static_cast<size_t>(li)];
+            if (!l.present) continue;
+            const GpuMesh& mesh = r.meshes[l.geometry];
+            if (!mesh.valid()) continue;
+            const GpuTexture* atlas = l.atlas != kNoBlock && r.atlases[l.atlas].valid() ? &r.atlases[l.atlas] : nullptr;
+            if (options_.mode == TextureMode::Dummy) {
+                gl_->drawDummy(mesh, n.centre, li);
+            } else if (d.mode == DrawMode::Originals) {
+                gl_->drawOriginals(mesh, original, atlas, n.centre, li);
+            } else {
+                gl_->drawAtlas(mesh, atlas, n.centre, li);
+            }
+        }
+        (d.mode == DrawMode::Originals ? rec.nodes_originals : rec.nodes_atlas) += 1;
+        rec.nodes_coarse += d.coarse ? 1 : 0;
+    }
+    const FrameStats fs = gl_->endFrame();
+    gl_->finish();
+    rec.frame_ms = msSince(t0);
+    rec.draw_calls = fs.draw_calls;
+    rec.texture_binds = fs.texture_binds;
+    rec.triangles = fs.triangles;
+    rec.root_missing = sel.root_missing;
+    const BudgetStats& b = manager_->stats();
+    rec.resident_bytes = b.resident_bytes;
+    rec.requested_bytes = b.requested_bytes;
+    rec.budget_bytes = options_.budget_bytes;
+    rec.gpu_bytes = r.gpu_bytes;
+    const LoaderStats ls = loader_->stats();
+    rec.bytes_loaded = ls.bytes_fetched - bytes_fetched_seen_;
+    bytes_fetched_seen_ = ls.bytes_fetched;
+    rec.requests_in_flight = b.requested_blocks;
+    rec.ideal_blocks = b.ideal_blocks;
+    rec.ideal_missing = b.ideal_missing;
+    rec.needed_missing = b.needed_missing;
+    rec.ideal_cut = b.ideal_cut;
+    rec.errors = errors_.size();
+    rec.evictions = b.evictions;
+    rec.cancellations = b.cancellations;
+    return rec;
+}
+
+}  // namespace cityatlas::render

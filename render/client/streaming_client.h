@@ -1,0 +1,123 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// The streaming client: one render thread ties the GL-free core (selection,
+/// usage classification, the block budget) to the loader (files or HTTP,
+/// decoding on worker threads) and the OpenGL backend. Used by `cityatlas
+/// render` (headless, EGL) and `cityatlas view` (a GLFW window); both make a
+/// context current before initGl() and keep it current on the calling thread.
+///
+/// Per frame: take finished loads and upload them within a time budget (a
+/// block becomes resident when it is on the GPU), classify blocks for the
+/// camera, let the BlockManager plan requests / cancellations / evictions,
+/// hand those to the loader and free evicted GPU memory, select the draws
+/// (Fig. 30: refine only when possible) and draw them.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "render/core/block_manager.h"
+#include "render/core/selection.h"
+#include "render/core/tileset_index.h"
+#include "render/core/view.h"
+#include "render/loader/loader.h"
+
+namespace cityatlas::render {
+
+class GlRenderer;
+
+enum class TextureMode : uint8_t {
+    AtlasTree,  ///< the atlas tree with original textures close by (the product)
+    Original,   ///< reference: every leaf with its original textures, everything loaded
+    Dummy,      ///< reference: the atlas tree's draws with one dummy texture (no texture switches)
+};
+const char* textureModeName(TextureMode mode);  ///< "atlas", "original", "dummy"
+
+struct ClientOptions {
+    uint64_t budget_bytes = 512ull << 20;  ///< summed block sizes resident (tileset.json sizes)
+    uint32_t max_requests = 16;            ///< bounded request queue
+    double upload_ms_per_frame = 8;        ///< GPU uploads per frame stop after this (at least one per frame)
+    SelectionParams selection;
+    TextureMode mode = TextureMode::AtlasTree;
+    float max_anisotropy = 4;              ///< 1 = off
+    LoaderOptions loader;
+};
+
+/// What one frame did; the per-frame report of `cityatlas render`.
+struct FrameRecord {
+    double frame_ms = 0;         ///< CPU wall time of the frame: uploads, planning, selection, drawing (GL finished)
+    double upload_ms = 0;
+    uint32_t uploads = 0;
+    uint32_t nodes_atlas = 0, nodes_originals = 0, nodes_coarse = 0;
+    uint32_t draw_calls = 0, texture_binds = 0, triangles = 0;
+    bool root_missing = false;   ///< nothing could be drawn (the root is not resident yet)
+    uint64_t resident_bytes = 0, requested_bytes = 0, budget_bytes = 0;
+    uint64_t gpu_bytes = 0;      ///< meshes and textures as stored on the GPU
+    uint64_t bytes_loaded = 0;   ///< fetched since the previous frame
+    uint32_t requests_in_flight = 0;
+    uint32_t ideal_blocks = 0, ideal_missing = 0, needed_missing = 0;
+    bool ideal_cut = false;
+    uint64_t errors = 0;         ///< failed loads so far
+    uint64_t evictions = 0, cancellations = 0;  ///< so far
+};
+
+class StreamingClient {
+public:
+    /// Reads BASE/tileset.json (a folder or an http(s) URL), checks that the
+    /// root fits the budget and starts the loader. One line on failure.
+    static std::unique_ptr<StreamingClient> open(const std::string& base, const ClientOptions& options, Status* status);
+    ~StreamingClient();
+    StreamingClient(const StreamingClient&) = delete;
+    StreamingClient& operator=(const StreamingClient&) = delete;
+
+    /// Creates the GL renderer; the context must be current on this thread.
+    Status initGl();
+
+    /// One frame for `camera` into the framebuffer bound now.
+    FrameRecord frame(const Camera& camera);
+
+    /// Plans and loads (uploading as results arrive) without drawing until
+    /// every block of the ideal set for `camera` is resident, or `timeout_s`
+    /// passes. False on timeout. Used for images that must not depend on
+    /// timing ("wait for the ideal set") and to load the root before the first
+    /// frame.
+    bool waitForIdealSet(const Camera& camera, double timeout_s);
+    /// Loads until the root's blocks are resident (the first thing any frame
+    /// needs), planning for `camera`. False on timeout or when a root block failed.
+    bool waitForRoot(const Camera& camera, double timeout_s);
+
+    const TilesetIndex& index() const { return index_; }
+    const ClientOptions& options() const { return options_; }
+    void setBudget(uint64_t bytes);
+    void setTau(double tau) { options_.selection.tau = tau; }
+    void setMode(TextureMode mode) { options_.mode = mode; }
+    /// Every load error so far, one line each (uri: what), in order.
+    const std::vector<std::string>& errors() const { return errors_; }
+    const LoaderStats loaderStats() const;
+    bool usesCpuDecode() const;
+
+private:
+    StreamingClient() = default;
+    struct Resident;
+    Classification classify(const Camera& camera) const;
+    void plan(const Camera& camera);
+    void takeResults();
+    uint32_t upload(double budget_ms, double* spent_ms);
+    void release(BlockId id);
+    Selection selectForMode(const Camera& camera) const;
+
+    std::string base_;
+    ClientOptions options_;
+    TilesetIndex index_;
+    std::unique_ptr<Loader> loader_;
+    std::unique_ptr<BlockManager> manager_;
+    std::unique_ptr<GlRenderer> gl_;
+    std::unique_ptr<Resident> resident_;
+    std::vector<LoadResult> arrived_;  ///< finished loads waiting for their upload
+    std::vector<std::string> errors_;
+    uint64_t bytes_fetched_seen_ = 0;
+};
+
+}  // namespace cityatlas::render
