@@ -199,10 +199,14 @@ int runRender(const RenderCliOptions& opt) {
         std::fprintf(stderr, "cityatlas render: %s\n", message.c_str());
         return kExitFailure;
     };
+    auto usage = [](const std::string& message) {
+        std::fprintf(stderr, "cityatlas render: %s\n", message.c_str());
+        return kExitUsage;
+    };
     int width = 0, height = 0;
-    if (!parseSize(opt.size, &width, &height)) return fail(fmt::format("--size {}: expected WxH, 16..16384 each", opt.size));
+    if (!parseSize(opt.size, &width, &height)) return usage(fmt::format("--size {}: expected WxH, 16..16384 each", opt.size));
     uint64_t budget = 0;
-    if (!parseBytes(opt.budget, &budget)) return fail(fmt::format("--budget {}: expected bytes, e.g. 512M or 2G", opt.budget));
+    if (!parseBytes(opt.budget, &budget)) return usage(fmt::format("--budget {}: expected bytes, e.g. 512M or 2G", opt.budget));
 
     render::ClientOptions co;
     co.budget_bytes = budget;
@@ -274,7 +278,7 @@ int runRender(const RenderCliOptions& opt) {
         return fail(fmt::format("{}: the root's blocks did not load within {} s{}", opt.source, opt.wait_timeout_s,
                                 client->errors().empty() ? "" : ": " + client->errors().front()));
 
-    Progress progress(opt.quiet);
+    Progress progress(!opt.quiet);
     json frame_list = json::array();
     std::vector<uint8_t> pixels;
     const auto start = Clock::now();

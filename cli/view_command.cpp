@@ -33,6 +33,7 @@ struct ViewCliOptions {
     std::string mode = "atlas";
     std::string priority = "distance";
     bool no_vsync = false;
+    int frames = 0;
 };
 
 // Fly: WASD along the view, Q/E down/up, right mouse drag looks around.
@@ -107,7 +108,8 @@ int runView(const ViewCliOptions& opt) {
     auto last = Clock::now();
     render::FrameRecord rec;
     uint64_t loaded_total = 0;
-    while (!window->shouldClose()) {
+    int frame_count = 0;
+    while (!window->shouldClose() && (opt.frames == 0 || frame_count++ < opt.frames)) {
         window->pollEvents();
         const auto now = Clock::now();
         const double dt = std::min(0.1, std::chrono::duration<double>(now - last).count());
@@ -222,6 +224,9 @@ RunFn addViewCommand(CLI::App& app) {
     cmd->add_option("--priority", opt->priority, "distance or view")->default_val("distance")
         ->check(CLI::IsMember({"distance", "view"}));
     cmd->add_flag("--no-vsync", opt->no_vsync, "Draw as fast as possible (for measuring)");
+    cmd->add_option("--frames", opt->frames, "Close after this many frames (0: when the window is closed)")
+        ->default_val(0)
+        ->check(CLI::Range(0, 100000000));
     return [opt]() { return runView(*opt); };
 }
 
