@@ -11,10 +11,9 @@
 #include <nlohmann/json.hpp>
 
 #include "atlas/atlas_tree.h"
-#include "ingest/synth/town.h"
-#include "ingest/synth/write_town.h"
 #include "render/core/tileset_index.h"
 #include "tests/ingest/test_support.h"
+#include "tests/render/town_fixture.h"
 #include "tiles/tileset.h"
 
 namespace cityatlas::render {
@@ -22,46 +21,8 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-struct Town {
-    fs::path dir;
-    atlas::AtlasTree tree;
-    std::string text;
-};
-
-const Town& town() {
-    static const Town t = [] {
-        Town t;
-        t.dir = test::scratchPath("render_index", "town");
-        synth::TownSettings settings;
-        settings.buildings = 25;
-        settings.seed = 5;
-        settings.texture_size_px = 64;
-        const synth::Town town = synth::generateTown(settings);
-        EXPECT_TRUE(synth::writeTown(town, t.dir / "town", false, {}).ok());
-        const Scene scene = synth::townToScene(town, t.dir / "town");
-        atlas::AtlasParams ap;
-        ap.d_min_m = 150;
-        ap.atlas_size_px = 256;
-        Diagnostics diagnostics;
-        EXPECT_TRUE(atlas::buildAtlasTree(scene, ap, t.dir / "work", diagnostics, {}, &t.tree).ok());
-        fs::create_directories(t.dir / "tiles");
-        tiles::TilesParams tp;
-        tp.threads = 2;
-        tiles::TilesStats stats;
-        EXPECT_TRUE(tiles::writeTileset(scene, t.tree, t.dir / "work", tp, t.dir / "tiles", "00112233445566ff", diagnostics, {},
-                                        &stats)
-                        .ok());
-        std::ifstream f(t.dir / "tiles" / "tileset.json");
-        std::stringstream ss;
-        ss << f.rdbuf();
-        t.text = ss.str();
-        return t;
-    }();
-    return t;
-}
-
 TEST(TilesetIndex, ReadsABuiltFolder) {
-    const Town& t = town();
+    const test::BuiltTown& t = test::builtTown();
     ASSERT_FALSE(t.text.empty());
     TilesetIndex ix;
     const Status st = parseTilesetIndex(t.text, "tileset.json", &ix);
@@ -115,7 +76,7 @@ TEST(TilesetIndex, ReadsABuiltFolder) {
 }
 
 std::string edited(const std::function<void(json&)>& edit) {
-    json j = json::parse(town().text);
+    json j = json::parse(test::builtTown().text);
     edit(j);
     return j.dump();
 }
