@@ -21,5 +21,6 @@ RunFn addBuildCommand(CLI::App& app);
 RunFn addInspectCommand(CLI::App& app);
 RunFn addRenderCommand(CLI::App& app);
 RunFn addViewCommand(CLI::App& app);
+RunFn addServeCommand(CLI::App& app);
 
 }  // namespace cityatlas::cli

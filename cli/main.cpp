@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
     RunFn run_inspect = addInspectCommand(app);
     RunFn run_render = addRenderCommand(app);
     RunFn run_view = addViewCommand(app);
+    RunFn run_serve = addServeCommand(app);
 
     try {
         app.parse(argc, argv);
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "inspect") return run_inspect();
             if (sub->get_name() == "render") return run_render();
             if (sub->get_name() == "view") return run_view();
+            if (sub->get_name() == "serve") return run_serve();
         }
     } catch (const std::exception& e) {
         // Library code reports expected failures as Status; reaching this is
