@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# Benchmark: the streaming client headless (EGL; Mesa llvmpipe without a GPU).
+# 1. Frame time per mode on the default path (overview -> oblique flight ->
+#    street level), every frame drawn with its ideal set loaded (--wait; the
+#    frame time excludes loading): the atlas tree vs one dummy texture (the
+#    papers' upper bound) vs original textures only (everything loaded).
+#    Mean and worst frame time, nodes drawn, texture binds, bytes loaded.
+# 2. Streaming in real time with a budget of 1/10 of the atlas and texture
+#    bytes: distance priority (the papers) vs view-weighted (cesium-native),
+#    on the same path: frames with needed blocks missing, bytes loaded.
+# Usage: benchmarks/render_paths.sh [TILES=out/benchmarks/build-10000-400-default] [SIZE=1280x720] [FPS=2]
+# Writes out/benchmarks/render-<tiles name>.json and prints a table.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+TILES="${1:-out/benchmarks/build-10000-400-default}"; SIZE="${2:-1280x720}"; FPS="${3:-2}"
+./scripts/build > /dev/null
+if [ ! -f "$TILES/tileset.json" ]; then
+  echo "no tile folder at $TILES: run benchmarks/build_scale.sh 10000 400 main first (or give a folder)" >&2
+  exit 1
+fi
+NAME=$(basename "$TILES")
+OUT="out/benchmarks/render-$NAME"; mkdir -p "$OUT"
+/usr/bin/python3 - "$TILES" "$SIZE" "$FPS" "$OUT" <<'PY'
+import json, os, subprocess, sys, time
+tiles, size, fps, out = sys.argv[1:5]
+t = json.load(open(os.path.join(tiles, "tileset.json")))
+totals = t["extras"]["cityatlas"]["totals"]["bytes"]
+texture_bytes = totals["atlases"] + totals["textures"]
+all_bytes = sum(totals.values())
+runs = []
+def render(name, extra):
+    report = os.path.join(out, name + ".json")
+    cmd = ["./build/cli/cityatlas", "render", tiles, "--size", size, "--fps", fps, "--anisotropy", "1",
+           "--report", report, "-q"] + extra
+    t0 = time.monotonic()
+    subprocess.run(cmd, check=True)
+    wall = time.monotonic() - t0
+    r = json.load(open(report))
+    s = r["summary"]
+    frames = r["frames"]
+    rec = {"run": name, "command": " ".join(cmd), "wall_s": round(wall, 1), "frames": s["frames"],
+           "frame_ms_mean": round(s["frame_ms_mean"], 2), "frame_ms_max": round(s["frame_ms_max"], 2),
+           "nodes_drawn_mean": round(s["nodes_drawn_mean"], 1), "nodes_drawn_max": s["nodes_drawn_max"],
+           "texture_binds_mean": round(s["texture_binds_mean"], 1), "texture_binds_max": s["texture_binds_max"],
+           "triangles_mean": round(sum(f["triangles"] for f in frames) / len(frames)),
+           "bytes_loaded": s["bytes_loaded"], "resident_bytes_max": s["resident_bytes_max"],
+           "frames_needed_missing": sum(1 for f in frames if f["refinement"]["needed_missing"] > 0),
+           "needed_missing_sum": sum(f["refinement"]["needed_missing"] for f in frames),
+           "errors": s["errors"], "renderer": r["gl"]["renderer"]}
+    runs.append(rec)
+    print(f"{name:16s} frame {rec['frame_ms_mean']:7.2f} ms mean {rec['frame_ms_max']:8.2f} worst  nodes {rec['nodes_drawn_mean']:5.1f} "
+          f"mean {rec['nodes_drawn_max']:4d} worst  binds {rec['texture_binds_mean']:6.1f}  triangles {rec['triangles_mean']:8d}  "
+          f"loaded {rec['bytes_loaded'] / 1e6:8.1f} MB  needed-missing frames {rec['frames_needed_missing']}", flush=True)
+    json.dump({"benchmark": "render_paths", "tiles": tiles, "size": size, "fps": fps, "cores": os.cpu_count(),
+               "texture_bytes": texture_bytes, "runs": runs}, open(out + ".json", "w"), indent=2)
+budget = str(max(texture_bytes // 10, 1))
+render("atlas", ["--wait", "--budget", "8G"])
+render("dummy", ["--wait", "--mode", "dummy", "--budget", "8G"])
+render("original", ["--wait", "--mode", "original", "--budget", str(all_bytes + 1)])
+render("stream-distance", ["--budget", budget, "--priority", "distance"])
+render("stream-view", ["--budget", budget, "--priority", "view"])
+a = next(r for r in runs if r["run"] == "atlas"); d = next(r for r in runs if r["run"] == "dummy")
+print(f"atlas tree / dummy texture frame rate: {d['frame_ms_mean'] / a['frame_ms_mean']:.2f} (papers: 0.90)")
+print(f"written {out}.json")
+PY
