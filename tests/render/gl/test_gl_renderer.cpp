@@ -28,6 +28,7 @@
 
 #include "render/gl/gl_context.h"
 #include "render/gl/gl_renderer.h"
+#include "render/loader/block_decoder.h"
 #include "tiles/texture_codec.h"
 
 namespace cityatlas::render {
@@ -87,23 +88,9 @@ tiles::Image8 solid(int w, int h, int channels, std::array<uint8_t, 4> c) {
 CompressedTexture compress(const tiles::Image8& image, bool mips) {
     const std::vector<tiles::Image8> chain = mips ? tiles::mipChain(image) : std::vector<tiles::Image8>{image};
     const std::vector<uint8_t> dds = tiles::encodeDds(chain, tiles::BcQuality::Fast);
-    tiles::DdsInfo info;
-    EXPECT_TRUE(tiles::parseDdsHeader(dds.data(), dds.size(), &info).ok());
     CompressedTexture t;
-    t.width = info.width;
-    t.height = info.height;
-    t.channels = info.channels;
-    uint64_t offset = 0;
-    int w = t.width, h = t.height;
-    for (int i = 0; i < info.mips; ++i) {
-        const uint64_t bytes = tiles::bcBlockBytes(w, h, t.channels);
-        t.levels.push_back({w, h, offset, bytes});
-        offset += bytes;
-        w = std::max(1, w / 2);
-        h = std::max(1, h / 2);
-    }
-    t.data.assign(dds.begin() + 128, dds.end());
-    EXPECT_EQ(t.data.size(), offset);
+    const Status st = decodeDds(dds.data(), dds.size(), 0, &t);
+    EXPECT_TRUE(st.ok()) << st.error;
     return t;
 }
 
