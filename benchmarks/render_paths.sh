@@ -8,11 +8,12 @@
 # 2. Streaming in real time with a budget of 1/10 of the atlas and texture
 #    bytes: distance priority (the papers) vs view-weighted (cesium-native),
 #    on the same path: frames with needed blocks missing, bytes loaded.
-# Usage: benchmarks/render_paths.sh [TILES=out/benchmarks/build-10000-400-default] [SIZE=1280x720] [FPS=2]
-# Writes out/benchmarks/render-<tiles name>.json and prints a table.
+# Usage: benchmarks/render_paths.sh [TILES=out/benchmarks/build-10000-400-default] [SIZE=1280x720] [FPS=2] [RUNS=all|modes|stream]
+# Writes out/benchmarks/render-<tiles name>.json (updated after each run,
+# keeping other runs' records) and prints a table.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-TILES="${1:-out/benchmarks/build-10000-400-default}"; SIZE="${2:-1280x720}"; FPS="${3:-2}"
+TILES="${1:-out/benchmarks/build-10000-400-default}"; SIZE="${2:-1280x720}"; FPS="${3:-2}"; RUNS="${4:-all}"
 ./scripts/build > /dev/null
 if [ ! -f "$TILES/tileset.json" ]; then
   echo "no tile folder at $TILES: run benchmarks/build_scale.sh 10000 400 main first (or give a folder)" >&2
@@ -20,14 +21,14 @@ if [ ! -f "$TILES/tileset.json" ]; then
 fi
 NAME=$(basename "$TILES")
 OUT="out/benchmarks/render-$NAME"; mkdir -p "$OUT"
-/usr/bin/python3 - "$TILES" "$SIZE" "$FPS" "$OUT" <<'PY'
+/usr/bin/python3 - "$TILES" "$SIZE" "$FPS" "$OUT" "$RUNS" <<'PY'
 import json, os, subprocess, sys, time
-tiles, size, fps, out = sys.argv[1:5]
+tiles, size, fps, out, which = sys.argv[1:6]
 t = json.load(open(os.path.join(tiles, "tileset.json")))
 totals = t["extras"]["cityatlas"]["totals"]["bytes"]
 texture_bytes = totals["atlases"] + totals["textures"]
 all_bytes = sum(totals.values())
-runs = []
+runs = json.load(open(out + ".json"))["runs"] if os.path.exists(out + ".json") else []
 def render(name, extra):
     report = os.path.join(out, name + ".json")
     cmd = ["./build/cli/cityatlas", "render", tiles, "--size", size, "--fps", fps, "--anisotropy", "1",
@@ -47,19 +48,22 @@ def render(name, extra):
            "frames_needed_missing": sum(1 for f in frames if f["refinement"]["needed_missing"] > 0),
            "needed_missing_sum": sum(f["refinement"]["needed_missing"] for f in frames),
            "errors": s["errors"], "renderer": r["gl"]["renderer"]}
-    runs.append(rec)
+    runs[:] = [r for r in runs if r["run"] != name] + [rec]
     print(f"{name:16s} frame {rec['frame_ms_mean']:7.2f} ms mean {rec['frame_ms_max']:8.2f} worst  nodes {rec['nodes_drawn_mean']:5.1f} "
           f"mean {rec['nodes_drawn_max']:4d} worst  binds {rec['texture_binds_mean']:6.1f}  triangles {rec['triangles_mean']:8d}  "
           f"loaded {rec['bytes_loaded'] / 1e6:8.1f} MB  needed-missing frames {rec['frames_needed_missing']}", flush=True)
     json.dump({"benchmark": "render_paths", "tiles": tiles, "size": size, "fps": fps, "cores": os.cpu_count(),
                "texture_bytes": texture_bytes, "runs": runs}, open(out + ".json", "w"), indent=2)
 budget = str(max(texture_bytes // 10, 1))
-render("atlas", ["--wait", "--budget", "8G"])
-render("dummy", ["--wait", "--mode", "dummy", "--budget", "8G"])
-render("original", ["--wait", "--mode", "original", "--budget", str(all_bytes + 1)])
-render("stream-distance", ["--budget", budget, "--priority", "distance"])
-render("stream-view", ["--budget", budget, "--priority", "view"])
-a = next(r for r in runs if r["run"] == "atlas"); d = next(r for r in runs if r["run"] == "dummy")
-print(f"atlas tree / dummy texture frame rate: {d['frame_ms_mean'] / a['frame_ms_mean']:.2f} (papers: 0.90)")
+if which in ("all", "modes"):
+    render("atlas", ["--wait", "--budget", "8G"])
+    render("dummy", ["--wait", "--mode", "dummy", "--budget", "8G"])
+    render("original", ["--wait", "--mode", "original", "--budget", str(all_bytes + 1)])
+if which in ("all", "stream"):
+    render("stream-distance", ["--budget", budget, "--priority", "distance"])
+    render("stream-view", ["--budget", budget, "--priority", "view"])
+named = {r["run"]: r for r in runs}
+if "atlas" in named and "dummy" in named:
+    print(f"atlas tree / dummy texture frame rate: {named['dummy']['frame_ms_mean'] / named['atlas']['frame_ms_mean']:.2f} (papers: 0.90)")
 print(f"written {out}.json")
 PY

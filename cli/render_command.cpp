@@ -292,10 +292,12 @@ int runRender(const RenderCliOptions& opt) {
             complete = client->waitForIdealSet(cam, opt.wait_timeout_s);
             waited_ms = std::chrono::duration<double, std::milli>(Clock::now() - w0).count();
         } else {
-            // Real time: frame i is shown at path time i / fps (never early).
+            // Real time: frame i is shown at path time i / fps (never early); until
+            // then the client uploads and plans, as a viewer does within its frame interval.
             const auto due = start + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>(static_cast<double>(i) / path.frame_rate));
-            std::this_thread::sleep_until(due);
+            const double idle_s = std::chrono::duration<double>(due - Clock::now()).count();
+            if (idle_s > 0) client->idle(cam, idle_s);
         }
         const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
         target->bind();

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <thread>
 #include <unordered_map>
 
 #include <fmt/format.h>
@@ -251,6 +252,25 @@ bool StreamingClient::waitForIdealSet(const Camera& camera, double timeout_s) {
         if (manager_->idealComplete() && arrived_.empty()) return true;
         if (msSince(t0) > timeout_s * 1000) return false;
         loader_->waitForAny(0.05);
+    }
+}
+
+void StreamingClient::idle(const Camera& camera, double seconds) {
+    const auto t0 = Clock::now();
+    for (;;) {
+        const double left_ms = seconds * 1000 - msSince(t0);
+        if (left_ms <= 0) return;
+        takeResults();
+        if (!arrived_.empty()) {
+            upload(std::min(left_ms, options_.upload_ms_per_frame), nullptr);
+            plan(camera);
+            continue;
+        }
+        if (manager_->idealComplete()) {
+            std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(left_ms));
+            return;
+        }
+        loader_->waitForAny(std::min(left_ms, 20.0) / 1000);
     }
 }
 

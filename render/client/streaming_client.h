@@ -84,6 +84,11 @@ public:
     /// timing ("wait for the ideal set") and to load the root before the first
     /// frame.
     bool waitForIdealSet(const Camera& camera, double timeout_s);
+    /// Between frames: uploads finished loads and plans for `camera` until
+    /// `seconds` have passed (a real-time viewer's idle time within its frame
+    /// interval), returning early only when nothing is left to do.
+    void idle(const Camera& camera, double seconds);
+
     /// Loads until the root's blocks are resident (the first thing any frame
     /// needs), planning for `camera`. False on timeout or when a root block failed.
     bool waitForRoot(const Camera& camera, double timeout_s);
