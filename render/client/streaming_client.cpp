@@ -110,18 +110,7 @@ Classification StreamingClient::classify(const Camera& camera) const {
             if (p.usage == Usage::Unused || d < p.key) p = {Usage::Needed, d, n.level + 1};
         }
     }
-    std::vector<BlockId> root;
-    for (const NodeLayer& l : index_.nodes[0].layers) {
-        if (!l.present) continue;
-        root.push_back(l.geometry);
-        if (l.atlas != kNoBlock) root.push_back(l.atlas);
-    }
-    for (BlockId b = 0; b < index_.blocks.size(); ++b)
-        if (c.priority[b].usage != Usage::Unused && std::find(root.begin(), root.end(), b) == root.end())
-            c.candidates.push_back(b);
-    std::sort(c.candidates.begin(), c.candidates.end(),
-              [&](BlockId a, BlockId b) { return before(c.priority[a], a, c.priority[b], b); });
-    c.candidates.insert(c.candidates.begin(), root.begin(), root.end());
+    orderCandidates(index_, &c);
     return c;
 }
 

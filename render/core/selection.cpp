@@ -134,17 +134,22 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         for (auto it = visible.rbegin(); it != visible.rend(); ++it) stack.push_back(*it);
     }
 
-    // Candidates: the root's blocks first (pinned), then every used block by priority.
+    orderCandidates(index, &c);
+    return c;
+}
+
+void orderCandidates(const TilesetIndex& index, Classification* c) {
+    c->candidates.clear();
+    if (index.nodes.empty()) return;
     std::vector<BlockId> root_blocks;
     forEachNodeBlock(index.nodes[0], [&](BlockId b) { root_blocks.push_back(b); });
     std::sort(root_blocks.begin(), root_blocks.end());
     for (BlockId b = 0; b < index.blocks.size(); ++b)
-        if (c.priority[b].usage != Usage::Unused && !std::binary_search(root_blocks.begin(), root_blocks.end(), b))
-            c.candidates.push_back(b);
-    std::sort(c.candidates.begin(), c.candidates.end(),
-              [&](BlockId a, BlockId b) { return before(c.priority[a], a, c.priority[b], b); });
-    c.candidates.insert(c.candidates.begin(), root_blocks.begin(), root_blocks.end());
-    return c;
+        if (c->priority[b].usage != Usage::Unused && !std::binary_search(root_blocks.begin(), root_blocks.end(), b))
+            c->candidates.push_back(b);
+    std::sort(c->candidates.begin(), c->candidates.end(),
+              [&](BlockId a, BlockId b) { return before(c->priority[a], a, c->priority[b], b); });
+    c->candidates.insert(c->candidates.begin(), root_blocks.begin(), root_blocks.end());
 }
 
 bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident) {

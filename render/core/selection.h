@@ -66,6 +66,11 @@ struct Classification {
 
 Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, const SelectionParams& params);
 
+/// Fills `c->candidates` from `c->priority`: the root's blocks first (pinned),
+/// then every block that is not Unused, highest priority first. classifyBlocks
+/// ends with it; a client with its own usage rule (a reference mode) calls it too.
+void orderCandidates(const TilesetIndex& index, Classification* c);
+
 /// All blocks of a node (both layers' geometry and atlases) are resident.
 bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident);
 
