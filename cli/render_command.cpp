@@ -104,8 +104,9 @@ bool writePng(const fs::path& path, int w, int h, const std::vector<uint8_t>& rg
 }
 
 json frameJson(size_t i, const render::CameraSample& s, double wall_s, double waited_ms, bool wait_complete,
-               const render::FrameRecord& r, const std::string& image) {
-    return {{"frame", i},
+               const render::FrameRecord& r, const std::string& image, const render::PickHit& centre) {
+    return {{"centre_pick", centre.hit ? json{{"feature", centre.feature}, {"distance_m", centre.distance_m}} : json(nullptr)},
+            {"frame", i},
             {"time_s", s.time_s},
             {"label", s.label},
             {"wall_s", wall_s},
@@ -310,7 +311,9 @@ int runRender(const RenderCliOptions& opt) {
             if (!writePng(fs::path(opt.out_dir) / image, width, height, pixels, &why))
                 return fail(fmt::format("{}: cannot write: {}", (fs::path(opt.out_dir) / image).string(), why));
         }
-        frame_list.push_back(frameJson(i, s, wall_s, waited_ms, complete, r, image));
+        // The building at the image centre, as `view` picks on a click.
+        const render::PickHit centre = client->pick(cam, 0.5 * width, 0.5 * height);
+        frame_list.push_back(frameJson(i, s, wall_s, waited_ms, complete, r, image, centre));
         progress.update("frames", i + 1, frames);
     }
     progress.finish();

@@ -47,6 +47,7 @@ struct Navigation {
     bool orbit = false;
     double last_x = 0, last_y = 0;
     bool dragging_left = false, dragging_right = false;
+    double press_x = 0, press_y = 0;
 
     void setDirection(const Vec3d& d) {
         const Vec3d n = render::normalized(d);
@@ -108,6 +109,7 @@ int runView(const ViewCliOptions& opt) {
     auto last = Clock::now();
     render::FrameRecord rec;
     uint64_t loaded_total = 0;
+    std::string picked, picked_record;
     int frame_count = 0;
     while (!window->shouldClose() && (opt.frames == 0 || frame_count++ < opt.frames)) {
         window->pollEvents();
@@ -137,6 +139,26 @@ int runView(const ViewCliOptions& opt) {
             e = std::clamp(e, 0.02, 1.5);
             nav.camera.position = nav.pivot + r * Vec3d{std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)};
             nav.setDirection(nav.pivot - nav.camera.position);
+        }
+        // A click (press and release without dragging) picks the building under the cursor.
+        if (left && !nav.dragging_left) {
+            nav.press_x = mx;
+            nav.press_y = my;
+        }
+        if (!left && nav.dragging_left && std::hypot(mx - nav.press_x, my - nav.press_y) < 4) {
+            // Cursor coordinates are window units; the camera is in framebuffer pixels.
+            const int fbw = window->framebufferSize().first;
+            int ww = 0, wh = 0;
+            glfwGetWindowSize(window->handle(), &ww, &wh);
+            const double scale = ww > 0 ? static_cast<double>(fbw) / ww : 1.0;
+            const render::PickHit hit = client->pick(nav.camera, mx * scale, my * scale);
+            picked = hit.hit ? fmt::format("building {} at {:.1f} m", hit.feature, hit.distance_m) : "nothing there";
+            picked_record.clear();
+            if (hit.hit) {
+                std::string record;
+                const Status rs = client->featureRecord(hit.feature, &record);
+                picked_record = rs.ok() ? record : rs.error;
+            }
         }
         nav.dragging_left = left;
         nav.dragging_right = right;
@@ -195,7 +217,12 @@ int runView(const ViewCliOptions& opt) {
         ImGui::RadioButton("dummy", &mode, 2);
         client->setMode(static_cast<render::TextureMode>(mode));
         ImGui::Text("height %.1f m, speed %.0f m/s (shift x4)", nav.camera.position.z - nav.floor_z, nav.speed());
-        ImGui::TextWrapped("WASD move, Q/E down/up, right drag look, left drag orbit, wheel zoom, Esc quit");
+        ImGui::TextWrapped("WASD move, Q/E down/up, right drag look, left drag orbit, click pick, wheel zoom, Esc quit");
+        if (!picked.empty()) {
+            ImGui::Separator();
+            ImGui::TextUnformatted(picked.c_str());
+            if (!picked_record.empty()) ImGui::TextUnformatted(picked_record.c_str());
+        }
         ImGui::End();
         overlay->render();
         window->swapBuffers();

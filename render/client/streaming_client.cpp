@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "render/gl/gl_renderer.h"
 
@@ -31,6 +32,7 @@ const char* textureModeName(TextureMode mode) {
 // GPU objects of resident blocks, and the lookup from a tileset texture to its GPU texture.
 struct StreamingClient::Resident {
     std::vector<GpuMesh> meshes;        ///< per block (Geometry)
+    std::vector<MeshData> cpu_meshes;   ///< per block (Geometry): positions, indices, feature ids for picking
     std::vector<GpuTexture> atlases;    ///< per block (Atlas)
     std::unordered_map<BlockId, std::vector<std::pair<int32_t, GpuTexture>>> textures;  ///< Textures blocks
     std::vector<const GpuTexture*> original;  ///< per tileset texture: resident or nullptr
@@ -60,6 +62,7 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
     if (!c->loader_) return nullptr;
     c->resident_ = std::make_unique<Resident>();
     c->resident_->meshes.resize(c->index_.blocks.size());
+    c->resident_->cpu_meshes.resize(c->index_.blocks.size());
     c->resident_->atlases.resize(c->index_.blocks.size());
     c->resident_->original.assign(c->index_.textures.size(), nullptr);
     *status = Status::Ok();
@@ -143,6 +146,11 @@ uint32_t StreamingClient::upload(double budget_ms, double* spent_ms) {
                     if (ok) {
                         resident_->gpu_bytes += m.gpu_bytes;
                         resident_->meshes[r.id] = std::move(m);
+                        // What picking needs stays on the CPU; the uvs go.
+                        MeshData& cpu = resident_->cpu_meshes[r.id];
+                        cpu.positions = std::move(r.block.mesh.positions);
+                        cpu.indices = std::move(r.block.mesh.indices);
+                        cpu.feature_id = std::move(r.block.mesh.feature_id);
                     }
                     break;
                 }
@@ -189,6 +197,7 @@ void StreamingClient::release(BlockId id) {
         r.gpu_bytes -= std::min(r.gpu_bytes, r.meshes[id].gpu_bytes);
         gl_->release(&r.meshes[id]);
         r.meshes[id] = GpuMesh{};
+        r.cpu_meshes[id] = MeshData{};
     }
     if (r.atlases[id].valid()) {
         r.gpu_bytes -= std::min(r.gpu_bytes, r.atlases[id].gpu_bytes);
@@ -320,6 +329,8 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
         (d.mode == DrawMode::Originals ? rec.nodes_originals : rec.nodes_atlas) += 1;
         rec.nodes_coarse += d.coarse ? 1 : 0;
     }
+    last_drawn_.clear();
+    for (const DrawItem& d : sel.draws) last_drawn_.push_back(d.node);
     const FrameStats fs = gl_->endFrame();
     gl_->finish();
     rec.frame_ms = msSince(t0);
@@ -344,6 +355,41 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.evictions = b.evictions;
     rec.cancellations = b.cancellations;
     return rec;
+}
+
+PickHit StreamingClient::pick(const Camera& camera, double px, double py) const {
+    std::vector<PickMesh> meshes;
+    for (const int32_t node : last_drawn_) {
+        const TileNode& n = index_.nodes[static_cast<size_t>(node)];
+        for (const NodeLayer& l : n.layers)
+            if (l.present && manager_->resident(l.geometry))
+                meshes.push_back({node, &resident_->cpu_meshes[l.geometry], n.centre});
+    }
+    return pickRay(camera.position, pixelRay(camera, px, py), meshes);
+}
+
+Status StreamingClient::featureRecord(uint32_t feature, std::string* json_text) {
+    if (feature >= index_.feature_count || index_.feature_block_size <= 0)
+        return Status::Fail(fmt::format("feature {} is not in the tileset", feature));
+    const size_t table = feature / static_cast<uint32_t>(index_.feature_block_size);
+    if (table >= index_.feature_tables.size()) return Status::Fail(fmt::format("feature {}: no feature table", feature));
+    auto it = feature_tables_.find(table);
+    if (it == feature_tables_.end()) {
+        std::string text;
+        if (Status st = fetchText(base_, index_.feature_tables[table].uri, &text); !st.ok()) return st;
+        it = feature_tables_.emplace(table, std::move(text)).first;
+    }
+    try {
+        const nlohmann::json doc = nlohmann::json::parse(it->second);
+        for (const nlohmann::json& f : doc.at("features"))
+            if (f.value("id", -1LL) == static_cast<long long>(feature)) {
+                *json_text = f.dump(1);
+                return Status::Ok();
+            }
+    } catch (const nlohmann::json::exception& e) {
+        return Status::Fail(fmt::format("{}: {}", index_.feature_tables[table].uri, e.what()));
+    }
+    return Status::Fail(fmt::format("{}: feature {} not listed", index_.feature_tables[table].uri, feature));
 }
 
 }  // namespace cityatlas::render

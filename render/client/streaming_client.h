@@ -14,11 +14,13 @@
 /// (Fig. 30: refine only when possible) and draw them.
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "render/core/block_manager.h"
+#include "render/core/picking.h"
 #include "render/core/selection.h"
 #include "render/core/tileset_index.h"
 #include "render/core/view.h"
@@ -93,6 +95,12 @@ public:
     /// needs), planning for `camera`. False on timeout or when a root block failed.
     bool waitForRoot(const Camera& camera, double timeout_s);
 
+    /// The building under pixel (px, py) of the last frame drawn with `camera`
+    /// (a CPU ray cast against the drawn nodes' resident geometry).
+    PickHit pick(const Camera& camera, double px, double py) const;
+    /// The feature's record from its feature table (fetched once per table), as JSON text.
+    Status featureRecord(uint32_t feature, std::string* json_text);
+
     const TilesetIndex& index() const { return index_; }
     const ClientOptions& options() const { return options_; }
     void setBudget(uint64_t bytes);
@@ -122,6 +130,8 @@ private:
     std::unique_ptr<Resident> resident_;
     std::vector<LoadResult> arrived_;  ///< finished loads waiting for their upload
     std::vector<std::string> errors_;
+    std::vector<int32_t> last_drawn_;                    ///< nodes of the last frame
+    std::map<size_t, std::string> feature_tables_;       ///< fetched tables by index
     uint64_t bytes_fetched_seen_ = 0;
 };
 

@@ -76,8 +76,10 @@ const char* loadErrorName(LoadError e) {
 
 bool isUrl(const std::string& s) { return s.rfind("http://", 0) == 0 || s.rfind("https://", 0) == 0; }
 
-Status fetchTilesetText(const std::string& source, std::string* text) {
-    const std::string where = baseOf(source) + "tileset.json";
+Status fetchTilesetText(const std::string& source, std::string* text) { return fetchText(source, "tileset.json", text); }
+
+Status fetchText(const std::string& source, const std::string& uri, std::string* text) {
+    const std::string where = baseOf(source) + uri;
     if (!isUrl(source)) {
         std::error_code ec;
         const std::string folder = baseOf(source);
@@ -85,7 +87,8 @@ Status fetchTilesetText(const std::string& source, std::string* text) {
         std::vector<uint8_t> bytes;
         std::string why;
         if (!readFile(where, &bytes, &why))
-            return Status::Fail(fmt::format("{}: {}{}", where, why, why == "missing" ? " (not a cityatlas tile folder)" : ""));
+            return Status::Fail(fmt::format("{}: {}{}", where, why,
+                                            why == "missing" && uri == "tileset.json" ? " (not a cityatlas tile folder)" : ""));
         text->assign(bytes.begin(), bytes.end());
         return Status::Ok();
     }

@@ -58,6 +58,9 @@ bool isUrl(const std::string& source);
 /// "http://127.0.0.1:9/tileset.json: cannot fetch: Failed to connect ... Connection refused".
 Status fetchTilesetText(const std::string& source, std::string* text);
 
+/// Reads SOURCE/uri (a feature table, ...) the same way, synchronously.
+Status fetchText(const std::string& source, const std::string& uri, std::string* text);
+
 class Loader {
 public:
     /// `index` must outlive the loader.

@@ -62,6 +62,16 @@ for f in original/frame_*.png; do
   n=$((n + 1))
   echo "  $name: PSNR $psnr dB, interior holes $interior"
 done
+# Picking: the building at the image centre is the same whether the atlas tree's
+# merged node geometry or the leaves' own geometry is drawn.
+picks=$("$PY" -c "
+import json
+a = json.load(open('atlas/report.json'))['frames']; o = json.load(open('original/report.json'))['frames']
+both = [(x['centre_pick'], y['centre_pick']) for x, y in zip(a, o) if x['centre_pick'] and y['centre_pick']]
+print(len(both), sum(x['feature'] == y['feature'] for x, y in both))")
+read -r picked same <<<"$picks"
+[ "$picked" -ge 3 ] || fail "picking: only $picked frames hit a building at the centre"
+check_eq "picking: same building in both modes (of $picked frames)" "$picked" "$same"
 echo "ok: atlas tree vs original textures over $n frames: PSNR min $psnr_min dB, mean $("$PY" -c "print(round($psnr_sum / $n, 2))") dB, no missing facade pixel"
 
 # --- The budget holds under streaming: real time over HTTP from nginx, a slow link.

@@ -1,0 +1,38 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// Picking without the GPU: a ray from the camera through a pixel, cast in
+/// double against the geometry of the nodes drawn in the frame (positions
+/// relative to each node's centre, as loaded). The nearest hit gives the
+/// building's feature id; `view` shows its attributes from the feature tables.
+
+#include <cstdint>
+#include <vector>
+
+#include "render/core/decoded.h"
+#include "render/core/view.h"
+
+namespace cityatlas::render {
+
+/// Unit direction of the ray through pixel (px, py), pixels from the top left
+/// of the viewport (pixel centres at +0.5).
+Vec3d pixelRay(const Camera& camera, double px, double py);
+
+struct PickMesh {
+    int32_t node = -1;
+    const MeshData* mesh = nullptr;
+    Vec3d centre;
+};
+
+struct PickHit {
+    bool hit = false;
+    double distance_m = 0;
+    uint32_t feature = 0;
+    int32_t node = -1;
+    Vec3d point;
+};
+
+/// The nearest triangle hit by the ray (Moller-Trumbore in double; both faces).
+PickHit pickRay(const Vec3d& origin, const Vec3d& direction, const std::vector<PickMesh>& meshes);
+
+}  // namespace cityatlas::render
