@@ -75,15 +75,10 @@ check_eq "picking: same building in both modes (of $picked frames)" "$picked" "$
 echo "ok: atlas tree vs original textures over $n frames: PSNR min $psnr_min dB, mean $("$PY" -c "print(round($psnr_sum / $n, 2))") dB, no missing facade pixel"
 
 # --- The budget holds under streaming: real time over HTTP from nginx, a slow link.
-if [ -x /usr/sbin/nginx ]; then
-  PORT=$("$PY" -c "import socket; s=socket.socket(); s.bind(('127.0.0.1', 0)); print(s.getsockname()[1])")
-  mkdir -p nginx
-  sed -e "s|@WORK@|$PWD/nginx|g" -e "s|@ROOT@|$PWD/tiles|g" -e "s|@PORT@|$PORT|g" -e "s|@RATE@|4m|g" \
-    "$SRC/tests/render/nginx/nginx.conf.in" > nginx/nginx.conf
-  /usr/sbin/nginx -p "$PWD/nginx" -c "$PWD/nginx/nginx.conf" &
-  NGINX_PID=$!
-  trap 'kill $NGINX_PID 2>/dev/null || true' EXIT
-  for _ in $(seq 50); do curl -sf "http://127.0.0.1:$PORT/tileset.json" > /dev/null && break; sleep 0.1; done
+NGINX_SERVE="$SRC/tests/render/nginx/nginx_serve.sh"
+set +e; PORT=$(bash "$NGINX_SERVE" start "$PWD/tiles" "$PWD/nginx" 4m); rc=$?; set -e
+if [ $rc -eq 0 ]; then
+  trap 'bash "$NGINX_SERVE" stop "$PWD/nginx" || true' EXIT
   budget=$(json tiles/tileset.json "(j['extras']['cityatlas']['totals']['bytes']['atlases'] + j['extras']['cityatlas']['totals']['bytes']['textures']) // 10")
   "$CITYATLAS" render "http://127.0.0.1:$PORT/" --path stream.json --size 320x240 --budget "$budget" --anisotropy 1 -o stream -q
   check_eq "streaming: frames over the budget" "0" "$(json stream/report.json "sum(f['resident_bytes'] > $budget for f in j['frames'])")"
@@ -96,9 +91,11 @@ if [ -x /usr/sbin/nginx ]; then
   [ "$teleport" != "None" ] || fail "streaming: the teleport never reached a complete ideal set"
   requests=$(grep -c '"GET ' nginx/access.log || true)
   echo "ok: streaming over nginx at 4 MB/s with a budget of $budget bytes: $requests requests, teleport to street level complete after $teleport s"
-  kill $NGINX_PID; wait $NGINX_PID 2>/dev/null || true; trap - EXIT
-else
+  bash "$NGINX_SERVE" stop "$PWD/nginx"; trap - EXIT
+elif [ $rc -eq 77 ]; then
   echo "SKIPPED (part): nginx is not installed (Debian: nginx-light); streaming over HTTP not tested"
+else
+  fail "nginx_serve.sh could not start nginx (exit $rc)"
 fi
 
 # --- Errors: damaged blocks render coarser and are reported; fatal ones are one line.
