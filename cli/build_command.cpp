@@ -268,6 +268,7 @@ int runBuild(const BuildCliOptions& opt_in) {
                         {"geometric_error_m_max", ts.max_geometric_error_m},
                         {"geometric_error_of_texel_max", ts.max_geometric_error_fraction},
                         {"uv_atlas_texels_max", ts.max_uv_atlas_error_texels},
+                        {"uv_original_texels_max", ts.max_uv_original_error_texels},
                         {"atlas_psnr_db_min", ts.atlas_psnr_min_db},
                         {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db}};
     report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
@@ -276,7 +277,8 @@ int runBuild(const BuildCliOptions& opt_in) {
                           {"position_bits", opt.tiles.draco.position_bits},
                           {"position_bits_used", {ts.position_bits_min, ts.position_bits_max}},
                           {"position_error_target_mm", opt.position_error_mm},
-                          {"uv_bits", opt.tiles.draco.uv_bits}};
+                          {"uv_bits", opt.tiles.draco.uv_bits},
+                          {"uv_original_bits_max", ts.uv_original_bits_max}};
     report["warnings"] = warningsJson(diagnostics);
     report["warnings_total"] = diagnostics.total();
     for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.peak_rss_mb}});
@@ -346,7 +348,9 @@ RunFn addBuildCommand(CLI::App& app) {
         ->default_val(2.0)
         ->check(CLI::NonNegativeNumber)
         ->group(g);
-    cmd->add_option("--uv-bits", opt->tiles.draco.uv_bits, "Draco quantization of texture coordinates, bits")
+    cmd->add_option("--uv-bits", opt->tiles.draco.uv_bits,
+                    "Draco quantization of texture coordinates, bits (leaves' original coordinates get more where "
+                    "repeating textures need them to stay within 1/8 texel; reported per leaf)")
         ->default_val(12)
         ->check(CLI::Range(8, 30))
         ->group(g);

@@ -17,6 +17,7 @@
 #include <draco/compression/config/compression_shared.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
+#include <draco/compression/expert_encode.h>
 #include <draco/core/decoder_buffer.h>
 #include <draco/core/encoder_buffer.h>
 #include <draco/mesh/mesh.h>
@@ -96,6 +97,8 @@ Status checkInput(const TileMesh& m, const Vec3d& centre, const DracoSettings& s
         return Status::Fail(fmt::format("tile glb: position_bits {} is outside 1..30", s.position_bits));
     if (s.uv_bits < 1 || s.uv_bits > 30)
         return Status::Fail(fmt::format("tile glb: uv_bits {} is outside 1..30", s.uv_bits));
+    if (s.uv_original_bits < 0 || s.uv_original_bits > 30)
+        return Status::Fail(fmt::format("tile glb: uv_original_bits {} is outside 0..30", s.uv_original_bits));
     if (s.speed < 0 || s.speed > 10) return Status::Fail(fmt::format("tile glb: speed {} is outside 0..10", s.speed));
     if (!std::isfinite(centre.x) || !std::isfinite(centre.y) || !std::isfinite(centre.z))
         return Status::Fail("tile glb: the centre is not finite");
@@ -309,13 +312,21 @@ std::optional<std::string> decodeDraco(const uint8_t* data, size_t size, const s
     }
 }
 
+int uvOriginalBits(const DracoSettings& s) { return s.uv_original_bits > 0 ? s.uv_original_bits : s.uv_bits; }
+
 Status encodeDraco(const draco::Mesh& mesh, const DracoSettings& s, bool sequential, draco::EncoderBuffer* out) {
-    draco::Encoder encoder;
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, s.position_bits);
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::TEX_COORD, s.uv_bits);
+    // Per attribute (unique id = slot): the original uvs may need more bits
+    // than the atlas uvs (a texture repeated many times within one leaf).
+    draco::ExpertEncoder encoder(mesh);
+    for (int32_t a = 0; a < mesh.num_attributes(); ++a) {
+        const uint32_t slot = mesh.attribute(a)->unique_id();
+        if (slot == kPos) encoder.SetAttributeQuantization(a, s.position_bits);
+        if (slot == kUv0) encoder.SetAttributeQuantization(a, uvOriginalBits(s));
+        if (slot == kUv1) encoder.SetAttributeQuantization(a, s.uv_bits);
+    }
     encoder.SetSpeedOptions(s.speed, s.speed);
     if (sequential) encoder.SetEncodingMethod(draco::MESH_SEQUENTIAL_ENCODING);
-    const draco::Status st = encoder.EncodeMeshToBuffer(mesh, out);
+    const draco::Status st = encoder.EncodeToBuffer(out);
     if (!st.ok()) return Status::Fail(fmt::format("tile glb: Draco cannot encode the mesh: {}", dracoMessage(st)));
     return Status::Ok();
 }
@@ -462,7 +473,7 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
                                                 i));
     }
     r.position_step_m = quantizationStep(c.values[kPos], 3, settings.position_bits);
-    r.uv_original_step = quantizationStep(c.values[kUv0], 2, settings.uv_bits);
+    r.uv_original_step = quantizationStep(c.values[kUv0], 2, uvOriginalBits(settings));
     r.uv_atlas_step = quantizationStep(c.values[kUv1], 2, settings.uv_bits);
     r.triangles = file.faces.size();
     r.vertices = file.points;

@@ -35,8 +35,8 @@
 /// extras {"cityatlas_texcoords": ["original", "atlas"]} name the sets in
 /// TEXCOORD order (a material's texCoord must follow it). Each uv set is quantized over
 /// its own extent (Draco's TEX_COORD quantization), so original uvs that
-/// repeat a texture 1000 times get a 1000 / 4095 step at 12 bits: pass the
-/// atlas uvs for rendering.
+/// repeat a texture 1000 times get a 1000 / 4095 step at 12 bits; they have
+/// their own bit count (DracoSettings::uv_original_bits) for that reason.
 
 #include <cstddef>
 #include <cstdint>
@@ -71,7 +71,8 @@ struct TileMesh {
 
 struct DracoSettings {
     int position_bits = 14;  ///< 1..30
-    int uv_bits = 12;        ///< 1..30, both uv sets
+    int uv_bits = 12;        ///< 1..30: the atlas uvs, and the original uvs unless uv_original_bits says otherwise
+    int uv_original_bits = 0; ///< 0: uv_bits; else 1..30 for the original uvs alone
     int speed = 5;           ///< 0 (smallest) .. 10 (fastest, sequential); encoding and decoding speed
     /// Draco's sequential connectivity instead of edgebreaker: vertex i and
     /// triangle t of the file are the i-th referenced input vertex and the t-th

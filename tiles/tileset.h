@@ -50,7 +50,7 @@ namespace cityatlas::tiles {
 
 /// Bumped whenever the writer's output changes for the same inputs and
 /// parameters, so `cityatlas build` does not take an older folder as up to date.
-inline constexpr int kWriterRevision = 2;
+inline constexpr int kWriterRevision = 3;
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default
@@ -58,6 +58,11 @@ struct TilesParams {
     /// needs more than draco.position_bits for it gets more (up to 30). 0:
     /// exactly draco.position_bits everywhere.
     double position_error_target_m = 0.002;
+    /// Largest error of a leaf's original texture coordinates, in texels of
+    /// the triangle's texture: leaves get more than draco.uv_bits for their
+    /// original uvs where the uv extent (repeating textures) needs it. 0:
+    /// draco.uv_bits everywhere.
+    double uv_original_error_target_texels = 0.125;
     BcQuality bc_quality = BcQuality::Fast;
     size_t node_triangles = 32768;        ///< per inner node and layer; above it the merge is simplified
     int feature_block_size = 4096;        ///< feature ids per features/<table>.json
@@ -81,6 +86,8 @@ struct TilesStats {
     double max_geometric_error_m = 0;      ///< simplification, measured, over all nodes
     double max_geometric_error_fraction = 0;  ///< geometric_error / world_texel, largest over nodes (< 1)
     double max_uv_atlas_error_texels = 0;  ///< quantization of atlas coordinates, in atlas texels
+    double max_uv_original_error_texels = 0;  ///< leaves' original coordinates, in texels of their textures
+    int uv_original_bits_max = 0;             ///< most bits given to a leaf's original coordinates
     uint64_t root_features = 0;            ///< distinct feature ids in the root's geometry
     std::vector<uint32_t> root_features_dropped;  ///< subtree features absent from the root's geometry
     uint64_t textures_written = 0, textures_unreadable = 0;

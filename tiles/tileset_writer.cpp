@@ -76,7 +76,8 @@ struct LayerRecord {
     std::string geometry_uri;
     uint64_t geometry_bytes = 0;
     double geometric_error_m = 0, position_error_m = 0, uv_atlas_error_texels = 0;
-    int position_bits = 0;
+    double uv_original_error_texels = -1;  // -1: no original uvs (inner nodes)
+    int position_bits = 0, uv_original_bits = 0;
     bool simplified = false;
     std::string atlas_uri;  // empty: no atlas
     uint64_t atlas_bytes = 0;
@@ -102,6 +103,39 @@ int bitsFor(const TileMesh& m, const Vec3d& centre, double target) {
     const double extent = std::max({size.x, size.y, size.z});
     for (int bits = 1; bits < 30; ++bits)
         if (std::sqrt(3.0) * 0.5 * extent / static_cast<double>((uint64_t{1} << bits) - 1) <= 0.9 * target) return bits;
+    return 30;
+}
+
+// Texels per unit of u or v (the larger side) of each tileset texture; 0 unknown.
+std::vector<double> textureSizes(const Scene& scene, const std::vector<int32_t>& texture_index) {
+    std::vector<double> sizes;
+    for (size_t s = 0; s < texture_index.size(); ++s) {
+        const int32_t t = texture_index[s];
+        if (t < 0) continue;
+        if (sizes.size() <= static_cast<size_t>(t)) sizes.resize(static_cast<size_t>(t) + 1, 0.0);
+        sizes[static_cast<size_t>(t)] = std::max(scene.textures[s].width_px, scene.textures[s].height_px);
+    }
+    return sizes;
+}
+
+// The fewest bits for a leaf's original uvs whose worst-case error (half a
+// step over the uv extent) stays within 90 % of `target` texels of the largest
+// texture the leaf uses; at least `floor`. A texture repeated hundreds of
+// times in one triangle widens the extent far beyond [0, 1].
+int uvOriginalBitsFor(const TileMesh& m, const std::vector<double>& texture_sizes, double target, int floor,
+                      double* largest_texture) {
+    double lo = 1e300, hi = -1e300, texels = 0;
+    for (size_t v = 0; v < m.uv_original.size(); ++v) {
+        const int32_t t = m.texture_id[v];
+        if (t < 0) continue;
+        lo = std::min({lo, m.uv_original[v].x, m.uv_original[v].y});
+        hi = std::max({hi, m.uv_original[v].x, m.uv_original[v].y});
+        if (static_cast<size_t>(t) < texture_sizes.size()) texels = std::max(texels, texture_sizes[static_cast<size_t>(t)]);
+    }
+    *largest_texture = texels;
+    if (hi < lo || texels <= 0 || target <= 0) return floor;
+    for (int bits = floor; bits < 30; ++bits)
+        if (0.5 * (hi - lo) / static_cast<double>((uint64_t{1} << bits) - 1) * texels <= 0.9 * target) return bits;
     return 30;
 }
 
@@ -144,6 +178,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     }
 
     TextureBlocks blocks = planTextureBlocks(scene, tree);
+    const std::vector<double> texture_sizes = textureSizes(scene, blocks.texture_index);
     std::vector<NodeRecord> records(n_nodes);
     tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
 
@@ -189,11 +224,20 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                     DracoSettings draco = params.draco;
                     const double target = params.position_error_target_m;
                     if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
+                    const double uv_target = params.uv_original_error_target_texels;
+                    double texels = 0;  // of the leaf's largest texture
+                    if (node.leaf() && !mesh.uv_original.empty())
+                        draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
                     Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                    // The prediction leaves room for float32 rounding; should it not
-                    // suffice, the measurement decides.
+                    // The predictions leave room for float32 rounding; should they not
+                    // suffice, the measurements decide.
                     while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
                         ++draco.position_bits;
+                        st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                    }
+                    while (st.ok() && uv_target > 0 && texels > 0 && glb.max_uv_original_error * texels > uv_target &&
+                           draco.uv_original_bits < 30) {
+                        ++draco.uv_original_bits;
                         st = encodeTileGlb(mesh, centre, draco, &glb, extras);
                     }
                     if (!st.ok()) {
@@ -216,6 +260,10 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                     lr.position_error_m = glb.max_position_error_m;
                     lr.position_bits = draco.position_bits;
                     lr.uv_atlas_error_texels = glb.max_uv_atlas_error * A;
+                    if (!mesh.uv_original.empty()) {
+                        lr.uv_original_error_texels = glb.max_uv_original_error * texels;
+                        lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
+                    }
                     rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
                     geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
                 }
@@ -373,6 +421,13 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                 {"uv_atlas_error_texels", lr.uv_atlas_error_texels},
                 {"simplified", lr.simplified},
                 {"atlas", atlas_json}};
+            if (lr.uv_original_error_texels >= 0) {
+                layers[std::string(atlas::layerName(static_cast<Layer>(li)))]["uv_original_error_texels"] =
+                    lr.uv_original_error_texels;
+                layers[std::string(atlas::layerName(static_cast<Layer>(li)))]["uv_original_bits"] = lr.uv_original_bits;
+                stats.max_uv_original_error_texels = std::max(stats.max_uv_original_error_texels, lr.uv_original_error_texels);
+                stats.uv_original_bits_max = std::max(stats.uv_original_bits_max, lr.uv_original_bits);
+            }
             contents.push_back({{"uri", lr.geometry_uri}});
             node_bytes += lr.geometry_bytes + lr.atlas_bytes;
             ++stats.geometry_files;

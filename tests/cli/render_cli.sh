@@ -55,8 +55,9 @@ for f in original/frame_*.png; do
   covered=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['reference_covered'])" "$r")
   [ "$covered" -gt 1000 ] || fail "$name: the reference shows almost nothing ($covered pixels): the path misses the town"
   [ "$interior" -eq 0 ] || fail "$name: $interior facade pixels show the clear colour with the atlas tree"
-  # 28 dB: the BC1 floor measured on the synthetic atlases (issue 6); see the issue note for the pedestrian frame.
-  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "$name: PSNR $psnr dB < 28 dB"
+  # 30 dB: issue 7's bar for the atlas tree against the original textures.
+  # Both are BC1 and trilinear; what remains is resampling (atlas vs mip chain).
+  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 30.0 else 1)" "$psnr" || fail "$name: PSNR $psnr dB < 30 dB"
   psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
   psnr_sum=$("$PY" -c "import sys; print(float(sys.argv[1]) + float(sys.argv[2]))" "$psnr_sum" "$psnr")
   n=$((n + 1))

@@ -292,6 +292,43 @@ TEST(TileGlb, RoundTripKeepsEveryVertexWithinTheMeasuredAndTheoreticalError) {
     }
 }
 
+// The original uvs have their own bit count: a mesh whose original uvs span
+// hundreds of repeats (the towns' paving) keeps them to the finer step while
+// the atlas uvs stay at uv_bits, and the reported steps and errors say so.
+TEST(TileGlb, OriginalUvsGetTheirOwnQuantization) {
+    const Scene scene = townScene(12);
+    const TileMesh in = meshFromScene(scene, {});
+    const Vec3d centre = centreOf(boundsOf(in.positions));
+    double extent = 0;
+    for (const Vec2d& t : in.uv_original) extent = std::max({extent, std::abs(t.x), std::abs(t.y)});
+    ASSERT_GT(extent, 50.0) << "the town should hold a texture repeated many times";
+    DracoSettings coarse;
+    coarse.preserve_order = true;
+    DracoSettings fine = coarse;
+    fine.uv_original_bits = 22;
+    const GlbResult a = encodeOk(in, centre, coarse), b = encodeOk(in, centre, fine);
+    const TileMesh da = decodeOk(a), db = decodeOk(b);
+    const double step12 = uvStep(in.uv_original, 12), step22 = uvStep(in.uv_original, 22);
+    EXPECT_NEAR(a.uv_original_step, step12, step12 * 1e-6);
+    EXPECT_NEAR(b.uv_original_step, step22, step22 * 1e-6);
+    EXPECT_EQ(a.uv_atlas_step, b.uv_atlas_step);
+    double worst_a = 0, worst_b = 0;
+    for (size_t i = 0; i < in.uv_original.size(); ++i) {
+        worst_a = std::max({worst_a, std::abs(da.uv_original[i].x - in.uv_original[i].x),
+                            std::abs(da.uv_original[i].y - in.uv_original[i].y)});
+        worst_b = std::max({worst_b, std::abs(db.uv_original[i].x - in.uv_original[i].x),
+                            std::abs(db.uv_original[i].y - in.uv_original[i].y)});
+        ASSERT_EQ(da.uv_atlas[i].x, db.uv_atlas[i].x) << i;
+        ASSERT_EQ(da.uv_atlas[i].y, db.uv_atlas[i].y) << i;
+    }
+    // 12 bits over the repeats: far more than a 64-texel texture's texel.
+    EXPECT_GT(worst_a, 1.0 / 64);
+    EXPECT_NEAR(worst_a, a.max_uv_original_error, 1e-12);
+    // 22 bits: a half step plus float32 rounding of values in the hundreds.
+    EXPECT_LE(worst_b, step22 / 2 + extent * 1e-7);
+    EXPECT_NEAR(worst_b, b.max_uv_original_error, 1e-12);
+}
+
 // Edgebreaker (the default) renumbers vertices and faces: every decoded
 // triangle must still be one of the input triangles, with its winding.
 TEST(TileGlb, EdgebreakerRoundTripMatchesEveryTriangle) {
