@@ -80,6 +80,7 @@ Status StreamingClient::initGl() {
     Status st;
     RendererOptions ro;
     ro.max_anisotropy = options_.max_anisotropy;
+    ro.force_cpu_decode = options_.cpu_decode;
     gl_ = GlRenderer::create(index_.materials, ro, &st);
     return gl_ ? Status::Ok() : st;
 }

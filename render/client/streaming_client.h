@@ -44,6 +44,7 @@ struct ClientOptions {
     SelectionParams selection;
     TextureMode mode = TextureMode::AtlasTree;
     float max_anisotropy = 4;              ///< 1 = off
+    bool cpu_decode = false;               ///< S3TC decoded on the CPU, RGBA8 on the GPU (slow compressed sampling, llvmpipe)
     LoaderOptions loader;
 };
 
