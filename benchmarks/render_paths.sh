@@ -33,10 +33,10 @@ totals = t["extras"]["cityatlas"]["totals"]["bytes"]
 texture_bytes = totals["atlases"] + totals["textures"]
 all_bytes = sum(totals.values())
 runs = json.load(open(out + ".json"))["runs"] if os.path.exists(out + ".json") else []
-def render(name, extra):
+def render(name, extra, source=tiles):
     report = os.path.join(out, name + ".json")
-    cmd = ["./build/cli/cityatlas", "render", tiles, "--size", size, "--fps", fps, "--anisotropy", "1",
-           "--report", report, "-q"] + extra
+    cmd = ["./build/cli/cityatlas", "render", source, "--size", size, "--anisotropy", "1",
+           "--report", report, "-q"] + extra + ([] if "--path" in extra else ["--fps", fps])  # a path file brings its own rate
     t0 = time.monotonic()
     subprocess.run(cmd, check=True)
     wall = time.monotonic() - t0
@@ -52,7 +52,8 @@ def render(name, extra):
            "bytes_loaded": s["bytes_loaded"], "resident_bytes_max": s["resident_bytes_max"],
            "frames_needed_missing": sum(1 for f in frames if f["refinement"]["needed_missing"] > 0),
            "needed_missing_sum": sum(f["refinement"]["needed_missing"] for f in frames),
-           "errors": s["errors"], "renderer": r["gl"]["renderer"]}
+           "errors": s["errors"], "renderer": r["gl"]["renderer"],
+           "teleports": [{k: x.get(k) for k in ("label", "seconds_to_ideal_set", "frames_to_ideal_set")} for x in s["teleports"]]}
     runs[:] = [r for r in runs if r["run"] != name] + [rec]
     print(f"{name:16s} frame {rec['frame_ms_mean']:7.2f} ms mean {rec['frame_ms_median']:7.2f} median {rec['frame_ms_max']:8.2f} worst  nodes {rec['nodes_drawn_mean']:5.1f} "
           f"mean {rec['nodes_drawn_max']:4d} worst  binds {rec['texture_binds_mean']:6.1f}  triangles {rec['triangles_mean']:8d}  "
@@ -60,6 +61,29 @@ def render(name, extra):
     json.dump({"benchmark": "render_paths", "tiles": tiles, "size": size, "fps": fps, "cores": os.cpu_count(),
                "texture_bytes": texture_bytes, "runs": runs}, open(out + ".json", "w"), indent=2)
 budget = str(max(texture_bytes // 10, 1))
+
+def teleport_over_nginx(name, rate):
+    """Overview held 4 s, a cut to street level, 10 s held there: over HTTP from
+    nginx (tests/render/nginx) at `rate` per connection, 1/10 budget, real time."""
+    box = t["root"]["boundingVolume"]["box"]; c = box[:3]; hx, hy, hz = box[3], box[7], box[11]
+    z0 = c[2] - hz
+    over = {"position": [c[0], c[1] - 1.5 * hy, z0 + 1.6 * max(hx, hy)], "look_at": [c[0], c[1], z0]}
+    street = {"position": [c[0], c[1] - 0.3 * hy, z0 + 1.7], "look_at": [c[0], c[1] + 0.2 * hy, z0 + 8]}
+    keys = [dict(over, time_s=0, label="overview"), dict(over, time_s=4),
+            dict(street, time_s=4.25, cut=True, label="teleport"), dict(street, time_s=14, label="street")]
+    path = os.path.join(out, name + "-path.json")
+    json.dump({"interpolation": "linear", "frame_rate": 4, "keyframes": keys}, open(path, "w"), indent=1)
+    serve = "tests/render/nginx/nginx_serve.sh"; work = os.path.join(out, name + "-nginx")
+    started = subprocess.run(["bash", serve, "start", os.path.abspath(tiles), os.path.abspath(work), rate],
+                             capture_output=True, text=True)
+    if started.returncode != 0:
+        print(f"{name}: skipped, nginx did not start: {started.stderr.strip()}", flush=True)
+        return
+    try:
+        render(name, ["--budget", budget, "--path", path], f"http://127.0.0.1:{started.stdout.strip()}/")
+    finally:
+        subprocess.run(["bash", serve, "stop", os.path.abspath(work)])
+    print(f"{name}: teleport to street level -> complete ideal set: {runs[-1]['teleports']}", flush=True)
 variants = {
     "atlas": ["--wait", "--budget", "8G"],
     "dummy": ["--wait", "--mode", "dummy", "--budget", "8G"],
@@ -72,13 +96,18 @@ variants = {
     "dummy-cpu-decode": ["--wait", "--mode", "dummy", "--budget", "8G", "--cpu-decode"],
     "stream-distance": ["--budget", budget, "--priority", "distance"],
     "stream-view": ["--budget", budget, "--priority", "view"],
+    "teleport-http": "12m",  # nginx limit_rate per connection: ~100 Mbit/s
 }
-groups = {"all": list(variants), "modes": ["atlas", "dummy", "original"], "stream": ["stream-distance", "stream-view"],
+groups = {"all": list(variants), "modes": ["atlas", "dummy", "original"],
+          "stream": ["stream-distance", "stream-view", "teleport-http"],
           "tau": ["atlas-tau-corner"], "cpu": ["atlas-cpu-decode", "dummy-cpu-decode"]}
 for name in groups.get(which, which.split(",")):
     if name not in variants:
         sys.exit(f"unknown run {name}: one of {', '.join(variants)} or a group ({', '.join(groups)})")
-    render(name, variants[name])
+    if name.startswith("teleport"):
+        teleport_over_nginx(name, variants[name])
+    else:
+        render(name, variants[name])
 named = {r["run"]: r for r in runs}
 for a, d in (("atlas", "dummy"), ("atlas-cpu-decode", "dummy-cpu-decode")):
     if a in named and d in named:
