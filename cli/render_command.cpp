@@ -169,16 +169,21 @@ json summaryJson(const json& frames, const std::vector<size_t>& cut_frames, cons
         if (frame_ms.size() % 2 == 0)
             median_ms = 0.5 * (median_ms + *std::max_element(frame_ms.begin(), frame_ms.begin() + static_cast<std::ptrdiff_t>(mid)));
     }
-    // Teleports: wall time from the cut's frame until the first frame whose ideal set is complete.
+    // Teleports: wall time from the cut's frame until the first frame whose
+    // needed blocks (the view at full resolution) / whole ideal set (with the
+    // prefetch that fills the budget) are resident.
     json teleports = json::array();
     for (const size_t c : cut_frames) {
         if (c >= frames.size()) continue;
-        json t = {{"frame", c}, {"label", frames[c]["label"]}, {"seconds_to_ideal_set", nullptr}};
-        for (size_t k = c; k < frames.size(); ++k) {
-            if (frames[k]["refinement"]["ideal_missing"].get<uint64_t>() == 0) {
-                t["seconds_to_ideal_set"] = frames[k]["wall_s"].get<double>() - frames[c]["wall_s"].get<double>() +
-                                            frames[k]["frame_ms"].get<double>() / 1000.0;
-                t["frames_to_ideal_set"] = k - c;
+        json t = {{"frame", c}, {"label", frames[c]["label"]}, {"seconds_to_ideal_set", nullptr},
+                  {"seconds_to_needed_set", nullptr}};
+        for (const char* what : {"ideal", "needed"}) {
+            for (size_t k = c; k < frames.size(); ++k) {
+                if (frames[k]["refinement"][fmt::format("{}_missing", what)].get<uint64_t>() != 0) continue;
+                t[fmt::format("seconds_to_{}_set", what)] = frames[k]["wall_s"].get<double>() -
+                                                            frames[c]["wall_s"].get<double>() +
+                                                            frames[k]["frame_ms"].get<double>() / 1000.0;
+                t[fmt::format("frames_to_{}_set", what)] = k - c;
                 break;
             }
         }
@@ -427,8 +432,9 @@ RunFn addRenderCommand(CLI::App& app) {
         ->default_val(4.0F)
         ->check(CLI::Range(1.0F, 16.0F));
     cmd->add_flag("--cpu-decode", opt->cpu_decode,
-                  "Decode BC1/BC3 on the CPU and upload RGBA8 (4-8x the GPU memory): for drivers that sample "
-                  "compressed textures slowly (Mesa llvmpipe); the budget still counts the files' bytes");
+                  "Decode BC1/BC3 on the CPU and upload RGBA8: for drivers that sample compressed textures slowly "
+                  "(Mesa llvmpipe). The budget still counts the files' bytes, so textures take 4-8x the budget "
+                  "in memory (the report's gpu_bytes)");
     cmd->add_option("--threads", opt->threads, "Decoding threads")->default_val(2)->check(CLI::Range(1, 256));
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress and no summary line");
     return [opt]() { return runRender(*opt); };

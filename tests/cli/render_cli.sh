@@ -89,9 +89,13 @@ if [ $rc -eq 0 ]; then
   check_eq "streaming: refinement happened (some frame was coarse or waiting)" "True" \
     "$(json stream/report.json "any(f['refinement']['ideal_missing'] > 0 for f in j['frames'])")"
   teleport=$(json stream/report.json "j['summary']['teleports'][0]['seconds_to_ideal_set']")
+  needed=$(json stream/report.json "j['summary']['teleports'][0]['seconds_to_needed_set']")
   [ "$teleport" != "None" ] || fail "streaming: the teleport never reached a complete ideal set"
+  [ "$needed" != "None" ] || fail "streaming: the teleport never had its needed blocks"
+  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) <= float(sys.argv[2]) else 1)" "$needed" "$teleport" ||
+    fail "streaming: needed blocks ($needed s) after the whole ideal set ($teleport s)"
   requests=$(grep -c '"GET ' nginx/access.log || true)
-  echo "ok: streaming over nginx at 4 MB/s with a budget of $budget bytes: $requests requests, teleport to street level complete after $teleport s"
+  echo "ok: streaming over nginx at 4 MB/s with a budget of $budget bytes: $requests requests, teleport to street level: needed blocks after $needed s, the whole ideal set after $teleport s"
   bash "$NGINX_SERVE" stop "$PWD/nginx"; trap - EXIT
 elif [ $rc -eq 77 ]; then
   echo "SKIPPED (part): nginx is not installed (Debian: nginx-light); streaming over HTTP not tested"
