@@ -411,7 +411,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                 atlas_texels += lr.atlas_texels;
                 atlas_seconds += lr.atlas_encode_seconds;
             }
-            layers[std::string(atlas::layerName(static_cast<Layer>(li)))] = {
+            json& layer_json = layers[std::string(atlas::layerName(static_cast<Layer>(li)))];
+            layer_json = {
                 {"triangles", lr.triangles},
                 {"triangles_source", lr.triangles_source},
                 {"geometry", {{"uri", lr.geometry_uri}, {"bytes", lr.geometry_bytes}}},
@@ -422,9 +423,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                 {"simplified", lr.simplified},
                 {"atlas", atlas_json}};
             if (lr.uv_original_error_texels >= 0) {
-                layers[std::string(atlas::layerName(static_cast<Layer>(li)))]["uv_original_error_texels"] =
-                    lr.uv_original_error_texels;
-                layers[std::string(atlas::layerName(static_cast<Layer>(li)))]["uv_original_bits"] = lr.uv_original_bits;
+                layer_json["uv_original_error_texels"] = lr.uv_original_error_texels;
+                layer_json["uv_original_bits"] = lr.uv_original_bits;
                 stats.max_uv_original_error_texels = std::max(stats.max_uv_original_error_texels, lr.uv_original_error_texels);
                 stats.uv_original_bits_max = std::max(stats.uv_original_bits_max, lr.uv_original_bits);
             }
