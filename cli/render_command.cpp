@@ -381,10 +381,11 @@ int runRender(const RenderCliOptions& opt) {
                    summary["nodes_drawn_mean"].get<double>(), summary["nodes_drawn_max"].get<uint64_t>(),
                    summary["texture_binds_mean"].get<double>(), humanBytes(summary["bytes_loaded"].get<uint64_t>()),
                    summary["errors"].get<uint64_t>());
+        const auto seconds = [](const json& s) { return s.is_null() ? std::string("never") : fmt::format("{:.2f} s", s.get<double>()); };
         for (const json& t : summary["teleports"])
-            if (!t["seconds_to_ideal_set"].is_null())
-                fmt::print("teleport at frame {} ({}): ideal set complete after {:.2f} s\n", t["frame"].get<size_t>(),
-                           t["label"].get<std::string>(), t["seconds_to_ideal_set"].get<double>());
+            fmt::print("teleport at frame {} ({}): needed blocks after {}, whole ideal set after {}\n",
+                       t["frame"].get<size_t>(), t["label"].get<std::string>(), seconds(t["seconds_to_needed_set"]),
+                       seconds(t["seconds_to_ideal_set"]));
         if (!report_path.empty()) fmt::print("report: {}\n", report_path);
     }
     return kExitOk;
