@@ -94,7 +94,7 @@ def teleport_over_nginx(name, rate):
         render(name, ["--budget", budget, "--path", path], f"http://127.0.0.1:{started.stdout.strip()}/")
     finally:
         subprocess.run(["bash", serve, "stop", os.path.abspath(work)])
-    print(f"{name}: teleport to street level -> complete ideal set: {runs[-1]['teleports']}", flush=True)
+    print(f"{name}: teleport to street level -> needed blocks / whole ideal set resident: {runs[-1]['teleports']}", flush=True)
 variants = {
     "atlas": ["--wait", "--budget", "8G"],
     "dummy": ["--wait", "--mode", "dummy", "--budget", "8G"],

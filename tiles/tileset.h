@@ -59,7 +59,8 @@ struct TilesParams {
     /// exactly draco.position_bits everywhere.
     double position_error_target_m = 0.002;
     /// Largest error of a leaf's original texture coordinates, in texels of
-    /// the triangle's texture: leaves get more than draco.uv_bits for their
+    /// the leaf's largest texture (so at most that in any triangle's own
+    /// texture): leaves get more than draco.uv_bits for their
     /// original uvs where the uv extent (repeating textures) needs it. 0:
     /// draco.uv_bits everywhere.
     double uv_original_error_target_texels = 0.125;
