@@ -11,6 +11,7 @@
 // filtering happens on linear-light, premultiplied-alpha floats.
 // OpenImageIO does the reading (ImageCache: bounded, on demand) and writing.
 #include "atlas/atlas_images.h"
+#include "atlas/placement.h"
 
 #include <algorithm>
 #include <atomic>
@@ -192,10 +193,11 @@ Taps makeTaps(const std::vector<double>& pos, double spacing, int n, WrapMode wr
 // A leaf or inner atlas under construction: premultiplied linear RGBA, rows
 // bottom-up (y = v), as atlas texel coordinates are.
 struct Canvas {
-    int size = 0;
+    int w = 0, h = 0;
     std::vector<float> px;
-    explicit Canvas(int a) : size(a), px(static_cast<size_t>(a) * a * 4, 0.0f) {}
-    float* at(int x, int y) { return &px[(static_cast<size_t>(y) * size + x) * 4]; }
+    Canvas(int width, int height) : w(width), h(height), px(static_cast<size_t>(width) * height * 4, 0.0f) {}
+    float* at(int x, int y) { return &px[(static_cast<size_t>(y) * w + x) * 4]; }
+    const float* at(int x, int y) const { return &px[(static_cast<size_t>(y) * w + x) * 4]; }
 };
 
 // How many halvings of the source each axis needs before less than 2:1
@@ -269,12 +271,12 @@ void resampleRegion(const Image& src_img, const PackedRegion& r, WrapMode wrap, 
 // 2x2 box mean into a canvas half the size: rectangles aligned to 4 texels
 // stay clean for two halvings, then bleed one texel per level into their border.
 Canvas halve(const Canvas& c) {
-    Canvas h(c.size / 2);
-    for (int y = 0; y < h.size; ++y)
-        for (int x = 0; x < h.size; ++x) {
+    Canvas h(c.w / 2, c.h / 2);  // sides are multiples of 4
+    for (int y = 0; y < h.h; ++y)
+        for (int x = 0; x < h.w; ++x) {
             float* d = h.at(x, y);
-            const auto* row0 = &c.px[(static_cast<size_t>(2 * y) * c.size + 2 * x) * 4];
-            const auto* row1 = row0 + static_cast<size_t>(c.size) * 4;
+            const float* row0 = c.at(2 * x, 2 * y);
+            const float* row1 = c.at(2 * x, 2 * y + 1);
             for (int k = 0; k < 4; ++k) d[k] = 0.25f * (row0[k] + row0[k + 4] + row1[k] + row1[k + 4]);
         }
     return h;
@@ -283,12 +285,12 @@ Canvas halve(const Canvas& c) {
 Status writeCanvas(const Canvas& c, Layer layer, const fs::path& path) {
     const int nc = layer == Layer::Opaque ? 3 : 4;
     const auto& t = tables();
-    std::vector<uint8_t> bytes(static_cast<size_t>(c.size) * c.size * nc);
-    for (int y = 0; y < c.size; ++y) {
-        const int row = c.size - 1 - y;  // files run top-down
-        for (int x = 0; x < c.size; ++x) {
-            const float* s = &c.px[(static_cast<size_t>(y) * c.size + x) * 4];
-            uint8_t* d = &bytes[(static_cast<size_t>(row) * c.size + x) * nc];
+    std::vector<uint8_t> bytes(static_cast<size_t>(c.w) * c.h * nc);
+    for (int y = 0; y < c.h; ++y) {
+        const int row = c.h - 1 - y;  // files run top-down
+        for (int x = 0; x < c.w; ++x) {
+            const float* s = c.at(x, y);
+            uint8_t* d = &bytes[(static_cast<size_t>(row) * c.w + x) * nc];
             const float a = s[3];
             const float inv = layer == Layer::Opaque ? 1.0f : (a > 0 ? 1.0f / a : 0.0f);
             for (int k = 0; k < 3; ++k) {
@@ -300,7 +302,7 @@ Status writeCanvas(const Canvas& c, Layer layer, const fs::path& path) {
     }
     auto out = OIIO::ImageOutput::create(path.string());
     if (!out) return Status::Fail(fmt::format("{}: cannot create a PNG writer", path.string()));
-    OIIO::ImageSpec spec(c.size, c.size, nc, OIIO::TypeDesc::UINT8);
+    OIIO::ImageSpec spec(c.w, c.h, nc, OIIO::TypeDesc::UINT8);
     // Speed over size (an intermediate: the tiles stage re-encodes): fastest
     // deflate, and one fixed row filter ("up") instead of libpng trying all five per row.
     spec.attribute("png:compressionLevel", 1);
@@ -351,18 +353,17 @@ private:
         for (int l = 0; l < kLayerCount; ++l) {
             const NodeLayer& layer = node.layers[l];
             if (!layer.present()) continue;
-            Canvas canvas(tree_.params.atlas_size_px);
+            Canvas canvas(layer.width, layer.height);
             if (node.leaf()) {
                 drawLeaf(layer.regions, static_cast<Layer>(l), canvas);
             } else {
-                const int half = canvas.size / 2;
-                for (int q = 0; q < 4; ++q) {
+                for (const ChildPlacement& p : childPlacements(tree_, id, l)) {
+                    int q = 0;
+                    while (node.children[q] != p.child) ++q;
                     const auto& h = child_halves[q][l];
                     if (!h) continue;
-                    const int ox = (q & 1) * half, oy = (q >> 1) * half;
-                    for (int y = 0; y < half; ++y)
-                        std::copy_n(&h->px[static_cast<size_t>(y) * half * 4], static_cast<size_t>(half) * 4,
-                                    canvas.at(ox, oy + y));
+                    for (int y = 0; y < h->h; ++y)
+                        std::copy_n(h->at(0, y), static_cast<size_t>(h->w) * 4, canvas.at(p.x, p.y + y));
                 }
             }
             if (Status s = writeCanvas(canvas, static_cast<Layer>(l), out_ / layer.atlas_path); !s.ok()) noteError(s);

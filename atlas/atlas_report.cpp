@@ -10,9 +10,22 @@ namespace cityatlas::atlas {
 
 using json = nlohmann::ordered_json;
 
-double leafCoverage(const AtlasTree& tree, const NodeLayer& layer) {
-    const double a = tree.params.atlas_size_px;
-    return static_cast<double>(layer.packed_texels) / (a * a);
+double leafCoverage(const NodeLayer& layer) {
+    const double area = static_cast<double>(layer.width) * layer.height;
+    return area > 0 ? std::min(1.0, static_cast<double>(layer.packed_texels) / area) : 0.0;
+}
+
+json texelBudgetJson(const TexelBudget& b) {
+    return {{"content_required", b.content_required}, {"content_native", b.content_native}, {"repeats", b.repeats},
+            {"borders", b.borders},   {"rounding", b.rounding},   {"empty", b.empty},
+            {"inner", b.inner},       {"total", b.total()}};
+}
+
+json byteBudgetJson(const ByteBudget& b) {
+    return {{"atlases", b.atlases},
+            {"originals_used", b.originals_used},
+            {"originals_needed", b.originals_needed},
+            {"ratio", b.ratio()}};
 }
 
 json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostics& diagnostics) {
@@ -22,6 +35,7 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
     j["cityatlas_version"] = kCityAtlasVersion;
     j["kind"] = "atlas_report";
     j["parameters"] = {{"d_min_m", p.d_min_m ? json(*p.d_min_m) : json(nullptr)},
+                       {"d_min_from_data", p.d_min_from_data},
                        {"d_min_diagonal_fraction", p.d_min_diagonal_fraction},
                        {"atlas_size_px", p.atlas_size_px},
                        {"border_px", p.border_px},
@@ -42,7 +56,20 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
                   {"scene_diagonal_m", s.scene_diagonal_m},
                   {"d_full_m", s.d_full_m},
                   {"d_first_upsampled_m", s.d_first_upsampled_m},
-                  {"textures_upsampled", s.textures_upsampled}};
+                  {"textures_upsampled", s.textures_upsampled},
+                  {"textures_exact", s.textures_exact},
+                  {"textures_needing_originals", s.textures_needing_originals},
+                  {"chosen_by", {{"rule", s.d_min_choice.rule},
+                                 {"reason", s.d_min_choice.reason},
+                                 {"estimated_ratio", s.d_min_choice.estimated_ratio},
+                                 {"originals_within_d_min_mb", s.d_min_choice.originals_within_m_mb},
+                                 {"candidates", [&] {
+                                      json a = json::array();
+                                      for (const auto& c : s.d_min_choice.candidates)
+                                          a.push_back({{"d_m", c.d_m}, {"ratio", c.ratio},
+                                                       {"originals_within_d_min_mb", c.originals_within_mb}});
+                                      return a;
+                                  }()}}}};
     j["critical_triangles"] = {{"at_requested_d_min", s.critical_triangles},
                                {"allowed_fraction", p.critical_fraction},
                                {"at_used_d_min", s.critical_after_enlarge},
@@ -65,8 +92,12 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
             if (nl.range.count == 0) continue;
             json o = {{"first", nl.range.first}, {"count", nl.range.count},
                       {"atlas", nl.atlas_path.empty() ? json(nullptr) : json(nl.atlas_path)}};
+            if (nl.present()) {
+                o["size"] = {nl.width, nl.height};
+                o["offset"] = {nl.offset[0], nl.offset[1]};
+            }
             if (n.leaf() && nl.present()) {
-                const double c = leafCoverage(tree, nl);
+                const double c = leafCoverage(nl);
                 o["regions"] = nl.regions.size();
                 o["coverage"] = c;
                 min_cov = std::min(min_cov, c), sum_cov += c, ++leaf_layers;
@@ -77,10 +108,11 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
                          {"parent", n.parent},
                          {"level", n.level},
                          {"children", n.children},
-                         {"offset", n.offset},
                          {"bounds", {{"min", {n.bounds.min.x, n.bounds.min.y, n.bounds.min.z}},
                                      {"max", {n.bounds.max.x, n.bounds.max.y, n.bounds.max.z}}}},
                          {"min_distance_m", n.min_distance_m},
+                         {"sharp_from_m", n.sharp_from_m},
+                         {"originals", n.originals.size()},
                          {"layers", std::move(layers)}});
     }
     j["tree"] = {{"nodes", s.nodes},
@@ -97,7 +129,9 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
                    {"atlas_texture_bytes", s.atlas_texture_bytes},
                    {"packed_texels", s.packed_texels},
                    {"leaf_atlas_texels", s.leaf_atlas_texels},
-                   {"textures_unreadable", s.textures_unreadable}};
+                   {"textures_unreadable", s.textures_unreadable},
+                   {"budget", texelBudgetJson(s.texels)}};
+    j["bytes"] = byteBudgetJson(s.bytes);
     j["warnings"] = warningsJson(diagnostics);
     j["warnings_total"] = diagnostics.total();
     json steps = json::array();

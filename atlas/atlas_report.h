@@ -8,8 +8,12 @@
 
 namespace cityatlas::atlas {
 
-/// Coverage of a leaf layer: packed region area over A^2.
-double leafCoverage(const AtlasTree& tree, const NodeLayer& layer);
+/// Coverage of a leaf layer: packed region area over its atlas's area.
+double leafCoverage(const NodeLayer& layer);
+
+/// The texel budget and the byte budget as the atlas and build reports write them.
+nlohmann::ordered_json texelBudgetJson(const TexelBudget& b);
+nlohmann::ordered_json byteBudgetJson(const ByteBudget& b);
 
 nlohmann::ordered_json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostics& diagnostics);
 

@@ -17,10 +17,30 @@
 /// layers"), so one traversal selects both, and opaque atlases stay RGB (BC1,
 /// half the bytes of BC3). A node is a leaf when both of its layers pack.
 ///
+/// Resolution cap. No atlas region is stored above its original texture's
+/// resolution, per axis: where a camera at d_min would need more texels than
+/// the texture has, the region holds the texture's own texels (aligned to
+/// them, so it is an exact copy). The guarantee is therefore: from a node's
+/// min distance on, no atlas texel covers more than one pixel, or the atlas
+/// holds that texture at its full resolution. A leaf's `sharp_from_m` is the
+/// distance from which even its capped regions' texels are at most a pixel;
+/// its parent, which holds them halved, serves from twice the largest
+/// child's sharp_from_m (without capped regions that is the papers'
+/// 2 x min distance).
+///
+/// Atlas sizes. Each node layer's atlas is only as large as its content: a
+/// leaf takes the smallest w x h (sides multiples of A/16, aspect at most 2:1,
+/// at most A x A) its regions pack into; an inner node packs its children's
+/// atlases, halved, as four unrotated rectangles into the smallest w x h that
+/// holds them (at most A x A: four halves always fit).
+///
 /// Texture coordinates (papers/000 §4.5.4): every triangle stores ONE set of
-/// atlas coordinates, in root-atlas space. Node N at level k uses them as
-/// `local = root * 2^k - offset(N)` (an integer offset, so with GL_REPEAT the
-/// texture matrix is a plain scale). Child quadrants: 0 bottom-left,
+/// atlas coordinates, in root-atlas space (units of A texels at level 0).
+/// Node layer N at level k uses them as `texel = root * A * 2^k - offset(N)`
+/// with an integer texel offset, so one scale per level and one integer
+/// translation per node map them into any ancestor's atlas. A child placed at
+/// texel p of its parent has offset(child) = 2 * (offset(parent) + p).
+/// Child quadrants (spatial, of the subdivision): 0 bottom-left,
 /// 1 bottom-right, 2 top-left, 3 top-right; v = 0 is the bottom of an atlas.
 ///
 /// Triangle order (papers/000 §4.8.1): AtlasTree::triangles is sorted by layer,
@@ -63,6 +83,8 @@ struct AtlasParams {
     int screen_width_px = 1920;     ///< assumed viewport, for the texel-size estimate
     int screen_height_px = 1080;
     double vertical_fov_deg = 60.0; ///< assumed vertical field of view
+    /// When d_min_m is unset: true = chosen from the data (chooseDefaultDmin), false = the diagonal fraction.
+    bool d_min_from_data = true;
     ResampleFilter filter = ResampleFilter::Lanczos3;
     PackingMethod packing = PackingMethod::MaxRects;
     double critical_fraction = 0.10;  ///< c: above it d_min is enlarged, below it triangles are split
@@ -106,6 +128,22 @@ struct PackedRegion {
     int x = 0, y = 0, w = 0, h = 0;  ///< texels in the leaf atlas, v-up
     bool rotated = false;            ///< the texture's u runs along the atlas's y
     Vec2d uv_min, uv_max;            ///< source region in texture space, border included
+    /// Content at the texture's own resolution on that axis (the cap applied):
+    /// one atlas texel per texture texel, aligned to them.
+    bool native_u = false, native_v = false;
+    /// Distance from which this region's texels cover at most one pixel: <= d_min
+    /// unless the region is capped.
+    double sharp_from_m = 0;
+    bool single_colour = false;      ///< every triangle has one uv: one colour, exact at any size
+    /// The triangles' uv box (border excluded) and the texels it takes at the
+    /// stored density before borders and block rounding (the texel budget).
+    Vec2d content_uv_min, content_uv_max;
+    double content_w = 0, content_h = 0;
+    /// Texels of real texture around the content on each side, along u and v
+    /// (the --border, or less for small content: texel_estimate.h borderFor).
+    int border_u = 0, border_v = 0;
+    /// No original adds texels to this region: capped on both axes, or one colour.
+    bool exact() const { return single_colour || (native_u && native_v); }
     /// Leaf-atlas texel coordinates (v-up) of a point of the texture.
     Vec2d toAtlasTexels(const Vec2d& uv) const;
     /// The inverse: texture coordinates of a leaf-atlas texel position.
@@ -115,22 +153,32 @@ struct PackedRegion {
 struct NodeLayer {
     TriangleRange range;                ///< this layer's triangles of the subtree
     std::string atlas_path;             ///< relative to the output folder; empty when the layer is empty
+    int width = 0, height = 0;          ///< the atlas image, texels (0 without an atlas)
+    std::array<int64_t, 2> offset{0, 0};  ///< texels: local texel = root * A * 2^level - offset
     std::vector<PackedRegion> regions;  ///< leaves only
     uint64_t packed_texels = 0;         ///< leaves: area of the packed regions
     bool present() const { return range.count > 0 && !atlas_path.empty(); }
+    /// Root-atlas coordinates -> texels of this atlas (v up), for a node at `level`.
+    Vec2d texelFromRoot(const Vec2d& root, int level, int atlas_size) const;
+    /// Root-atlas coordinates -> this atlas's texture coordinates in [0,1]^2.
+    Vec2d localFromRoot(const Vec2d& root, int level, int atlas_size) const;
 };
 
 struct AtlasNode {
     int32_t parent = -1;
     std::array<int32_t, 4> children{-1, -1, -1, -1};  ///< by quadrant; -1 = empty quadrant
     int level = 0;                                      ///< root = 0
-    std::array<uint32_t, 2> offset{0, 0};  ///< integer offset of this node's atlas in root space * 2^level
     Box3d bounds;                          ///< of the subtree's triangles
     double min_distance_m = 0;
+    /// From here on every texel of this node's atlases covers at most one pixel:
+    /// min_distance_m, or more for a leaf with capped regions (the largest region's).
+    double sharp_from_m = 0;
     std::array<NodeLayer, kLayerCount> layers;
+    /// Leaves: the scene textures (ascending) whose atlas regions here are below
+    /// their own resolution, so the original adds texels for cameras closer than
+    /// min_distance_m. Empty: the atlas is exact and draws at any distance.
+    std::vector<int32_t> originals;
     bool leaf() const { return children == std::array<int32_t, 4>{-1, -1, -1, -1}; }
-    /// Root-atlas coordinates -> this node's atlas coordinates in [0,1]^2.
-    Vec2d localFromRoot(const Vec2d& root) const;
 };
 
 struct StepStats {
@@ -139,16 +187,58 @@ struct StepStats {
     double peak_rss_mb = 0;
 };
 
+/// Every level-0 atlas texel of the tree, by what it holds. The parts add up
+/// to total(): the sum of all atlases' width x height.
+struct TexelBudget {
+    uint64_t content_required = 0;  ///< leaf region content at the resolution d_min asks for (first period)
+    uint64_t content_native = 0;    ///< leaf region content capped at the texture's own resolution (first period)
+    uint64_t repeats = 0;           ///< replicated periods of repeating textures beyond the first
+    uint64_t borders = 0;           ///< the border of real texture content around each region
+    uint64_t rounding = 0;          ///< regions widened to whole 4x4 blocks and to native texel boundaries
+    uint64_t empty = 0;             ///< leaf atlas texels that no region covers
+    uint64_t inner = 0;             ///< the atlases of inner nodes (their children halved)
+    uint64_t total() const { return content_required + content_native + repeats + borders + rounding + empty + inner; }
+};
+
+/// Bytes as BC1 (opaque) / BC3 (alpha) with full mip chains and a DDS header,
+/// the form the tiles stage writes.
+struct ByteBudget {
+    uint64_t atlases = 0;            ///< every atlas of the tree
+    uint64_t originals_used = 0;     ///< every original texture a triangle uses
+    uint64_t originals_needed = 0;   ///< the originals some leaf needs closer than its min distance
+    /// (atlases + originals needed) / originals used: what the tree costs over the data; 0 without textures.
+    double ratio() const {
+        return originals_used ? static_cast<double>(atlases + originals_needed) / static_cast<double>(originals_used) : 0;
+    }
+};
+
+/// How d_min was chosen when --d-min was not given (chooseDefaultDmin).
+struct DminChoice {
+    std::string rule;          ///< "given", "diagonal-fraction", "data"
+    std::string reason;        ///< one sentence for the user
+    double estimated_ratio = 0;          ///< ByteBudget::ratio() the estimate predicted at the chosen value
+    double originals_within_m_mb = 0;    ///< largest original-texture MB any camera needs within d_min (estimate)
+    struct Candidate {
+        double d_m = 0, ratio = 0, originals_within_mb = 0;
+    };
+    std::vector<Candidate> candidates;   ///< rule "data": every distance the estimate tried, ascending
+};
+
 struct AtlasStats {
     double scene_diagonal_m = 0;
-    double d_min_requested_m = 0;  ///< from --d-min or the diagonal fraction
+    DminChoice d_min_choice;
+    double d_min_requested_m = 0;  ///< from --d-min, the data, or the diagonal fraction
     double d_min_used_m = 0;       ///< after enlargement for critical triangles
     /// papers/000 §6.1.2: d_full, the smallest over textures of the distance at which a texture needs
     /// exactly its original resolution; below it EVERY texture is stored above its original resolution.
     double d_full_m = 0;
     /// The largest such distance: below it SOME texture is stored above its original resolution.
     double d_first_upsampled_m = 0;
-    uint64_t textures_upsampled = 0;        ///< textures stored above their original resolution at d_min_used
+    uint64_t textures_upsampled = 0;        ///< textures whose d_min resolution exceeds their own (capped)
+    uint64_t textures_exact = 0;            ///< held at full resolution wherever used: no original needed
+    uint64_t textures_needing_originals = 0;
+    TexelBudget texels;
+    ByteBudget bytes;
     uint64_t critical_triangles = 0;        ///< at the requested d_min
     uint64_t critical_after_enlarge = 0;    ///< left at d_min_used, then split
     uint64_t triangles_split = 0;           ///< scene triangles split for being critical
@@ -159,7 +249,7 @@ struct AtlasStats {
     uint64_t nodes = 0, leaves = 0, atlases = 0;
     int depth = 0;
     uint64_t packed_texels = 0;             ///< over all leaf atlases
-    uint64_t leaf_atlas_texels = 0;         ///< leaf atlases x A^2
+    uint64_t leaf_atlas_texels = 0;         ///< sum of leaf atlases' width x height
     uint64_t original_texture_bytes = 0;    ///< uncompressed, of the textures used, at 8 bits per channel
     uint64_t atlas_texture_bytes = 0;       ///< uncompressed RGB / RGBA atlases over all nodes
     uint64_t textures_unreadable = 0;
@@ -176,6 +266,9 @@ struct AtlasTree {
 };
 
 using AtlasProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
+
+/// Bytes of a DDS with a full mip chain of a w x h image in BC1 (3 channels) or BC3 (4).
+uint64_t bcBytesWithMips(int width, int height, int channels);
 
 /// Builds the tree and writes every node's atlas images (PNG, 8-bit sRGB) to
 /// `output_dir/atlas/<layer>/<node>.png`, each as soon as it is finished.

@@ -15,14 +15,15 @@ struct Rect {
 
 // Rejects before any packing work: a caller probing many atlas sizes should pay
 // almost nothing for the hopeless ones.
-bool obviouslyUnpackable(std::span<const PackItem> items, int size) {
+bool obviouslyUnpackable(std::span<const PackItem> items, int width, int height, bool allow_rotation) {
     int64_t area = 0;
     for (const PackItem& it : items) {
         if (it.w < 1 || it.h < 1) return true;
-        if (std::max(it.w, it.h) > size) return true;  // the square is the same both ways round
+        const bool fits = (it.w <= width && it.h <= height) || (allow_rotation && it.h <= width && it.w <= height);
+        if (!fits) return true;
         area += int64_t{it.w} * it.h;
     }
-    return area > int64_t{size} * size;
+    return area > int64_t{width} * height;
 }
 
 // Every sort below ends its key in the input index, so std::sort (unstable) still
@@ -33,14 +34,15 @@ std::vector<size_t> identityOrder(size_t n) {
     return order;
 }
 
-bool packIgarashiCosgrove(std::span<const PackItem> items, int size, std::vector<Placement>& out) {
+bool packIgarashiCosgrove(std::span<const PackItem> items, int width, int height, bool allow_rotation,
+                          std::vector<Placement>& out) {
     struct Portrait {
         int w, h;
         bool rotated;
     };
     std::vector<Portrait> p(items.size());
     for (size_t i = 0; i < items.size(); ++i) {
-        const bool rot = items[i].w > items[i].h;
+        const bool rot = allow_rotation && items[i].w > items[i].h;
         p[i] = rot ? Portrait{items[i].h, items[i].w, true} : Portrait{items[i].w, items[i].h, false};
     }
     std::vector<size_t> order = identityOrder(items.size());
@@ -51,15 +53,16 @@ bool packIgarashiCosgrove(std::span<const PackItem> items, int size, std::vector
     // Rectangles arrive from above in row order, so the first thing a falling
     // rectangle meets is the highest top edge under its span: a per-column
     // height map is exact, not an approximation.
-    std::vector<int> skyline(static_cast<size_t>(size), 0);
+    std::vector<int> skyline(static_cast<size_t>(width), 0);
     int cursor = 0;
     for (size_t i : order) {
         const Portrait& r = p[i];
-        if (cursor + r.w > size) cursor = 0;
+        if (r.w > width) return false;
+        if (cursor + r.w > width) cursor = 0;
         const auto first = skyline.begin() + cursor;
         const auto last = first + r.w;
         const int y = *std::max_element(first, last);
-        if (y + r.h > size) return false;
+        if (y + r.h > height) return false;
         std::fill(first, last, y + r.h);
         out[i] = Placement{cursor, y, r.rotated};
         cursor += r.w;
@@ -78,7 +81,9 @@ bool contains(const Rect& outer, const Rect& inner) {
 
 class MaxRectsBin {
 public:
-    explicit MaxRectsBin(int size) { free_.push_back(Rect{0, 0, size, size}); }
+    MaxRectsBin(int width, int height, bool allow_rotation) : allow_rotation_(allow_rotation) {
+        free_.push_back(Rect{0, 0, width, height});
+    }
 
     /// Places a w x h item (or h x w); false when no free rectangle can take it either way.
     bool insert(int w, int h, Placement* where) {
@@ -99,7 +104,7 @@ public:
         for (const Rect& f : free_) {
             consider(f, w, h, false);
             // A square turned round has the same footprint; reporting it unrotated keeps the output canonical.
-            if (w != h) consider(f, h, w, true);
+            if (w != h && allow_rotation_) consider(f, h, w, true);
         }
         if (!found) return false;
         *where = Placement{bestRect.x, bestRect.y, std::get<4>(best)};
@@ -148,11 +153,13 @@ private:
         }
     }
 
+    bool allow_rotation_ = true;
     std::vector<Rect> free_;
     std::vector<Rect> pieces_;  // scratch, kept to avoid an allocation per item
 };
 
-bool packMaxRects(std::span<const PackItem> items, int size, std::vector<Placement>& out) {
+bool packMaxRects(std::span<const PackItem> items, int width, int height, bool allow_rotation,
+                  std::vector<Placement>& out) {
     std::vector<size_t> order = identityOrder(items.size());
     auto key = [&](size_t i) {
         return std::make_tuple(std::max(items[i].w, items[i].h), int64_t{items[i].w} * items[i].h);
@@ -163,7 +170,7 @@ bool packMaxRects(std::span<const PackItem> items, int size, std::vector<Placeme
         if (ka != kb) return kb < ka;
         return a < b;
     });
-    MaxRectsBin bin(size);
+    MaxRectsBin bin(width, height, allow_rotation);
     for (size_t i : order)
         if (!bin.insert(items[i].w, items[i].h, &out[i])) return false;
     return true;
@@ -186,19 +193,45 @@ std::optional<PackingMethod> packingMethodFromName(std::string_view name) {
 }
 
 bool pack(PackingMethod method, std::span<const PackItem> items, int size, std::vector<Placement>* out) {
+    return pack(method, items, size, size, true, out);
+}
+
+bool pack(PackingMethod method, std::span<const PackItem> items, int width, int height, bool allow_rotation,
+          std::vector<Placement>* out) {
     if (items.empty()) {
         if (out) out->clear();
         return true;
     }
-    if (obviouslyUnpackable(items, size)) return false;
+    if (width < 1 || height < 1 || obviouslyUnpackable(items, width, height, allow_rotation)) return false;
     std::vector<Placement> scratch;
     std::vector<Placement>& result = out ? *out : scratch;
     result.assign(items.size(), Placement{});
     switch (method) {
-        case PackingMethod::IgarashiCosgrove: return packIgarashiCosgrove(items, size, result);
-        case PackingMethod::MaxRects: return packMaxRects(items, size, result);
+        case PackingMethod::IgarashiCosgrove: return packIgarashiCosgrove(items, width, height, allow_rotation, result);
+        case PackingMethod::MaxRects: return packMaxRects(items, width, height, allow_rotation, result);
     }
     return false;
+}
+
+std::vector<BinSize> binsByArea(int step, int max_w, int max_h, double max_aspect) {
+    std::vector<BinSize> bins;
+    if (step < 1) return bins;
+    for (int w = step; w <= max_w; w += step)
+        for (int h = step; h <= max_h; h += step)
+            if (std::max(w, h) <= max_aspect * std::min(w, h)) bins.push_back({w, h});
+    std::sort(bins.begin(), bins.end(), [](const BinSize& a, const BinSize& b) {
+        return std::make_tuple(int64_t{a.w} * a.h, std::max(a.w, a.h), -a.w) <
+               std::make_tuple(int64_t{b.w} * b.h, std::max(b.w, b.h), -b.w);
+    });
+    return bins;
+}
+
+std::optional<BinSize> packSmallest(PackingMethod method, std::span<const PackItem> items,
+                                    std::span<const BinSize> candidates, bool allow_rotation,
+                                    std::vector<Placement>* out) {
+    for (const BinSize& b : candidates)
+        if (pack(method, items, b.w, b.h, allow_rotation, out)) return b;
+    return std::nullopt;
 }
 
 }  // namespace cityatlas::atlas

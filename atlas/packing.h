@@ -40,4 +40,26 @@ struct Placement {
 /// Best-Short-Side-Fit, rotation allowed, items in decreasing order of their longer side.
 bool pack(PackingMethod method, std::span<const PackItem> items, int size, std::vector<Placement>* out);
 
+/// The same into a width x height rectangle; `allow_rotation` false keeps every
+/// item as given (IgarashiCosgrove then skips its portrait turn).
+bool pack(PackingMethod method, std::span<const PackItem> items, int width, int height, bool allow_rotation,
+          std::vector<Placement>* out);
+
+struct BinSize {
+    int w = 0, h = 0;
+    friend bool operator==(const BinSize&, const BinSize&) = default;
+};
+
+/// Bins with sides multiples of `step` up to `max_w` x `max_h`, no side more
+/// than `max_aspect` times the other, smallest area first (then the squarer,
+/// then the wider): the order in which packSmallest tries them.
+std::vector<BinSize> binsByArea(int step, int max_w, int max_h, double max_aspect);
+
+/// Tries `candidates` in order, skipping those too small in area or side,
+/// and returns the first whose packing holds every item (with `out` filled);
+/// nullopt when none does. Deterministic like pack().
+std::optional<BinSize> packSmallest(PackingMethod method, std::span<const PackItem> items,
+                                    std::span<const BinSize> candidates, bool allow_rotation,
+                                    std::vector<Placement>* out);
+
 }  // namespace cityatlas::atlas

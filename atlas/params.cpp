@@ -75,9 +75,5 @@ Vec2d PackedRegion::toTexture(const Vec2d& texel) const {
     return {uv_min.x + fy * (uv_max.x - uv_min.x), uv_min.y + (1.0 - fx) * (uv_max.y - uv_min.y)};
 }
 
-Vec2d AtlasNode::localFromRoot(const Vec2d& root) const {
-    const double scale = std::ldexp(1.0, level);
-    return {root.x * scale - offset[0], root.y * scale - offset[1]};
-}
 
 }  // namespace cityatlas::atlas

@@ -31,32 +31,27 @@ size_t balancedCut(const std::vector<uint32_t>& ids, std::span<const double> wei
     return best;
 }
 
-void sortAlong(std::vector<uint32_t>& ids, std::span<const Triangle> triangles, int axis) {
+double coordinate(const Vec3d& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
+
+template <class Key>
+void sortAlong(std::vector<uint32_t>& ids, const Key& key, int axis) {
     std::vector<std::pair<double, uint32_t>> keyed;
     keyed.reserve(ids.size());
-    for (uint32_t i : ids) keyed.emplace_back(centroid(triangles[i], axis), i);
+    for (uint32_t i : ids) keyed.emplace_back(key(i, axis), i);
     std::sort(keyed.begin(), keyed.end());
     for (size_t k = 0; k < ids.size(); ++k) ids[k] = keyed[k].second;
 }
 
-}  // namespace
-
-std::array<std::vector<uint32_t>, 4> splitIntoFour(std::span<const uint32_t> ids, std::span<const Triangle> triangles,
-                                                   std::span<const double> weight) {
+template <class Key>
+std::array<std::vector<uint32_t>, 4> splitAlong(std::span<const uint32_t> ids, const Box3d& box, const Key& key,
+                                                std::span<const double> weight) {
     std::array<std::vector<uint32_t>, 4> groups;
-    if (ids.size() < 2) {
-        groups[0].assign(ids.begin(), ids.end());
-        return groups;
-    }
-    Box3d box;
-    for (uint32_t i : ids)
-        for (const Vec3d& p : triangles[i].position_local) box.extend(p);
     const std::array<double, 3> extent{box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z};
     std::array<int, 3> axes{0, 1, 2};
     std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return extent[a] > extent[b]; });
 
     std::vector<uint32_t> all(ids.begin(), ids.end());
-    sortAlong(all, triangles, axes[0]);
+    sortAlong(all, key, axes[0]);
     const size_t cut = balancedCut(all, weight);
     std::array<std::vector<uint32_t>, 2> halves{std::vector<uint32_t>(all.begin(), all.begin() + cut),
                                                 std::vector<uint32_t>(all.begin() + cut, all.end())};
@@ -66,12 +61,39 @@ std::array<std::vector<uint32_t>, 4> splitIntoFour(std::span<const uint32_t> ids
             groups[h] = std::move(half);
             continue;
         }
-        sortAlong(half, triangles, axes[1]);
+        sortAlong(half, key, axes[1]);
         const size_t c2 = balancedCut(half, weight);
         groups[h].assign(half.begin(), half.begin() + c2);
         groups[h + 2].assign(half.begin() + c2, half.end());
     }
     return groups;
+}
+
+}  // namespace
+
+std::array<std::vector<uint32_t>, 4> splitIntoFour(std::span<const uint32_t> ids, std::span<const Triangle> triangles,
+                                                   std::span<const double> weight) {
+    if (ids.size() < 2) {
+        std::array<std::vector<uint32_t>, 4> groups;
+        groups[0].assign(ids.begin(), ids.end());
+        return groups;
+    }
+    Box3d box;
+    for (uint32_t i : ids)
+        for (const Vec3d& p : triangles[i].position_local) box.extend(p);
+    return splitAlong(ids, box, [&](uint32_t i, int axis) { return centroid(triangles[i], axis); }, weight);
+}
+
+std::array<std::vector<uint32_t>, 4> splitIntoFourAt(std::span<const uint32_t> ids, std::span<const Vec3d> points,
+                                                     std::span<const double> weight) {
+    if (ids.size() < 2) {
+        std::array<std::vector<uint32_t>, 4> groups;
+        groups[0].assign(ids.begin(), ids.end());
+        return groups;
+    }
+    Box3d box;
+    for (uint32_t i : ids) box.extend(points[i]);
+    return splitAlong(ids, box, [&](uint32_t i, int axis) { return coordinate(points[i], axis); }, weight);
 }
 
 }  // namespace cityatlas::atlas

@@ -25,4 +25,9 @@ std::array<std::vector<uint32_t>, 4> splitIntoFour(std::span<const uint32_t> ids
                                                    std::span<const Triangle> triangles,
                                                    std::span<const double> weight);
 
+/// The same cuts over given points, one per triangle (e.g. texture-space
+/// centroids as (u, v, 0)), their box taken from the points.
+std::array<std::vector<uint32_t>, 4> splitIntoFourAt(std::span<const uint32_t> ids, std::span<const Vec3d> points,
+                                                     std::span<const double> weight);
+
 }  // namespace cityatlas::atlas

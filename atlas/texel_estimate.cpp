@@ -53,50 +53,107 @@ TexelDensity texelDensity(const Triangle& t) {
     return d;
 }
 
-RegionSize regionSize(double texels_per_u, double texels_per_v, Vec2d uv_min, Vec2d uv_max, int border) {
-    RegionSize r;
-    const double du = uv_max.x - uv_min.x, dv = uv_max.y - uv_min.y;
-    const double content_w = std::max(1.0, texels_per_u * du), content_h = std::max(1.0, texels_per_v * dv);
-    r.w = roundUpToBlock(content_w + 2.0 * border);
-    r.h = roundUpToBlock(content_h + 2.0 * border);
-    // Grow the box about its centre so that the border texels show the
-    // texture around the region (papers/000 §4.5.2, f_hor and f_vert), at the
-    // content's actual (rounded-up) resolution.
-    auto grow = [&](double lo, double hi, int total, double* out_lo, double* out_hi) {
-        const double span = hi - lo;
-        if (span <= 0) {
-            *out_lo = *out_hi = lo;
-            return;
+int borderFor(double content_texels, int max_border) {
+    // A quarter of the content, at least one texel (bilinear filtering), at most the border asked for.
+    return std::clamp(static_cast<int>(std::ceil(content_texels / 4.0 - 1e-9)), std::min(1, max_border), max_border);
+}
+
+namespace {
+
+struct AxisSize {
+    int total = 0, border = 0;
+    double lo = 0, hi = 0, density = 0, content = 0;
+    bool native = false;
+};
+
+// One axis of regionSize: `per` texels per unit wanted over [lo, hi].
+AxisSize axisSize(double per, double lo, double hi, int max_border, int native) {
+    AxisSize a;
+    const double span = hi - lo;
+    if (span <= 0) {  // a line in texture space: no extent to scale
+        a.content = 1;
+        a.border = borderFor(a.content, max_border);
+        a.total = roundUpToBlock(a.content + 2.0 * a.border);
+        a.lo = a.hi = lo;
+        return a;
+    }
+    bool capped = native > 0 && per >= native;
+    if (!capped) {
+        // The rounding goes into the content's resolution (papers/000 §4.5.2,
+        // f_hor and f_vert: the border shows the texture around the region).
+        a.content = std::max(1.0, per * span);
+        a.border = borderFor(a.content, max_border);
+        a.total = roundUpToBlock(a.content + 2.0 * a.border);
+        a.density = (a.total - 2.0 * a.border) / span;
+        capped = native > 0 && a.density > native;  // the rounding would pass the texture's own resolution
+        if (!capped) {
+            a.lo = lo - a.border / a.density;
+            a.hi = hi + a.border / a.density;
+            return a;
         }
-        const double per_texel = span / (total - 2.0 * border);
-        *out_lo = lo - border * per_texel;
-        *out_hi = hi + border * per_texel;
-    };
-    grow(uv_min.x, uv_max.x, r.w, &r.uv_min.x, &r.uv_max.x);
-    grow(uv_min.y, uv_max.y, r.h, &r.uv_min.y, &r.uv_max.y);
+    }
+    // Capped: the texture's own texels, whole ones, so the region copies them;
+    // the block rounding widens the border. 1e-9 texels absorbs uv values a
+    // hair off a texel boundary.
+    const double first = std::floor(lo * native + 1e-9), last = std::ceil(hi * native - 1e-9);
+    const double texels = std::max(1.0, last - first);
+    a.native = true;
+    a.density = native;
+    a.content = span * native;
+    a.border = borderFor(a.content, max_border);
+    a.total = roundUpToBlock(texels + 2.0 * a.border);
+    const double start = first - std::floor((a.total - texels) / 2.0);
+    a.lo = start / native;
+    a.hi = (start + a.total) / native;
+    return a;
+}
+
+}  // namespace
+
+RegionSize regionSize(double texels_per_u, double texels_per_v, Vec2d uv_min, Vec2d uv_max, int border,
+                      NativeSize native) {
+    const AxisSize u = axisSize(texels_per_u, uv_min.x, uv_max.x, border, native.w);
+    const AxisSize v = axisSize(texels_per_v, uv_min.y, uv_max.y, border, native.h);
+    RegionSize r;
+    r.w = u.total, r.h = v.total;
+    r.uv_min = {u.lo, v.lo}, r.uv_max = {u.hi, v.hi};
+    r.native_u = u.native, r.native_v = v.native;
+    r.density_u = u.density, r.density_v = v.density;
+    r.content_w = u.content, r.content_h = v.content;
+    r.border_u = u.border, r.border_v = v.border;
     return r;
 }
 
 namespace {
 
-// Texels the triangle alone needs along u and v at F pixels per metre, border excluded.
-std::pair<double, double> contentTexels(const TexelDensity& d, double f) {
-    if (d.kind == TexelDensity::Kind::SingleColour) return {1.0, 1.0};
-    return {std::max(1.0, d.s_world * f * (d.uv_max.x - d.uv_min.x)),
-            std::max(1.0, d.t_world * f * (d.uv_max.y - d.uv_min.y))};
+NativeSize nativeOf(const Triangle& t, std::span<const NativeSize> native) {
+    return t.texture >= 0 && static_cast<size_t>(t.texture) < native.size() ? native[static_cast<size_t>(t.texture)]
+                                                                            : NativeSize{};
 }
 
-bool isCritical(const Triangle& t, double f, int atlas_size, int border) {
+// Texels the triangle alone needs along u and v at F pixels per metre, border
+// excluded, and at most its texture's own texels over its uv box.
+std::pair<double, double> contentTexels(const TexelDensity& d, double f, NativeSize n = {}) {
+    if (d.kind == TexelDensity::Kind::SingleColour) return {1.0, 1.0};
+    const double du = d.uv_max.x - d.uv_min.x, dv = d.uv_max.y - d.uv_min.y;
+    double w = d.s_world * f * du, h = d.t_world * f * dv;
+    if (n.w > 0) w = std::min(w, n.w * du + 2.0);  // capped: whole texels, up to one more at each end
+    if (n.h > 0) h = std::min(h, n.h * dv + 2.0);
+    return {std::max(1.0, w), std::max(1.0, h)};
+}
+
+bool isCritical(const Triangle& t, double f, int atlas_size, int border, std::span<const NativeSize> native) {
     if (t.texture < 0) return false;
-    const auto [w, h] = contentTexels(texelDensity(t), f);
+    const auto [w, h] = contentTexels(texelDensity(t), f, nativeOf(t, native));
     return w + 2.0 * border > atlas_size || h + 2.0 * border > atlas_size;
 }
 
 // Splits at the midpoint of the edge whose texel extent is largest, until
 // every piece fits. The density is the same affine map for every piece, so
 // each halving shrinks the pieces' texel boxes and the recursion ends.
-void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, int depth, std::vector<Triangle>& out) {
-    if (depth >= 60 || !isCritical(t, f, atlas_size, border)) {
+void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, std::span<const NativeSize> native,
+                    int depth, std::vector<Triangle>& out) {
+    if (depth >= 60 || !isCritical(t, f, atlas_size, border, native)) {
         out.push_back(t);
         return;
     }
@@ -114,32 +171,43 @@ void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, int
     Triangle first = t, second = t;  // (a, m, third) and (m, b, third): orientation kept
     first.position_local[b] = pm, first.uv[b] = tm;
     second.position_local[a] = pm, second.uv[a] = tm;
-    splitUntilFits(first, f, atlas_size, border, depth + 1, out);
-    splitUntilFits(second, f, atlas_size, border, depth + 1, out);
+    splitUntilFits(first, f, atlas_size, border, native, depth + 1, out);
+    splitUntilFits(second, f, atlas_size, border, native, depth + 1, out);
 }
 
 }  // namespace
 
 CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
                                         double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
-                                        int border, double critical_fraction) {
+                                        int border, double critical_fraction, std::span<const NativeSize> native) {
     CriticalResult r;
     r.d_min_used_m = d_min_requested_m;
     // The distance from which each triangle stops being critical: its content
     // is inversely proportional to d_min, the border is not.
     const double room = atlas_size - 2.0 * border;
     std::vector<double> fits_from;
+    std::vector<std::pair<double, double>> overshoot_cap;  // (fits_from, largest capped content / room)
     uint64_t textured = 0;
     for (const Triangle& t : triangles) {
         if (t.texture < 0) continue;
         ++textured;
-        const auto [w, h] = contentTexels(texelDensity(t), pixels_per_metre_at_1m / d_min_requested_m);
-        const double worst = std::max(w, h);
-        if (worst > room) fits_from.push_back(d_min_requested_m * worst / room);
+        const TexelDensity d = texelDensity(t);
+        const double f = pixels_per_metre_at_1m / d_min_requested_m;
+        const auto [w, h] = contentTexels(d, f, nativeOf(t, native));
+        if (std::max(w, h) <= room) continue;
+        // An axis too large even capped fits once the resolution d_min asks for does.
+        const auto [w0, h0] = contentTexels(d, f);
+        fits_from.push_back(d_min_requested_m * std::max(w > room ? w0 : 0.0, h > room ? h0 : 0.0) / room);
+        // At its texture's own resolution a capped axis stops growing with 1/d.
+        const NativeSize n = nativeOf(t, native);
+        const double cap_w = n.w > 0 ? n.w * (d.uv_max.x - d.uv_min.x) + 2.0 : 1e300;
+        const double cap_h = n.h > 0 ? n.h * (d.uv_max.y - d.uv_min.y) + 2.0 : 1e300;
+        overshoot_cap.emplace_back(fits_from.back(), std::max(w > room ? cap_w : 0.0, h > room ? cap_h : 0.0) / room);
     }
     r.critical_at_requested = fits_from.size();
     const auto allowed = static_cast<uint64_t>(std::floor(critical_fraction * static_cast<double>(textured)));
     std::sort(fits_from.begin(), fits_from.end(), std::greater<>());
+    std::sort(overshoot_cap.begin(), overshoot_cap.end(), std::greater<>());
     if (fits_from.size() > allowed) {
         // Keep exactly `allowed` critical: d_min becomes the (allowed+1)-th largest distance.
         r.d_min_used_m = fits_from[allowed] * (1.0 + 1e-12);
@@ -150,14 +218,14 @@ CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::v
     // until it would not. The thesis' alternative for such scenes.
     auto pieces = [&](double d) {
         double n = 0;
-        for (double from : fits_from) {
+        for (const auto& [from, capped] : overshoot_cap) {
             if (from <= d) break;
             // Halving stops once a piece fits, so pieces keep about a quarter
             // of the room's area or more: some 4 per room-sized cell of the
             // triangle's box, whose side is `overshoot` rooms (4.5 covers the
             // most measured, a 1 km triangle 70 rooms long: 21,043 pieces),
             // and 2 for one that barely overshoots.
-            const double overshoot = from / d;
+            const double overshoot = std::min(from / d, capped);
             n += 2.0 + 4.5 * overshoot * overshoot;
         }
         return n;
@@ -179,9 +247,9 @@ CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::v
     out_sources.reserve(triangles.size());
     for (size_t i = 0; i < triangles.size(); ++i) {
         const size_t before = out.size();
-        if (isCritical(triangles[i], f, atlas_size, border)) {
+        if (isCritical(triangles[i], f, atlas_size, border, native)) {
             ++r.critical_after_enlarge;
-            splitUntilFits(triangles[i], f, atlas_size, border, 0, out);
+            splitUntilFits(triangles[i], f, atlas_size, border, native, 0, out);
             ++r.triangles_split;
             r.triangles_added += out.size() - before - 1;
         } else {

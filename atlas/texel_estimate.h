@@ -28,15 +28,37 @@ struct TexelDensity {
 /// stretch of the longest uv edge for both axes.
 TexelDensity texelDensity(const Triangle& t);
 
+/// The texture's own size in texels, per axis; 0 where unknown (no cap).
+struct NativeSize {
+    int w = 0, h = 0;
+};
+
 /// A packed region's size for a texture at `texels_per_u` / `texels_per_v`
-/// over the uv box, with a border of `border` texels of real content on every
-/// side: content at least one texel, the total rounded up to whole 4 x 4
+/// over the uv box, with a border of real content on every side (borderFor:
+/// at most `border` texels): content at least one texel, the total rounded up to whole 4 x 4
 /// S3TC blocks (the rounding widens the content, never lowers its resolution).
+/// The resolution cap: an axis that would hold more texels per unit than the
+/// texture has (`native`) holds exactly the texture's texels instead, its box
+/// moved onto texel boundaries so the region is a copy of them; the block
+/// rounding then widens the border, never the resolution.
 struct RegionSize {
     int w = 0, h = 0;        ///< texels, multiples of 4
     Vec2d uv_min, uv_max;    ///< the uv box grown so the border maps to real texture content
+    bool native_u = false, native_v = false;  ///< capped: one texel per texture texel
+    double density_u = 0, density_v = 0;      ///< texels per unit of u / v as stored
+    double content_w = 0, content_h = 0;      ///< texels the uv box needs at that density (before rounding)
+    int border_u = 0, border_v = 0;           ///< border texels on each side along u / v (borderFor)
 };
-RegionSize regionSize(double texels_per_u, double texels_per_v, Vec2d uv_min, Vec2d uv_max, int border);
+
+/// The border a region gets along an axis with `content_texels` of content:
+/// `max_border` (the --border option), but no more than a quarter of the
+/// content (at least one texel). A border protects a region's edge from its
+/// neighbours through mip levels; once a level holds a region in a few
+/// texels, it shows a few pixels of it and a wider border buys nothing,
+/// while tiny regions (one colour, small texture patches) would be mostly border.
+int borderFor(double content_texels, int max_border);
+RegionSize regionSize(double texels_per_u, double texels_per_v, Vec2d uv_min, Vec2d uv_max, int border,
+                      NativeSize native = {});
 
 /// Critical triangles (papers/000 §4.5.3): a triangle whose own region cannot
 /// fit into one atlas. When more than `critical_fraction` of the textured
@@ -54,9 +76,12 @@ struct CriticalResult {
 };
 /// `pixels_per_metre_at_1m`: ProjectionBound::pixelsPerMetreAt1m(). Replaces
 /// `triangles` by the split set; `sources` gets each output triangle's index
-/// in the input.
+/// in the input. `native` (per scene texture, may be empty) caps a triangle's
+/// content at its texture's own resolution: a triangle that fits at that
+/// resolution is never critical.
 CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
                                         double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
-                                        int border, double critical_fraction);
+                                        int border, double critical_fraction,
+                                        std::span<const NativeSize> native = {});
 
 }  // namespace cityatlas::atlas

@@ -11,13 +11,19 @@
 
 #include <fmt/format.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
 
 #include "atlas/atlas_images.h"
 #include "atlas/atlas_tree.h"
+#include "atlas/charts.h"
+#include "atlas/default_dmin.h"
+#include "atlas/placement.h"
 #include "atlas/subdivide.h"
+#include "atlas/texel_budget.h"
 #include "atlas/texel_estimate.h"
+#include "atlas/texture_economy.h"
 
 namespace cityatlas::atlas {
 
@@ -37,66 +43,21 @@ Layer layerOf(const Triangle& t, const Scene& scene) {
     return Layer::Opaque;
 }
 
-struct TexelDensityBox {
-    Vec2d lo, hi;
-};
-
 // What the packer needs per triangle, computed once.
 struct TriangleInfo {
     TexelDensity density;
     Layer layer = Layer::Opaque;
+    Vec3d uv_centre;          // (u, v, 0): where it lies in its texture
+    double texel_area = 0;    // its uv area in texels of its texture
 };
 
 struct LayerPack {
     std::vector<PackedRegion> regions;
     std::vector<uint32_t> region_of;  // per triangle of the node (in `ids` order); kNoRegion when not in this layer
     uint64_t packed_texels = 0;
+    BinSize size;                     // the leaf atlas, once shrunk
 };
 constexpr uint32_t kNoRegion = UINT32_MAX;
-
-bool overlaps1d(double alo, double ahi, double blo, double bhi) {
-    const double lo = std::max(alo, blo), hi = std::min(ahi, bhi);
-    return hi > lo || (hi == lo && (alo == ahi || blo == bhi));
-}
-
-// Charts: the triangles of one texture whose uv boxes overlap, transitively.
-// Each chart becomes its own region, so the two opposite walls of a building
-// sharing a wrapped facade texture do not pay for the walls between them in
-// texture space (the papers take one box per texture and node). Charts may
-// overlap in uv (a chart's box is the union of its members'), which only
-// duplicates texels; every triangle's uv box lies inside its chart's region.
-std::vector<uint32_t> uvCharts(const std::vector<uint32_t>& members, const std::vector<TexelDensityBox>& box) {
-    std::vector<uint32_t> parent(members.size());
-    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = k;
-    auto find = [&](uint32_t k) {
-        while (parent[k] != k) k = parent[k] = parent[parent[k]];
-        return k;
-    };
-    std::vector<uint32_t> order(members.size());
-    for (uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-        const double ua = box[members[a]].lo.x, ub = box[members[b]].lo.x;
-        return ua != ub ? ua < ub : a < b;
-    });
-    std::vector<uint32_t> active;
-    for (uint32_t k : order) {
-        const TexelDensityBox& bk = box[members[k]];
-        size_t kept = 0;
-        for (uint32_t j : active) {
-            const TexelDensityBox& bj = box[members[j]];
-            if (bj.hi.x < bk.lo.x) continue;  // ends before this one starts: never overlaps a later one either
-            active[kept++] = j;
-            if (overlaps1d(bj.lo.x, bj.hi.x, bk.lo.x, bk.hi.x) && overlaps1d(bj.lo.y, bj.hi.y, bk.lo.y, bk.hi.y)) {
-                const uint32_t a = find(j), b = find(k);
-                if (a != b) parent[std::max(a, b)] = std::min(a, b);
-            }
-        }
-        active.resize(kept);
-        active.push_back(k);
-    }
-    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = find(k);
-    return parent;  // chart id = smallest member position
-}
 
 struct BuildNode {
     std::vector<uint32_t> ids;  // leaves only, once built
@@ -109,20 +70,21 @@ struct BuildNode {
 class StructureBuilder {
 public:
     StructureBuilder(const std::vector<Triangle>& tris, const std::vector<TriangleInfo>& info,
-                     const std::vector<double>& weight, const AtlasParams& params, double f)
-        : tris_(tris), info_(info), weight_(weight), params_(params), f_(f) {}
+                     const std::vector<double>& weight, const AtlasParams& params, double ppm, double d_min,
+                     const std::vector<NativeSize>& native, const std::vector<uint8_t>& promote)
+        : tris_(tris), info_(info), weight_(weight), params_(params), ppm_(ppm), d_min_(d_min), native_(native),
+          promote_(promote) {}
 
     // Area-balanced cuts can peel off one triangle per level when areas fall
     // geometrically (a fan of slivers); from this level on, cuts balance
     // counts, which bounds the depth by about log4(n) more levels.
     static constexpr int kCountBalancedFromLevel = 16;
-    // Node offsets are 32-bit; a node this deep is made a leaf, its regions scaled down to fit.
+    // Offsets double per level in 64-bit texels; a node this deep is made a leaf, its regions scaled down to fit.
     static constexpr int kMaxLevel = 31;
 
     void build(BuildNode& node, std::vector<uint32_t> ids, int level) {
         if (tryPack(node, ids, 1.0)) {
-            node.leaf = true;
-            node.ids = std::move(ids);
+            makeLeaf(node, std::move(ids), 0);
             return;
         }
         if (ids.size() < 2 || level >= kMaxLevel) {
@@ -132,12 +94,10 @@ public:
             double shrink = 1.0;
             while (!tryPack(node, ids, shrink *= 0.8) && shrink > 1e-9) {
             }
-            node.leaf = true;
-            node.forced_shrink = shrink;
-            node.ids = std::move(ids);
+            makeLeaf(node, std::move(ids), shrink);
             return;
         }
-        auto groups = splitIntoFour(ids, tris_, level >= kCountBalancedFromLevel ? std::span<const double>() : weight_);
+        auto groups = split(ids, level);
         std::vector<uint32_t>().swap(ids);
         tbb::task_group g;
         for (int q = 0; q < 4; ++q) {
@@ -149,11 +109,135 @@ public:
     }
 
 private:
-    // Regions per texture (papers/000 §4.5.2): the largest density of its
-    // triangles in this node over the union of their uv boxes.
+    // Area-balanced median cuts (papers/000 §4.5.3), with two refinements.
+    // Units, not triangles, are cut: the triangles of one chart of one feature
+    // (one texture, overlapping uv boxes, e.g. the two triangles of a textured
+    // quad) stay together, since a chart cut in two costs its whole uv box in both
+    // children. And a node whose textured area is mostly one texture is cut in
+    // that texture's own space: its charts go to children as contiguous
+    // pieces of the texture, which merge into few regions (a building's
+    // texture atlas, a facade wrapped around its walls), instead of scattered
+    // pieces that each pay a border. The other units join the piece nearest
+    // to them. Only a texture of one feature counts: a texture shared by many
+    // buildings says nothing about where they are.
+    std::array<std::vector<uint32_t>, 4> split(const std::vector<uint32_t>& ids, int level) const {
+        const bool by_count = level >= kCountBalancedFromLevel;
+        const std::span<const double> weight = by_count ? std::span<const double>() : std::span<const double>(weight_);
+        struct Unit {
+            std::vector<uint32_t> ids;
+            int32_t texture = -1;
+            Vec3d world, uv;
+            double weight = 0, texels = 0;
+        };
+        std::vector<Unit> units;
+        std::map<int32_t, std::vector<uint32_t>> by_texture;
+        for (uint32_t i : ids) {
+            if (tris_[i].texture >= 0) {
+                by_texture[tris_[i].texture].push_back(i);
+            } else {
+                units.push_back({{i}, -1, {}, {}, 0, 0});
+            }
+        }
+        std::map<int32_t, double> texture_weight;
+        double total = 0;
+        for (const auto& [texture, members] : by_texture) {
+            std::vector<ChartMember> m(members.size());
+            for (size_t k = 0; k < members.size(); ++k) {
+                const TexelDensity& d = info_[members[k]].density;
+                m[k] = {d.uv_min, d.uv_max, 0, 0};
+            }
+            const std::vector<uint32_t> chart = uvCharts(m);
+            // A chart of one feature: a repeating texture shared by many
+            // buildings (paving on roofs) overlaps in uv across all of them,
+            // and those must stay free to go their own ways.
+            std::map<std::pair<uint32_t, uint32_t>, size_t> unit_of;
+            for (size_t k = 0; k < members.size(); ++k) {
+                auto [it, fresh] = unit_of.emplace(std::pair{chart[k], tris_[members[k]].feature}, units.size());
+                if (fresh) units.push_back({{}, texture, {}, {}, 0, 0});
+                units[it->second].ids.push_back(members[k]);
+            }
+            for (uint32_t i : members) texture_weight[texture] += weight_[i], total += weight_[i];
+        }
+        if (units.size() < 2) return splitIntoFour(ids, tris_, weight);
+        for (Unit& u : units) {
+            double w = 0;
+            for (uint32_t i : u.ids) {
+                const Triangle& t = tris_[i];
+                const Vec3d c = (1.0 / 3.0) * (t.position_local[0] + t.position_local[1] + t.position_local[2]);
+                const double wi = weight_[i] > 0 ? weight_[i] : 1e-300;
+                u.world = u.world + wi * c, u.uv = u.uv + wi * info_[i].uv_centre, w += wi;
+                u.weight += weight_[i], u.texels += texel_area_[i];
+            }
+            u.world = (1.0 / w) * u.world, u.uv = (1.0 / w) * u.uv;
+        }
+        // Texture space says where things are only within one object: a
+        // texture shared by many buildings (paving) is never cut in its space.
+        int32_t dominant = -1;
+        for (const auto& [t, w] : texture_weight)
+            if (total > 0 && w >= kDominantShare * total) dominant = t;
+        if (dominant >= 0) {
+            const uint32_t feature = tris_[by_texture[dominant].front()].feature;
+            for (uint32_t i : by_texture[dominant])
+                if (tris_[i].feature != feature) dominant = -1;
+        }
+        std::vector<uint32_t> mine, rest;  // unit indices
+        for (uint32_t k = 0; k < units.size(); ++k) (dominant >= 0 && units[k].texture == dominant ? mine : rest).push_back(k);
+        if (mine.size() < 2) {
+            rest.insert(rest.end(), mine.begin(), mine.end());
+            std::sort(rest.begin(), rest.end());
+            mine.clear();
+        }
+        std::vector<Vec3d> world(units.size()), uv(units.size());
+        std::vector<double> w(units.size()), texels(units.size());
+        for (size_t k = 0; k < units.size(); ++k)
+            world[k] = units[k].world, uv[k] = units[k].uv, w[k] = units[k].weight, texels[k] = units[k].texels;
+        auto weights = [&](const std::vector<double>& v) { return by_count ? std::span<const double>() : std::span<const double>(v); };
+        std::array<std::vector<uint32_t>, 4> unit_groups;
+        if (mine.empty()) {
+            unit_groups = splitIntoFourAt(rest, world, weights(w));
+        } else {
+            // The other units join the piece of the texture nearest to them in
+            // the world, so no child spans more than the node does.
+            unit_groups = splitIntoFourAt(mine, uv, weights(texels));
+            std::array<Vec3d, 4> centre{};
+            for (int q = 0; q < 4; ++q) {
+                double sw = 0;
+                for (uint32_t k : unit_groups[q]) centre[q] = centre[q] + (units[k].weight + 1e-300) * units[k].world, sw += units[k].weight + 1e-300;
+                if (sw > 0) centre[q] = (1.0 / sw) * centre[q];
+            }
+            for (uint32_t k : rest) {
+                int best = -1;
+                double best_d = 1e300;
+                for (int q = 0; q < 4; ++q) {
+                    if (unit_groups[q].empty()) continue;
+                    const double d = length(units[k].world - centre[q]);
+                    if (d < best_d) best_d = d, best = q;
+                }
+                unit_groups[best].push_back(k);
+            }
+        }
+        std::array<std::vector<uint32_t>, 4> groups;
+        for (int q = 0; q < 4; ++q) {
+            for (uint32_t k : unit_groups[q]) groups[q].insert(groups[q].end(), units[k].ids.begin(), units[k].ids.end());
+            std::sort(groups[q].begin(), groups[q].end());
+        }
+        return groups;
+    }
+    static constexpr double kDominantShare = 0.75;
+
+    // A leaf's atlases shrink to the smallest size their regions pack into.
+    void makeLeaf(BuildNode& node, std::vector<uint32_t> ids, double shrink) {
+        node.leaf = true;
+        node.forced_shrink = shrink;
+        node.ids = std::move(ids);
+        for (LayerPack& pack : node.packs)
+            if (!pack.regions.empty()) pack.size = shrinkLeafAtlas(params_.packing, params_.atlas_size_px, pack.regions);
+    }
+
+    // Regions per texture (papers/000 §4.5.2, charts.h): the largest density
+    // of its triangles in this node, capped at the texture's resolution.
     // `shrink` < 1 lowers every region's content resolution (forced leaves only).
     bool tryPack(BuildNode& node, const std::vector<uint32_t>& ids, double shrink) {
-        const bool clamp = shrink < 1.0;  // forced leaf: no region larger than the atlas
         const int a = params_.atlas_size_px, blocks = a / 4;
         const uint64_t capacity = static_cast<uint64_t>(a) * a;
         for (int l = 0; l < kLayerCount; ++l) {
@@ -167,35 +251,31 @@ private:
             std::vector<PackItem> items;
             uint64_t area = 0;
             for (const auto& [texture, positions] : by_texture) {
-                std::vector<uint32_t> members(positions.size());
-                for (size_t k = 0; k < positions.size(); ++k) members[k] = ids[positions[k]];
-                const std::vector<uint32_t> chart = uvCharts(members, boxes_);
-                // Per chart: the largest density of its triangles over the union of their uv boxes (papers/000 §4.5.2).
-                std::map<uint32_t, uint32_t> region_of_chart;
-                struct Acc {
-                    double per_u = 0, per_v = 0;
-                    Vec2d lo{1e300, 1e300}, hi{-1e300, -1e300};
-                };
-                std::vector<Acc> acc;
-                for (size_t k = 0; k < members.size(); ++k) {
-                    auto [it, fresh] = region_of_chart.emplace(chart[k], static_cast<uint32_t>(acc.size()));
-                    if (fresh) acc.emplace_back();
-                    Acc& c = acc[it->second];
-                    const TexelDensity& d = info_[members[k]].density;
-                    c.per_u = std::max(c.per_u, d.s_world * f_);
-                    c.per_v = std::max(c.per_v, d.t_world * f_);
-                    c.lo = {std::min(c.lo.x, d.uv_min.x), std::min(c.lo.y, d.uv_min.y)};
-                    c.hi = {std::max(c.hi.x, d.uv_max.x), std::max(c.hi.y, d.uv_max.y)};
-                    pack.region_of[positions[k]] = static_cast<uint32_t>(pack.regions.size()) + it->second;
+                std::vector<ChartMember> members(positions.size());
+                for (size_t k = 0; k < positions.size(); ++k) {
+                    const TexelDensity& d = info_[ids[positions[k]]].density;
+                    members[k] = {d.uv_min, d.uv_max, d.s_world * ppm_, d.t_world * ppm_};
                 }
-                for (const Acc& c : acc) {
-                    RegionSize rs = regionSize(c.per_u * shrink, c.per_v * shrink, c.lo, c.hi, params_.border_px);
-                    if (clamp) rs.w = std::min(rs.w, a), rs.h = std::min(rs.h, a);
+                ChartSettings cs;
+                cs.d_min_m = d_min_, cs.shrink = shrink, cs.border_px = params_.border_px, cs.atlas_size_px = a;
+                cs.native = static_cast<size_t>(texture) < native_.size() ? native_[static_cast<size_t>(texture)] : NativeSize{};
+                cs.promote = static_cast<size_t>(texture) < promote_.size() && promote_[static_cast<size_t>(texture)];
+                const TextureRegions planned = planTextureRegions(members, cs);
+                const auto first = static_cast<uint32_t>(pack.regions.size());
+                for (size_t k = 0; k < positions.size(); ++k) pack.region_of[positions[k]] = first + planned.region_of[k];
+                for (const PlannedRegion& p : planned.regions) {
                     PackedRegion r;
-                    r.texture = texture, r.w = rs.w, r.h = rs.h, r.uv_min = rs.uv_min, r.uv_max = rs.uv_max;
+                    r.texture = texture, r.w = p.size.w, r.h = p.size.h;
+                    r.uv_min = p.size.uv_min, r.uv_max = p.size.uv_max;
+                    r.native_u = p.size.native_u, r.native_v = p.size.native_v;
+                    r.single_colour = p.single_colour;
+                    r.sharp_from_m = sharpFrom(p);
+                    r.content_uv_min = p.uv_min, r.content_uv_max = p.uv_max;
+                    r.content_w = p.size.content_w, r.content_h = p.size.content_h;
+                    r.border_u = p.size.border_u, r.border_v = p.size.border_v;
                     pack.regions.push_back(r);
-                    items.push_back({rs.w / 4, rs.h / 4});
-                    area += static_cast<uint64_t>(rs.w) * rs.h;
+                    items.push_back({r.w / 4, r.h / 4});
+                    area += static_cast<uint64_t>(r.w) * r.h;
                 }
                 if (area > capacity) return false;  // cannot pack: skip the rest of the work
             }
@@ -214,14 +294,21 @@ private:
 
     const std::vector<Triangle>& tris_;
     const std::vector<TriangleInfo>& info_;
-    std::vector<TexelDensityBox> boxes_ = [this] {
-        std::vector<TexelDensityBox> b(info_.size());
-        for (size_t i = 0; i < b.size(); ++i) b[i] = {info_[i].density.uv_min, info_[i].density.uv_max};
-        return b;
-    }();
     const std::vector<double>& weight_;
     const AtlasParams& params_;
-    double f_;
+    double ppm_, d_min_;
+    const std::vector<NativeSize>& native_;
+    const std::vector<uint8_t>& promote_;
+    std::vector<Vec3d> uv_centres_ = [this] {
+        std::vector<Vec3d> c(info_.size());
+        for (size_t i = 0; i < c.size(); ++i) c[i] = info_[i].uv_centre;
+        return c;
+    }();
+    std::vector<double> texel_area_ = [this] {
+        std::vector<double> a(info_.size());
+        for (size_t i = 0; i < a.size(); ++i) a[i] = info_[i].texel_area;
+        return a;
+    }();
 };
 
 struct Flattener {
@@ -233,20 +320,19 @@ struct Flattener {
     uint64_t forced = 0;
     double smallest_shrink = 1.0;
 
-    int32_t visit(const BuildNode& b, int32_t parent, int level, std::array<uint32_t, 2> offset) {
+    int32_t visit(const BuildNode& b, int32_t parent, int level) {
         const auto id = static_cast<int32_t>(tree.nodes.size());
         tree.nodes.emplace_back();
         build_of.push_back(&b);
         {
             AtlasNode& n = tree.nodes.back();
-            n.parent = parent, n.level = level, n.offset = offset;
+            n.parent = parent, n.level = level;
         }
         tree.stats.depth = std::max(tree.stats.depth, level);
         if (b.forced_shrink > 0) ++forced, smallest_shrink = std::min(smallest_shrink, b.forced_shrink);
         for (int q = 0; q < 4; ++q) {
             if (!b.kids[q]) continue;
-            const std::array<uint32_t, 2> child_offset{2 * offset[0] + (q & 1), 2 * offset[1] + (q >> 1)};
-            const int32_t c = visit(*b.kids[q], id, level + 1, child_offset);
+            const int32_t c = visit(*b.kids[q], id, level + 1);
             tree.nodes[id].children[q] = c;
         }
         return id;
@@ -254,6 +340,7 @@ struct Flattener {
 
     // Appends each leaf's triangles of `layer` in depth-first order (by
     // texture within a leaf) and sets every node's range for that layer.
+    // atlas_uv holds leaf-atlas texels until rootCoordinates() converts them.
     void order(int32_t id, Layer layer) {
         AtlasNode& n = tree.nodes[id];
         NodeLayer& nl = n.layers[static_cast<int>(layer)];
@@ -267,7 +354,6 @@ struct Flattener {
             std::stable_sort(mine.begin(), mine.end(), [&](uint32_t x, uint32_t y) {
                 return tris[b.ids[x]].texture < tris[b.ids[y]].texture;
             });
-            const double a = tree.params.atlas_size_px, scale = std::ldexp(1.0, -n.level);
             for (uint32_t k : mine) {
                 const uint32_t i = b.ids[k];
                 TreeTriangle t;
@@ -278,16 +364,14 @@ struct Flattener {
                 // forced leaves, rather than reading past the region list.
                 const bool has_region = k < pack.region_of.size() && pack.region_of[k] < pack.regions.size();
                 if (t.tri.texture >= 0 && has_region) {
-                    const PackedRegion* r = &pack.regions[pack.region_of[k]];
-                    for (int c = 0; c < 3; ++c) {
-                        const Vec2d texel = r->toAtlasTexels(t.tri.uv[c]);
-                        t.atlas_uv[c] = {(texel.x / a + n.offset[0]) * scale, (texel.y / a + n.offset[1]) * scale};
-                    }
+                    const PackedRegion& r = pack.regions[pack.region_of[k]];
+                    for (int c = 0; c < 3; ++c) t.atlas_uv[c] = r.toAtlasTexels(t.tri.uv[c]);
                 }
                 tree.triangles.push_back(t);
             }
             nl.regions = pack.regions;
             nl.packed_texels = pack.packed_texels;
+            if (!pack.regions.empty()) nl.width = pack.size.w, nl.height = pack.size.h;
         } else {
             for (int32_t c : n.children)
                 if (c >= 0) order(c, layer);
@@ -296,15 +380,40 @@ struct Flattener {
             static_cast<uint32_t>(tree.triangles.size()) - tree.nodes[id].layers[static_cast<int>(layer)].range.first;
     }
 
-    // Bounds and minDistance bottom-up (papers/000 §4.5.1: 2 x the largest child).
+    // Leaf texels -> root-atlas coordinates, once every offset is known:
+    // root = (texel + offset) / (A * 2^level), exact up to the sum's rounding.
+    void rootCoordinates() {
+        const double a = tree.params.atlas_size_px;
+        for (const AtlasNode& n : tree.nodes) {
+            if (!n.leaf()) continue;
+            const double scale = std::ldexp(1.0 / a, -n.level);
+            for (int l = 0; l < kLayerCount; ++l) {
+                const NodeLayer& nl = n.layers[l];
+                for (uint32_t i = nl.range.first; i < nl.range.first + nl.range.count; ++i) {
+                    TreeTriangle& t = tree.triangles[i];
+                    if (t.tri.texture < 0) continue;
+                    for (Vec2d& uv : t.atlas_uv)
+                        uv = {(uv.x + static_cast<double>(nl.offset[0])) * scale,
+                              (uv.y + static_cast<double>(nl.offset[1])) * scale};
+                }
+            }
+        }
+    }
+
+    // Bounds and distances bottom-up. A leaf serves from d_min (its capped
+    // regions are exact); its parent holds them halved, so it serves from
+    // twice the largest child distance at which every child texel is at most a
+    // pixel (papers/000 §4.5.1's 2 x the largest child, without caps).
     void finish(int32_t id, double d_min) {
         AtlasNode& n = tree.nodes[id];
         if (n.leaf()) {
             n.min_distance_m = d_min;
+            n.sharp_from_m = d_min;
             for (int l = 0; l < kLayerCount; ++l) {
                 const TriangleRange& r = n.layers[l].range;
                 for (uint32_t i = r.first; i < r.first + r.count; ++i)
                     for (const Vec3d& p : tree.triangles[i].tri.position_local) n.bounds.extend(p);
+                for (const PackedRegion& g : n.layers[l].regions) n.sharp_from_m = std::max(n.sharp_from_m, g.sharp_from_m);
             }
             return;
         }
@@ -313,10 +422,24 @@ struct Flattener {
             if (c < 0) continue;
             finish(c, d_min);
             const AtlasNode& k = tree.nodes[c];
-            worst = std::max(worst, k.min_distance_m);
+            worst = std::max(worst, k.sharp_from_m);
             if (!k.bounds.empty()) n.bounds.extend(k.bounds.min), n.bounds.extend(k.bounds.max);
         }
         n.min_distance_m = 2.0 * worst;
+        n.sharp_from_m = n.min_distance_m;
+    }
+
+    // The textures each leaf needs as originals: those with a region below
+    // their own resolution.
+    void originals() {
+        for (AtlasNode& n : tree.nodes) {
+            if (!n.leaf()) continue;
+            for (const NodeLayer& nl : n.layers)
+                for (const PackedRegion& r : nl.regions)
+                    if (!r.exact()) n.originals.push_back(r.texture);
+            std::sort(n.originals.begin(), n.originals.end());
+            n.originals.erase(std::unique(n.originals.begin(), n.originals.end()), n.originals.end());
+        }
     }
 };
 
@@ -340,15 +463,25 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     const int threads = params.threads > 0 ? params.threads : static_cast<int>(tbb::info::default_concurrency());
     tbb::task_arena arena(threads);
 
-    // d_min: given, or the papers' fraction of the scene diagonal.
+    // d_min: given, chosen from the data, or the papers' fraction of the scene diagonal.
     Box3d box;
     for (const Triangle& t : scene.triangles)
         for (const Vec3d& p : t.position_local) box.extend(p);
     stats.scene_diagonal_m = length(box.max - box.min);
-    stats.d_min_requested_m = params.d_min_m ? *params.d_min_m : stats.scene_diagonal_m * params.d_min_diagonal_fraction;
+    const double ppm = tree->projection.pixelsPerMetreAt1m();
+    const std::vector<NativeSize> native = nativeSizes(scene);
+    if (params.d_min_m) {
+        stats.d_min_requested_m = *params.d_min_m;
+        stats.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
+    } else if (params.d_min_from_data) {
+        arena.execute([&] { stats.d_min_choice = chooseDefaultDmin(scene, params, tree->projection, &stats.d_min_requested_m); });
+    } else {
+        stats.d_min_requested_m = stats.scene_diagonal_m * params.d_min_diagonal_fraction;
+        stats.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", stats.scene_diagonal_m,
+                                                              1.0 / params.d_min_diagonal_fraction), 0, 0, {}};
+    }
     if (!(stats.d_min_requested_m > 0))
         return Status::Fail("the scene has zero extent: give --d-min in metres");
-    const double ppm = tree->projection.pixelsPerMetreAt1m();
 
     // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
     // exactly its original resolution on its more demanding axis.
@@ -378,15 +511,13 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     std::vector<uint32_t> sources;
     const CriticalResult critical =
         resolveCriticalTriangles(tris, sources, stats.d_min_requested_m, ppm, params.atlas_size_px, params.border_px,
-                                 params.critical_fraction);
+                                 params.critical_fraction, native);
     stats.d_min_used_m = critical.d_min_used_m;
     stats.critical_triangles = critical.critical_at_requested;
     stats.critical_after_enlarge = critical.critical_after_enlarge;
     stats.enlarged_for_split_budget = critical.enlarged_for_split_budget;
     stats.triangles_split = critical.triangles_split;
     stats.triangles_added_by_split = critical.triangles_added;
-    const double f = ppm / stats.d_min_used_m;
-    for (double d : native_distance) stats.textures_upsampled += d > stats.d_min_used_m;
 
     std::vector<TriangleInfo> info(tris.size());
     std::vector<double> weight(tris.size());
@@ -398,12 +529,30 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
                 for (size_t i = begin; i < std::min(tris.size(), begin + chunk); ++i) {
                     info[i].density = texelDensity(tris[i]);
                     info[i].layer = layerOf(tris[i], scene);
+                    const Triangle& t = tris[i];
+                    if (t.texture >= 0) {
+                        info[i].uv_centre = {(t.uv[0].x + t.uv[1].x + t.uv[2].x) / 3, (t.uv[0].y + t.uv[1].y + t.uv[2].y) / 3, 0};
+                        const double uv_area = 0.5 * std::abs((t.uv[1].x - t.uv[0].x) * (t.uv[2].y - t.uv[0].y) -
+                                                              (t.uv[2].x - t.uv[0].x) * (t.uv[1].y - t.uv[0].y));
+                        const NativeSize n = native[static_cast<size_t>(t.texture)];
+                        info[i].texel_area = uv_area * std::max(1, n.w) * std::max(1, n.h);
+                    }
                     // Untextured triangles take no atlas space: they do not weigh in the split.
                     weight[i] = tris[i].texture >= 0 ? triangleArea(tris[i].position_local) : 0.0;
                 }
             });
         g.wait();
     });
+    // Textures whose full resolution costs less than their original (texture_economy.h).
+    std::vector<uint8_t> promote(scene.textures.size(), 0);
+    {
+        const std::vector<TextureModel> models = modelTextures(scene, ppm);
+        arena.execute([&] {
+            tbb::parallel_for(size_t{0}, models.size(), [&](size_t i) {
+                promote[i] = planTexture(models[i], params, stats.d_min_used_m).promoted ? 1 : 0;
+            });
+        });
+    }
     step("estimate");
     if (progress) progress("splitting nodes", 0, 0);
 
@@ -411,22 +560,22 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     {
         std::vector<uint32_t> all(tris.size());
         for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
-        StructureBuilder builder(tris, info, weight, params, f);
+        StructureBuilder builder(tris, info, weight, params, ppm, stats.d_min_used_m, native, promote);
         arena.execute([&] { builder.build(root, std::move(all), 0); });
     }
     step("structure");
 
     Flattener flat{*tree, tris, sources, info, {}, 0};
-    flat.visit(root, -1, 0, {0, 0});
+    flat.visit(root, -1, 0);
     tree->triangles.reserve(tris.size());
     flat.order(0, Layer::Opaque);
     flat.order(0, Layer::Alpha);
     flat.finish(0, stats.d_min_used_m);
+    flat.originals();
     stats.nodes = tree->nodes.size();
     // Children are numbered after their parent, so a reverse sweep sees every
     // child's atlas before its parent asks for it. A layer with only
     // untextured triangles needs no image, nor do ancestors without a textured child.
-    const uint64_t atlas_texels = static_cast<uint64_t>(params.atlas_size_px) * params.atlas_size_px;
     for (size_t id = tree->nodes.size(); id-- > 0;) {
         AtlasNode& n = tree->nodes[id];
         stats.leaves += n.leaf();
@@ -434,13 +583,16 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
             NodeLayer& nl = n.layers[l];
             bool textured = n.leaf() && !nl.regions.empty();
             for (int32_t c : n.children) textured |= c >= 0 && !tree->nodes[c].layers[l].atlas_path.empty();
-            if (nl.range.count == 0 || !textured) continue;
+            if (nl.range.count == 0 || !textured) {
+                nl.width = nl.height = 0;
+                continue;
+            }
             nl.atlas_path = fmt::format("atlas/{}/{}.png", layerName(static_cast<Layer>(l)), id);
-            ++stats.atlases;
-            stats.atlas_texture_bytes += atlas_texels * (l == 0 ? 3 : 4);
-            if (n.leaf()) stats.packed_texels += nl.packed_texels, stats.leaf_atlas_texels += atlas_texels;
         }
     }
+    placeAtlases(*tree);
+    flat.rootCoordinates();
+    accountTexels(scene, *tree);
     if (flat.forced) {
         stats.leaves_below_resolution = flat.forced;
         diagnostics.warn("atlas_resolution_lowered",

@@ -30,18 +30,39 @@ struct AtlasCliOptions {
 
 }  // namespace
 
+std::string dMinSentence(const atlas::AtlasStats& s) {
+    std::string out = fmt::format("d_min {:.1f} m", s.d_min_used_m);
+    if (s.d_min_used_m > s.d_min_requested_m)
+        out += fmt::format(", enlarged from {:.1f} m for critical triangles", s.d_min_requested_m);
+    if (s.d_min_choice.rule == "data") out += fmt::format(" (chosen from the data: {}; --d-min sets it)", s.d_min_choice.reason);
+    else if (s.d_min_choice.rule == "diagonal-fraction") out += fmt::format(" ({})", s.d_min_choice.reason);
+    return out + fmt::format("; scene diagonal {:.1f} m", s.scene_diagonal_m);
+}
+
+std::string textureEconomySentence(const atlas::AtlasStats& s) {
+    const uint64_t used = s.textures_exact + s.textures_needing_originals;
+    return fmt::format("textures: {} of {} held at full resolution by the atlases (no original needed), {} capped at "
+                       "their own resolution; atlases + originals needed = {:.2f}x the originals as BC with mips",
+                       s.textures_exact, used, s.textures_upsampled, s.bytes.ratio());
+}
+
 Status parseAtlasTreeOptions(const AtlasTreeOptions& opt, atlas::AtlasParams* p) {
     *p = opt.params;
     const std::string& d = opt.d_min;
     char* end = nullptr;
-    if (d.rfind("D/", 0) == 0) {
-        const double n = std::strtod(d.c_str() + 2, &end);
-        if (*end || !(n >= 1)) return Status::Fail(fmt::format("--d-min {}: expected metres or D/N with N >= 1", d));
+    if (d == "auto") {
         p->d_min_m.reset();
+        p->d_min_from_data = true;
+    } else if (d.rfind("D/", 0) == 0) {
+        const double n = std::strtod(d.c_str() + 2, &end);
+        if (*end || !(n >= 1)) return Status::Fail(fmt::format("--d-min {}: expected auto, metres or D/N with N >= 1", d));
+        p->d_min_m.reset();
+        p->d_min_from_data = false;
         p->d_min_diagonal_fraction = 1.0 / n;
     } else {
         const double m = std::strtod(d.c_str(), &end);
-        if (*end || end == d.c_str() || !(m > 0)) return Status::Fail(fmt::format("--d-min {}: expected metres or D/N", d));
+        if (*end || end == d.c_str() || !(m > 0))
+            return Status::Fail(fmt::format("--d-min {}: expected auto, metres or D/N", d));
         p->d_min_m = m;
     }
     int w = 0, h = 0;
@@ -122,14 +143,10 @@ int runAtlas(const AtlasCliOptions& opt) {
     progress.finish();
 
     const atlas::AtlasStats& s = tree.stats;
-    std::printf("Atlas tree: %llu nodes (%llu leaves), depth %d, %llu atlases of %d x %d\n",
+    std::printf("Atlas tree: %llu nodes (%llu leaves), depth %d, %llu atlases of at most %d x %d\n",
                 static_cast<unsigned long long>(s.nodes), static_cast<unsigned long long>(s.leaves), s.depth,
                 static_cast<unsigned long long>(s.atlases), params.atlas_size_px, params.atlas_size_px);
-    std::printf("  d_min %.3f m%s (scene diagonal %.1f m)\n", s.d_min_used_m,
-                s.d_min_used_m > s.d_min_requested_m
-                    ? fmt::format(", enlarged from {:.3f} m for critical triangles", s.d_min_requested_m).c_str()
-                    : "",
-                s.scene_diagonal_m);
+    std::printf("  %s\n", dMinSentence(s).c_str());
     std::printf("  critical triangles: %llu at the requested d_min, %llu split into %llu more\n",
                 static_cast<unsigned long long>(s.critical_triangles),
                 static_cast<unsigned long long>(s.triangles_split),
@@ -137,16 +154,13 @@ int runAtlas(const AtlasCliOptions& opt) {
     std::printf("  leaf coverage %.1f %%; texels: originals %s, atlases %s (uncompressed)\n",
                 s.leaf_atlas_texels ? 100.0 * static_cast<double>(s.packed_texels) / s.leaf_atlas_texels : 0.0,
                 humanBytes(s.original_texture_bytes).c_str(), humanBytes(s.atlas_texture_bytes).c_str());
+    std::printf("  %s\n", textureEconomySentence(s).c_str());
     if (diagnostics.total()) {
         std::printf("Warnings: %llu\n", static_cast<unsigned long long>(diagnostics.total()));
         for (const auto& [code, e] : diagnostics.entries())
             std::printf("  %-24s %6llu  e.g. %s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
                         e.examples.front().file.c_str(), e.examples.front().detail.c_str());
     }
-    if (s.textures_upsampled)
-        std::printf("Note: %llu texture(s) are stored in leaf atlases above their original resolution at this d_min "
-                    "(all of them below d_full %.3f m, none above %.3f m); a larger --d-min costs them nothing.\n",
-                    static_cast<unsigned long long>(s.textures_upsampled), s.d_full_m, s.d_first_upsampled_m);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("Output: %s (report: atlas_report.json)\nTime %.2f s, peak memory %s\n", target.string().c_str(),
                 seconds, humanBytes(peakRssBytes()).c_str());
@@ -158,11 +172,15 @@ int runAtlas(const AtlasCliOptions& opt) {
 void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt) {
     auto* g = "Atlas tree";
     cmd->add_option("--d-min", opt->d_min,
-                    "Minimum camera distance for leaf atlases: metres, or D/N for the scene's bounding-box diagonal "
-                    "divided by N (the papers use D/72). Nearer than this, leaves use the original textures. Atlas "
-                    "texels, and build time, grow as 1/d_min^2; d_min grows by itself when too many triangles are "
-                    "critical (see the report)")
-        ->default_val("D/72")
+                    "Minimum camera distance for leaf atlases: auto (chosen from the data: the smallest distance at "
+                    "which atlases plus the originals still needed are estimated at <= 1.8x the original textures as "
+                    "BC, with <= 64 MB of originals within d_min of any camera; printed with the reason), metres, or "
+                    "D/N for the scene's bounding-box diagonal divided by N (the papers use D/72). Nearer than this, "
+                    "leaves draw the originals of textures their atlas holds below full resolution. No atlas holds a "
+                    "texture above its own resolution, so a small d_min costs at most the originals' texels once per "
+                    "repeat; atlas texels grow as 1/d_min^2 until then. d_min grows by itself when too many "
+                    "triangles are critical (see the report)")
+        ->default_val("auto")
         ->group(g);
     cmd->add_option("--atlas-size", opt->params.atlas_size_px, "Atlas size A in texels: a power of two, 64..4096")
         ->default_val(512)

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "atlas/atlas_report.h"
 #include "atlas/atlas_tree.h"
 #include "cityatlas_version.h"
 #include "cli/atlas_options.h"
@@ -35,6 +36,7 @@ struct BuildCliOptions {
     tiles::TilesParams tiles;
     std::string bc_quality = "fast";
     double position_error_mm = 2.0;
+    std::string originals = "needed";
     bool force = false;
     bool overwrite = false;
     bool quiet = false;
@@ -54,16 +56,17 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
                                fmt::format("heights={}/{}", opt.input.default_height_m, opt.input.storey_height_m),
                                "base=" + opt.input.base};
     for (const std::string& m : opt.input.maps) k.push_back("map=" + m);
-    k.push_back(fmt::format("d_min={}/{}", a.d_min_m.value_or(-1.0), a.d_min_diagonal_fraction));
+    k.push_back(fmt::format("d_min={}/{}/{}", a.d_min_m.value_or(-1.0), a.d_min_from_data ? "data" : "fraction",
+                            a.d_min_diagonal_fraction));
     k.push_back(fmt::format("atlas={} border={} screen={}x{} fov={} filter={} packing={} critical={}", a.atlas_size_px,
                             a.border_px, a.screen_width_px, a.screen_height_px, a.vertical_fov_deg,
                             atlas::filterName(a.filter), atlas::packingMethodName(a.packing), a.critical_fraction));
     const tiles::TilesParams& t = opt.tiles;
     k.push_back(fmt::format("position_error={}", t.position_error_target_m));
     k.push_back(fmt::format("writer={} revision={}", kCityAtlasVersion, tiles::kWriterRevision));
-    k.push_back(fmt::format("bits={}/{} speed={} bc={} node_triangles={} feature_block={}", t.draco.position_bits,
-                            t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality), t.node_triangles,
-                            t.feature_block_size));
+    k.push_back(fmt::format("bits={}/{} speed={} bc={} node_triangles={} feature_block={} originals={}",
+                            t.draco.position_bits, t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality),
+                            t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
     return k;
 }
 
@@ -130,6 +133,11 @@ int runBuild(const BuildCliOptions& opt_in) {
         return kExitUsage;
     }
     opt.tiles.bc_quality = *quality;
+    if (opt.originals != "needed" && opt.originals != "all") {
+        std::fprintf(stderr, "cityatlas build: --originals %s: expected needed or all\n", opt.originals.c_str());
+        return kExitUsage;
+    }
+    opt.tiles.all_originals = opt.originals == "all";
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
     opt.tiles.threads = params.threads;
     Progress progress(!opt.quiet);
@@ -250,6 +258,7 @@ int runBuild(const BuildCliOptions& opt_in) {
                         {"atlas_files", ts.atlas_files},
                         {"texture_blocks", ts.texture_blocks},
                         {"textures_written", ts.textures_written},
+                        {"textures_exact", ts.textures_exact},
                         {"textures_unreadable", ts.textures_unreadable},
                         {"feature_tables", ts.feature_tables},
                         {"triangles_written", ts.triangles_written},
@@ -260,7 +269,21 @@ int runBuild(const BuildCliOptions& opt_in) {
                        {"tileset", ts.bytes_tileset},    {"total", total},
                        {"original_textures_uncompressed", as.original_texture_bytes},
                        {"atlases_uncompressed", as.atlas_texture_bytes}};
-    report["d_min"] = {{"requested_m", as.d_min_requested_m}, {"used_m", as.d_min_used_m}};
+    report["d_min"] = {{"requested_m", as.d_min_requested_m},
+                       {"used_m", as.d_min_used_m},
+                       {"chosen_by", as.d_min_choice.rule},
+                       {"reason", as.d_min_choice.reason},
+                       {"estimated_ratio", as.d_min_choice.estimated_ratio},
+                       {"originals_within_d_min_mb", as.d_min_choice.originals_within_m_mb}};
+    // What the folder's textures cost over the data's own (issue: texel economy).
+    report["texture_economy"] = {{"ratio", tiles::textureRatio(ts)},
+                                 {"atlas_bytes", ts.bytes_atlases},
+                                 {"original_block_bytes", ts.bytes_textures},
+                                 {"originals_as_bc_bytes", ts.bytes_originals_bc},
+                                 {"textures_exact", ts.textures_exact},
+                                 {"textures_written", ts.textures_written},
+                                 {"atlas_stage_estimate", atlas::byteBudgetJson(as.bytes)},
+                                 {"texels", atlas::texelBudgetJson(as.texels)}};
     report["coverage"] = {{"leaf_atlases", as.leaf_atlas_texels ? static_cast<double>(as.packed_texels) /
                                                                       static_cast<double>(as.leaf_atlas_texels)
                                                                 : 0.0}};
@@ -292,9 +315,15 @@ int runBuild(const BuildCliOptions& opt_in) {
     std::printf("Built %s: %zu features, %llu nodes (%llu leaves, depth %llu), d_min %.1f m\n", target.string().c_str(),
                 scene.features.size(), static_cast<unsigned long long>(ts.nodes),
                 static_cast<unsigned long long>(ts.leaves), static_cast<unsigned long long>(ts.depth), as.d_min_used_m);
+    std::printf("  %s\n", dMinSentence(as).c_str());
     std::printf("  bytes: geometry %s, atlases %s, original textures %s, features %s (total %s)\n",
                 humanBytes(ts.bytes_geometry).c_str(), humanBytes(ts.bytes_atlases).c_str(),
                 humanBytes(ts.bytes_textures).c_str(), humanBytes(ts.bytes_features).c_str(), humanBytes(total).c_str());
+    std::printf("  textures: %llu of %llu held at full resolution by the atlases (no original written); atlases + "
+                "originals written = %.2fx the originals as BC with mips (%s)\n",
+                static_cast<unsigned long long>(ts.textures_exact),
+                static_cast<unsigned long long>(ts.textures_exact + ts.textures_written + ts.textures_unreadable),
+                tiles::textureRatio(ts), humanBytes(ts.bytes_originals_bc).c_str());
     std::printf("  errors: position <= %.2f mm (%d..%d bits), simplification <= %.3f m (%.0f %% of a texel), atlas BC "
                 "PSNR >= %.1f dB\n",
                 ts.max_position_error_m * 1000.0, ts.position_bits_min, ts.position_bits_max, ts.max_geometric_error_m,
@@ -358,6 +387,12 @@ RunFn addBuildCommand(CLI::App& app) {
                     "S3TC encoder: fast (stb_dxt high quality, parallel) or best (libsquish cluster fit, ~100x slower, "
                     "~0.5 dB better)")
         ->default_val("fast")
+        ->group(g);
+    cmd->add_option("--originals", opt->originals,
+                    "Which original textures to write for near views: needed (those some leaf's atlas holds below "
+                    "their own resolution; the rest the atlases hold exactly) or all (every used texture, listed by "
+                    "every leaf that uses it: for reference renderings and other clients)")
+        ->default_val("needed")
         ->group(g);
     cmd->add_option("--node-triangles", opt->tiles.node_triangles,
                     "Triangle budget per inner node and layer; larger merges are simplified (meshoptimizer) at a "

@@ -35,8 +35,11 @@ void printSummary(const std::string& folder, const tiles::InspectResult& r, doub
     }
     fmt::print("  geometry  {:>10} in {} files\n", humanBytes(r.bytes_geometry), r.geometry_files);
     fmt::print("  atlases   {:>10} in {} files\n", humanBytes(r.bytes_atlases), r.atlas_files);
-    fmt::print("  textures  {:>10} in {} blocks: {} textures ({} not written: unreadable originals)\n",
-               humanBytes(r.bytes_textures), r.texture_blocks, r.textures, r.textures_unreadable);
+    fmt::print("  textures  {:>10} in {} blocks: {} textures ({} held exactly by the atlases, {} unreadable: no "
+               "original written)\n",
+               humanBytes(r.bytes_textures), r.texture_blocks, r.textures, r.textures_exact, r.textures_unreadable);
+    fmt::print("  texture economy: (atlases + textures) / originals as BC with mips ({}) = {:.2f}\n",
+               humanBytes(r.bytes_originals_bc), r.texture_ratio);
     fmt::print("  features  {:>10} in {} tables: {} features\n", humanBytes(r.bytes_features), r.feature_tables,
                r.features);
     fmt::print("  total     {:>10}\n",
@@ -83,9 +86,12 @@ RunFn addInspectCommand(CLI::App& app) {
         "its recorded triangle count, feature ids, the uv sets its node needs and feature, texture and material ids\n"
         "in range; every DDS (atlases and the textures inside texture blocks, which must fill their blocks back to\n"
         "back) must have a DXT1/DXT5 header matching its entry and exactly header + blocks bytes; every feature\n"
-        "table must parse and hold its ids; the tree must be consistent (preorder ids, levels, quadrants and atlas\n"
-        "offsets, children's boxes inside their parent's, min distances at least doubling upwards, geometric errors\n"
-        "and texel sizes as the build parameters give them, totals).\n"
+        "table must parse and hold its ids; the tree must be consistent (preorder ids, levels, quadrants, every\n"
+        "child's halved atlas inside its parent's and apart from its siblings', children's boxes inside their\n"
+        "parent's, a parent's min distance twice its children's largest sharp_from, geometric errors and texel\n"
+        "sizes as the build parameters give them, totals).\n"
+        "The texture economy line: (atlas bytes + original-block bytes) / (every used texture as BC with full\n"
+        "mips), computed from the index's texture table: what the folder's textures cost over the data's own.\n"
         "Output: a summary per level on stdout and \"OK: N files checked, no defects\" (exit 0), or one line per\n"
         "defect on stderr, each starting with the file it concerns, and their count (exit 1). A missing folder or\n"
         "tileset.json is one line, exit 1.");

@@ -273,7 +273,8 @@ struct Layer {
     double geometric_error_m = 0;
     bool has_atlas = false;
     std::string atlas_uri, atlas_format;
-    int64_t atlas_bytes = 0, atlas_size_px = 0, atlas_mips = 0;
+    int64_t atlas_bytes = 0, atlas_w = 0, atlas_h = 0, atlas_mips = 0;
+    std::array<int64_t, 2> atlas_offset{};
 };
 
 struct Node {
@@ -283,8 +284,7 @@ struct Node {
     bool leaf = true;
     bool transform = false;
     int64_t id = -1, level = 0, quadrant = 0, bytes = 0, feature_count = 0;
-    std::array<int64_t, 2> offset{};
-    double min_distance_m = 0, world_texel_m = 0, geometric_error = 0;
+    double min_distance_m = 0, sharp_from_m = 0, world_texel_m = 0, geometric_error = 0;
     Vec3d centre;
     std::array<double, 12> box{};
     std::vector<Layer> layers;
@@ -299,10 +299,8 @@ void readNode(const json& tile, Node& n) {
     n.level = count(ca, "level");
     n.quadrant = integer(ca, "quadrant");
     n.bytes = count(ca, "bytes");
-    const json& offset = arrayOf(ca, "offset");
-    if (offset.size() != 2) throw BadEntry("'offset' has not 2 integers");
-    n.offset = {integerOf(offset[0], "offset"), integerOf(offset[1], "offset")};
     n.min_distance_m = number(ca, "min_distance_m");
+    n.sharp_from_m = number(ca, "sharp_from_m");
     n.world_texel_m = number(ca, "world_texel_m");
     n.geometric_error = number(tile, "geometricError");
     n.transform = tile.contains("transform");
@@ -327,7 +325,11 @@ void readNode(const json& tile, Node& n) {
             l.atlas_uri = text(a, "uri");
             l.atlas_bytes = count(a, "bytes");
             l.atlas_format = text(a, "format");
-            l.atlas_size_px = count(a, "size_px");
+            l.atlas_w = count(a, "width_px");
+            l.atlas_h = count(a, "height_px");
+            const json& offset = arrayOf(a, "offset");
+            if (offset.size() != 2) throw BadEntry("'offset' has not 2 integers");
+            l.atlas_offset = {integerOf(offset[0], "offset"), integerOf(offset[1], "offset")};
             l.atlas_mips = count(a, "mips");
         }
         n.layers.push_back(std::move(l));
@@ -369,6 +371,7 @@ void readTree(const json& tile, const std::string& pointer, int parent, std::vec
 struct Index {
     double focal_px = 0, corner_factor = 1, d_min_m = 0;
     int64_t atlas_size_px = 0, materials = 0, feature_count = 0, block_size = 1;
+    bool all_originals = false;  // build.originals == "all": leaves list the blocks of every texture they use
     std::vector<int64_t> texture_block;  // per texture; -2: the entry cannot be read
     size_t blocks = 0, tables = 0;
 };
@@ -385,9 +388,50 @@ std::array<double, 6> extent(const std::array<double, 12>& b) {
 }
 
 // Checks that need the tree but no file: cheap, serial, in preorder.
+// A child's atlas, halved, lies at offset(child) / 2 - offset(parent) inside
+// its parent's atlas, apart from its siblings' (atlas/atlas_tree.h).
+struct PlacedRect {
+    std::string layer;
+    int64_t x0, y0, x1, y1;
+};
+template <class Bad>
+void checkPlacement(const Node& n, const Node& p, std::vector<PlacedRect>& siblings, const Bad& bad) {
+    for (const Layer& l : n.layers) {
+        if (!l.has_atlas) continue;
+        const auto pl = std::find_if(p.layers.begin(), p.layers.end(), [&](const Layer& x) { return x.name == l.name; });
+        if (pl == p.layers.end() || !pl->has_atlas) {
+            bad(fmt::format("a {} atlas under a parent without one", l.name));
+            continue;
+        }
+        if (l.atlas_offset[0] % 2 || l.atlas_offset[1] % 2) {
+            bad(fmt::format("{} atlas offset [{}, {}] is odd: not a placement in its parent's atlas", l.name,
+                            l.atlas_offset[0], l.atlas_offset[1]));
+            continue;
+        }
+        const PlacedRect r{l.name, l.atlas_offset[0] / 2 - pl->atlas_offset[0], l.atlas_offset[1] / 2 - pl->atlas_offset[1],
+                           0, 0};
+        PlacedRect box = r;
+        box.x1 = r.x0 + (l.atlas_w + 1) / 2, box.y1 = r.y0 + (l.atlas_h + 1) / 2;
+        if (box.x0 < 0 || box.y0 < 0 || box.x1 > pl->atlas_w || box.y1 > pl->atlas_h) {
+            bad(fmt::format("{} atlas {}x{} halved at [{}, {}] leaves its parent's {}x{} atlas", l.name, l.atlas_w,
+                            l.atlas_h, box.x0, box.y0, pl->atlas_w, pl->atlas_h));
+            continue;
+        }
+        for (const PlacedRect& o : siblings)
+            if (o.layer == box.layer && box.x0 < o.x1 && o.x0 < box.x1 && box.y0 < o.y1 && o.y0 < box.y1) {
+                bad(fmt::format("{} atlas halved at [{}, {}] overlaps a sibling's in the parent's atlas", l.name, box.x0,
+                                box.y0));
+                break;
+            }
+        siblings.push_back(box);
+    }
+}
+
 void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
     std::set<int64_t> ids;
     std::map<int, std::set<int64_t>> quadrants;
+    std::map<int, std::vector<PlacedRect>> placed;
+    std::map<int, double> widest_child;  // parent -> largest child sharp_from_m
     bool preorder = true;
     for (size_t i = 0; i < nodes.size(); ++i) {
         const Node& n = nodes[i];
@@ -408,6 +452,9 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
                             n.min_distance_m / texel_focal));
         if (n.leaf && !near(n.min_distance_m, ix.d_min_m))
             bad(fmt::format("a leaf with min_distance_m {}, build.d_min_m is {}", n.min_distance_m, ix.d_min_m));
+        if (n.leaf ? n.sharp_from_m < n.min_distance_m * (1 - kRelTolerance) : !near(n.sharp_from_m, n.min_distance_m))
+            bad(fmt::format("sharp_from_m {} with min_distance_m {} ({})", n.sharp_from_m, n.min_distance_m,
+                            n.leaf ? "a leaf's is at least that" : "an inner node's is that"));
         int64_t bytes = 0;
         std::set<std::string> layer_uris;
         for (const Layer& l : n.layers) {
@@ -428,6 +475,10 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
             if (f < 0 || f >= ix.feature_count) bad(fmt::format("dropped feature {} does not exist", f));
         if (n.parent < 0) {
             if (n.level != 0 || n.quadrant != -1) bad("the root is not at level 0 with quadrant -1");
+            for (const Layer& l : n.layers)
+                if (l.has_atlas && l.atlas_offset != std::array<int64_t, 2>{0, 0})
+                    bad(fmt::format("{} atlas offset [{}, {}], the root's is [0, 0]", l.name, l.atlas_offset[0],
+                                    l.atlas_offset[1]));
             continue;
         }
         if (n.transform) bad("a transform below the root (3D Tiles would apply it on top of the root's)");
@@ -438,14 +489,14 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
             bad(fmt::format("a child with quadrant {}", n.quadrant));
         } else if (!quadrants[n.parent].insert(n.quadrant).second) {
             bad(fmt::format("a second child in quadrant {}", n.quadrant));
-        } else if (n.offset[0] != 2 * p.offset[0] + (n.quadrant & 1) ||
-                   n.offset[1] != 2 * p.offset[1] + (n.quadrant >> 1)) {
-            bad(fmt::format("offset [{}, {}] is not quadrant {} of its parent's [{}, {}]", n.offset[0], n.offset[1],
-                            n.quadrant, p.offset[0], p.offset[1]));
         }
-        if (p.min_distance_m < 2 * n.min_distance_m * (1 - kRelTolerance))
-            bad(fmt::format("min_distance_m {} is more than half its parent's {}", n.min_distance_m, p.min_distance_m));
+        checkPlacement(n, p, placed[n.parent], bad);
+        if (p.min_distance_m < 2 * n.sharp_from_m * (1 - kRelTolerance))
+            bad(fmt::format("sharp_from_m {} is more than half its parent's min_distance_m {}", n.sharp_from_m,
+                            p.min_distance_m));
+        widest_child[n.parent] = std::max(widest_child[n.parent], n.sharp_from_m);
         const auto c = extent(n.box), e = extent(p.box);
+        (void)ix;
         for (size_t k = 0; k < 3; ++k) {
             const double tol = 1e-6 * std::max({std::abs(e[k]), std::abs(e[3 + k]), 1.0}) + 1e-6;
             if (c[k] < e[k] - tol || c[3 + k] > e[3 + k] + tol) {
@@ -454,6 +505,12 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
                 break;
             }
         }
+    }
+    for (const auto& [parent, widest] : widest_child) {
+        const Node& p = nodes[static_cast<size_t>(parent)];
+        if (p.usable && !near(p.min_distance_m, 2 * widest))
+            d.push_back(fmt::format("{}: min_distance_m {} is not 2 x its children's largest sharp_from_m {}", p.where(),
+                                    p.min_distance_m, widest));
     }
 }
 
@@ -503,13 +560,15 @@ void checkNodeFiles(const Node& n, const Index& ix, Folder& folder, Defects& d) 
         auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", l.atlas_uri, what)); };
         if (l.atlas_format != (channels == 4 ? "BC3" : "BC1"))
             bad(fmt::format("format {} in the {} layer", l.atlas_format, l.name));
-        if (l.atlas_size_px != ix.atlas_size_px)
-            bad(fmt::format("size_px {}, build.atlas_size_px is {}", l.atlas_size_px, ix.atlas_size_px));
-        if (l.atlas_mips != fullMipCount(l.atlas_size_px, l.atlas_size_px))
+        if (l.atlas_w % 4 || l.atlas_h % 4 || l.atlas_w < 4 || l.atlas_h < 4 || l.atlas_w > ix.atlas_size_px ||
+            l.atlas_h > ix.atlas_size_px)
+            bad(fmt::format("{}x{} texels: not whole 4x4 blocks within build.atlas_size_px {}", l.atlas_w, l.atlas_h,
+                            ix.atlas_size_px));
+        if (l.atlas_mips != fullMipCount(static_cast<int>(l.atlas_w), static_cast<int>(l.atlas_h)))
             bad(fmt::format("{} mips, not the full chain", l.atlas_mips));
         if (folder.check(l.atlas_uri, l.atlas_bytes, d))
-            checkDds(folder.path(l.atlas_uri), l.atlas_uri, 0, "", channels, l.atlas_size_px, l.atlas_size_px,
-                     l.atlas_mips, static_cast<uint64_t>(l.atlas_bytes), d);
+            checkDds(folder.path(l.atlas_uri), l.atlas_uri, 0, "", channels, l.atlas_w, l.atlas_h, l.atlas_mips,
+                     static_cast<uint64_t>(l.atlas_bytes), d);
     }
     if (!decoded_all) return;  // the comparisons below need every layer
     auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", n.where(), what)); };
@@ -524,10 +583,17 @@ void checkNodeFiles(const Node& n, const Index& ix, Folder& folder, Defects& d) 
             bad(fmt::format("feature {} is listed as dropped but is in its geometry", f));
             break;
         }
+    // A leaf lists the blocks of the originals it needs: never a block none of
+    // its textures is in, and with build.originals "all" every one they are in.
     const std::set<int64_t> listed(n.texture_blocks.begin(), n.texture_blocks.end());
     for (int64_t b : blocks_used)
-        if (n.leaf && b >= 0 && !listed.count(b)) {
+        if (ix.all_originals && n.leaf && b >= 0 && !listed.count(b)) {
             bad(fmt::format("its textures are in block {}, which texture_blocks does not list", b));
+            break;
+        }
+    for (int64_t b : listed)
+        if (!blocks_used.count(b)) {
+            bad(fmt::format("texture_blocks lists block {}, which holds none of its textures", b));
             break;
         }
 }
@@ -677,6 +743,7 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
         ix.corner_factor = number(build, "corner_factor");
         ix.d_min_m = number(build, "d_min_m");
         ix.atlas_size_px = count(build, "atlas_size_px");
+        ix.all_originals = build.contains("originals") && build["originals"] == "all";
         ix.materials = static_cast<int64_t>(arrayOf(*ca, "materials").size());
         const json& features = member(*ca, "features");
         ix.feature_count = count(features, "count");
@@ -714,7 +781,19 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
             d.push_back(fmt::format("tileset.json: /extras/cityatlas/textures/{}: no usable block", t));
         else if (b >= static_cast<int64_t>(ix.blocks) || b < -1)
             d.push_back(fmt::format("tileset.json: /extras/cityatlas/textures/{}: block {} does not exist", t, b));
-        r.textures_unreadable += b == -1 ? 1 : 0;
+        try {
+            const json& e = (*textures)[t];
+            const std::string original = text(e, "original");
+            if ((original == "written") != (b >= 0))
+                d.push_back(fmt::format("tileset.json: /extras/cityatlas/textures/{}: original '{}' with block {}", t,
+                                        original, b));
+            r.textures_exact += original == "exact" ? 1 : 0;
+            r.textures_unreadable += original == "unreadable" ? 1 : 0;
+            r.bytes_originals_bc += atlas::bcBytesWithMips(static_cast<int>(count(e, "width")),
+                                                           static_cast<int>(count(e, "height")),
+                                                           text(e, "format") == "BC3" ? 4 : 3);
+        } catch (const BadEntry&) {  // the schema error says why
+        }
     }
 
     std::vector<Node> nodes;
@@ -780,6 +859,12 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
         }
         total("bytes/textures", r.bytes_textures, count(bytes, "textures"));
         total("bytes/features", r.bytes_features, count(bytes, "features"));
+        total("bytes/originals_as_bc", r.bytes_originals_bc, count(bytes, "originals_as_bc"));
+        if (r.bytes_originals_bc > 0)
+            r.texture_ratio = static_cast<double>(r.bytes_atlases + r.bytes_textures) / static_cast<double>(r.bytes_originals_bc);
+        if (!near(number(totals, "texture_ratio"), r.texture_ratio))
+            d.push_back(fmt::format("tileset.json: /extras/cityatlas/totals/texture_ratio: {}, the index gives {}",
+                                    number(totals, "texture_ratio"), r.texture_ratio));
     } catch (const BadEntry& e) {
         d.push_back(fmt::format("tileset.json: /extras/cityatlas/totals: {}", e.what()));
     }

@@ -10,8 +10,9 @@
 /// mip count match its entry and whose length is exactly header + blocks,
 /// the DDS files of a texture block fill it back to back, every feature table
 /// parses and holds its ids; and the tree is consistent (ids in depth-first
-/// preorder, levels, quadrants and atlas offsets, children boxes inside
-/// parents' boxes within rounding, min_distance doubling at least upwards,
+/// preorder, levels, quadrants, every child's halved atlas inside its parent's
+/// apart from its siblings', children boxes inside parents' boxes within
+/// rounding, a parent's min_distance twice its children's largest sharp_from,
 /// geometricError and world_texel_m as the build parameters give them,
 /// geometric errors below world texel sizes, per-node feature counts and
 /// tables as the geometry has them, totals as the entries add up).
@@ -47,7 +48,11 @@ struct InspectResult {
     uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0;
     uint64_t textures = 0, texture_blocks = 0, features = 0;
     uint64_t triangles = 0, geometry_files = 0, atlas_files = 0, feature_tables = 0;
-    uint64_t textures_unreadable = 0;  ///< texture entries with block -1 (leaves draw their atlas)
+    uint64_t textures_unreadable = 0;  ///< texture entries whose original could not be read (leaves draw their atlas)
+    uint64_t textures_exact = 0;       ///< texture entries the atlases hold at full resolution (no original written)
+    uint64_t bytes_originals_bc = 0;   ///< every texture entry as BC with mips, from its width, height and format
+    /// (atlases + texture blocks) / bytes_originals_bc, from the entries: what the folder's textures cost over the data's.
+    double texture_ratio = 0;
     bool ok() const { return defects.empty(); }
 };
 

@@ -114,7 +114,8 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
             if (textured) {
                 v.texture = texture_index[static_cast<size_t>(t.texture)];
                 v.uv_original = {t.uv[static_cast<size_t>(k)].x - shift.x, t.uv[static_cast<size_t>(k)].y - shift.y};
-                v.uv_atlas = n.localFromRoot(tt.atlas_uv[static_cast<size_t>(k)]);
+                v.uv_atlas = n.layers[static_cast<size_t>(layer)].localFromRoot(tt.atlas_uv[static_cast<size_t>(k)], n.level,
+                                                                               tree.params.atlas_size_px);
             }
         }
         b.add(tri);
@@ -125,7 +126,7 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
     return g;
 }
 
-NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node,
+NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
                            const std::array<const NodeGeometry*, 4>& children, size_t budget, double world_texel_m) {
     const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
     NodeGeometry g;
@@ -136,13 +137,18 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node,
         const NodeGeometry* c = children[q];
         if (c == nullptr || c->empty()) continue;
         const atlas::AtlasNode& cn = tree.nodes[static_cast<size_t>(n.children[q])];
+        const atlas::NodeLayer& pl = n.layers[static_cast<size_t>(layer)];
+        const atlas::NodeLayer& cl = cn.layers[static_cast<size_t>(layer)];
         g.triangles_source += c->triangles_source;
         child_error = std::max(child_error, c->geometric_error_m);
         merged += c->mesh.indices.size() / 3;
-        // child local = root * 2^(k+1) - offset_c, so root * 2^k = (local + offset_c) / 2:
-        // exact in double (offsets are integers below 2^32, the scale a power of two).
+        // child texel = root * A * 2^(k+1) - offset_c, so the parent's texel is
+        // (child texel + offset_c) / 2 - offset_p (atlas/atlas_tree.h).
         auto toParent = [&](const Vec2d& uv) {
-            return Vec2d{(uv.x + cn.offset[0]) * 0.5 - n.offset[0], (uv.y + cn.offset[1]) * 0.5 - n.offset[1]};
+            const double cx = uv.x * cl.width + static_cast<double>(cl.offset[0]);
+            const double cy = uv.y * cl.height + static_cast<double>(cl.offset[1]);
+            return Vec2d{(cx * 0.5 - static_cast<double>(pl.offset[0])) / pl.width,
+                         (cy * 0.5 - static_cast<double>(pl.offset[1])) / pl.height};
         };
         const TileMesh& m = c->mesh;
         for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {

@@ -48,7 +48,7 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
 /// empty layer), merged into this node's atlas space and simplified to
 /// `budget` triangles when larger, at a bound of `world_texel_m` minus the
 /// children's error. uv_original is dropped.
-NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node,
+NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
                            const std::array<const NodeGeometry*, 4>& children, size_t budget, double world_texel_m);
 
 /// Distinct feature ids of a mesh, ascending.

@@ -53,13 +53,24 @@ bool readImage8(const std::string& path, int channels, Image8* out, std::string*
     return true;
 }
 
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree) {
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all) {
     TextureBlocks b;
     b.texture_index.assign(scene.textures.size(), -1);
     b.node_blocks.resize(tree.nodes.size());
+    b.node_textures.resize(tree.nodes.size());
     const uint64_t block_texels = static_cast<uint64_t>(tree.params.atlas_size_px) * tree.params.atlas_size_px;
     uint64_t current_texels = 0;
     int32_t current = -1;
+    auto entryOf = [&](int32_t st) {
+        const TextureRef& ref = scene.textures[static_cast<size_t>(st)];
+        TextureEntry e;
+        e.scene_texture = st;
+        e.width = ref.width_px;
+        e.height = ref.height_px;
+        e.channels = ref.channels == 4 ? 4 : 3;
+        e.wrap = ref.wrap;
+        return e;
+    };
     // Nodes are in depth-first preorder, so leaves come in depth-first order.
     for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
         const atlas::AtlasNode& node = tree.nodes[ni];
@@ -69,16 +80,11 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
             for (uint32_t i = layer.range.first; i < layer.range.first + layer.range.count; ++i) {
                 const int32_t st = tree.triangles[i].tri.texture;
                 if (st < 0) continue;
+                if (!all && !std::binary_search(node.originals.begin(), node.originals.end(), st)) continue;
                 int32_t& ti = b.texture_index[static_cast<size_t>(st)];
                 if (ti < 0) {
-                    const TextureRef& ref = scene.textures[static_cast<size_t>(st)];
-                    const uint64_t texels = static_cast<uint64_t>(std::max(ref.width_px, 1)) * std::max(ref.height_px, 1);
-                    TextureEntry e;
-                    e.scene_texture = st;
-                    e.width = ref.width_px;
-                    e.height = ref.height_px;
-                    e.channels = ref.channels == 4 ? 4 : 3;
-                    e.wrap = ref.wrap;
+                    TextureEntry e = entryOf(st);
+                    const uint64_t texels = static_cast<uint64_t>(std::max(e.width, 1)) * std::max(e.height, 1);
                     if (texels >= block_texels) {
                         e.block = static_cast<int32_t>(b.block_bytes.size());  // a block of its own
                         b.block_bytes.push_back(0);
@@ -96,9 +102,21 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
                 }
                 const auto blk = static_cast<uint32_t>(b.textures[static_cast<size_t>(ti)].block);
                 if (std::find(mine.begin(), mine.end(), blk) == mine.end()) mine.push_back(blk);
+                std::vector<int32_t>& needs = b.node_textures[ni];
+                if (std::find(needs.begin(), needs.end(), ti) == needs.end()) needs.push_back(ti);
             }
         }
         std::sort(mine.begin(), mine.end());
+    }
+    // Textures the atlases hold exactly everywhere: an entry (leaf geometry
+    // names them) without an original.
+    for (const atlas::TreeTriangle& t : tree.triangles) {
+        const int32_t st = t.tri.texture;
+        if (st < 0 || b.texture_index[static_cast<size_t>(st)] >= 0) continue;
+        TextureEntry e = entryOf(st);
+        e.exact = true;
+        b.texture_index[static_cast<size_t>(st)] = static_cast<int32_t>(b.textures.size());
+        b.textures.push_back(e);
     }
     return b;
 }
@@ -110,7 +128,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     if (ec) return Status::Fail(fmt::format("{}: cannot create: {}", (out_dir / "textures").string(), ec.message()));
     const size_t nblocks = blocks->block_bytes.size();
     std::vector<std::vector<size_t>> members(nblocks);
-    for (size_t t = 0; t < blocks->textures.size(); ++t) members[static_cast<size_t>(blocks->textures[t].block)].push_back(t);
+    for (size_t t = 0; t < blocks->textures.size(); ++t)
+        if (blocks->textures[t].block >= 0) members[static_cast<size_t>(blocks->textures[t].block)].push_back(t);
 
     struct Encoded {
         std::vector<uint8_t> dds;
@@ -120,9 +139,10 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         double seconds = 0;
     };
     uint64_t done = 0;
+    const auto exact = static_cast<uint64_t>(
+        std::count_if(blocks->textures.begin(), blocks->textures.end(), [](const TextureEntry& e) { return e.exact; }));
     // A block whose textures are all unreadable is not written; the others are
     // renumbered densely so every block in the index has a file of >= 1 byte.
-    std::vector<int32_t> renumber(nblocks, -1);
     std::vector<uint64_t> written_bytes;
     for (size_t blk = 0; blk < nblocks; ++blk) {
         const std::vector<size_t>& list = members[blk];
@@ -170,19 +190,24 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             blocks->encode_seconds += enc[k].seconds;
         }
         done += list.size();
-        if (progress) progress(done, blocks->textures.size());
+        if (progress) progress(done, blocks->textures.size() - exact);
         if (!any_readable) continue;
         f.close();
         if (!f) return Status::Fail(fmt::format("{}: cannot write", path.string()));
-        renumber[blk] = index;
         written_bytes.push_back(offset);
     }
     blocks->block_bytes = std::move(written_bytes);
-    for (std::vector<uint32_t>& list : blocks->node_blocks) {
+    // A leaf lists the blocks its needed originals ended up in: a texture that
+    // could not be read leaves no block behind, even when its block survives
+    // for another leaf's texture.
+    for (size_t n = 0; n < blocks->node_blocks.size(); ++n) {
         std::vector<uint32_t> kept;
-        for (const uint32_t blk : list)
-            if (renumber[blk] >= 0) kept.push_back(static_cast<uint32_t>(renumber[blk]));
-        list = std::move(kept);  // renumbering keeps the order: still ascending
+        for (const int32_t t : blocks->node_textures[n])
+            if (const int32_t blk = blocks->textures[static_cast<size_t>(t)].block; blk >= 0)
+                kept.push_back(static_cast<uint32_t>(blk));
+        std::sort(kept.begin(), kept.end());
+        kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
+        blocks->node_blocks[n] = std::move(kept);
     }
     return Status::Ok();
 }

@@ -24,7 +24,8 @@ namespace cityatlas::tiles {
 
 struct TextureEntry {
     int32_t scene_texture = -1;
-    int32_t block = -1;               ///< -1: the original could not be read
+    int32_t block = -1;               ///< -1: not written (exact, or unreadable)
+    bool exact = false;               ///< the atlases hold it at full resolution: no original is written
     uint64_t offset = 0, bytes = 0;   ///< the DDS inside its block
     int width = 0, height = 0, channels = 0, mips = 0;
     WrapMode wrap = WrapMode::Wrap;
@@ -35,12 +36,16 @@ struct TextureBlocks {
     std::vector<int32_t> texture_index;       ///< scene texture -> tileset texture, -1 unused
     std::vector<uint64_t> block_bytes;        ///< per block; the file is textures/<block>.bin
     std::vector<std::vector<uint32_t>> node_blocks;  ///< per node (leaves only), ascending
+    std::vector<std::vector<int32_t>> node_textures; ///< per node (leaves only): the tileset textures it needs originals of
     uint64_t texels_encoded = 0;              ///< all mip levels
     double encode_seconds = 0;                ///< summed over threads
 };
 
-/// Plans the blocks from the texture sizes recorded at ingest (nothing is decoded).
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree);
+/// Plans the blocks from the texture sizes recorded at ingest (nothing is
+/// decoded). Each leaf gets the originals it needs (AtlasNode::originals), or
+/// with `all` every texture it uses; the textures no leaf needs get entries
+/// marked exact (no block), after the others.
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false);
 
 /// Reads, encodes and writes every planned block to `out_dir/textures/`;
 /// fills offsets and sizes. An unreadable texture is a counted warning

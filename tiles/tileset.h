@@ -50,7 +50,7 @@ namespace cityatlas::tiles {
 
 /// Bumped whenever the writer's output changes for the same inputs and
 /// parameters, so `cityatlas build` does not take an older folder as up to date.
-inline constexpr int kWriterRevision = 3;
+inline constexpr int kWriterRevision = 4;
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default
@@ -68,6 +68,10 @@ struct TilesParams {
     size_t node_triangles = 32768;        ///< per inner node and layer; above it the merge is simplified
     int feature_block_size = 4096;        ///< feature ids per features/<table>.json
     int threads = 0;                      ///< 0 = all cores
+    /// false: only the originals some leaf holds below their own resolution
+    /// (AtlasNode::originals); true: every used texture's, listed by every
+    /// leaf that uses it (reference renderings, other clients).
+    bool all_originals = false;
 };
 
 struct TilesStepStats {
@@ -92,10 +96,16 @@ struct TilesStats {
     uint64_t root_features = 0;            ///< distinct feature ids in the root's geometry
     std::vector<uint32_t> root_features_dropped;  ///< subtree features absent from the root's geometry
     uint64_t textures_written = 0, textures_unreadable = 0;
+    uint64_t textures_exact = 0;           ///< held exactly by the atlases: no original written
+    uint64_t bytes_originals_bc = 0;       ///< every used texture as BC with mips (written or not): the ratio's base
     double atlas_psnr_min_db = 0, atlas_psnr_mean_db = 0;  ///< BC level 0 vs the atlas PNG, RGB
     double atlas_encode_mpix_per_s = 0;    ///< BC encoding of atlas mip chains (all levels), per second of encoding
     std::vector<TilesStepStats> steps;
 };
+
+/// (atlas bytes + original-block bytes) / (every used texture as BC with mips): what
+/// the folder's textures cost over the data's own; 0 without textures.
+double textureRatio(const TilesStats& s);
 
 using TilesProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
 

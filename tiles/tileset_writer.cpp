@@ -150,6 +150,11 @@ json matrixOrNull(const std::optional<std::array<double, 16>>& m) {
 
 }  // namespace
 
+double textureRatio(const TilesStats& s) {
+    return s.bytes_originals_bc ? static_cast<double>(s.bytes_atlases + s.bytes_textures) / static_cast<double>(s.bytes_originals_bc)
+                                : 0.0;
+}
+
 Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
                     const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
                     const TilesProgressFn& progress, TilesStats* stats_out) {
@@ -177,7 +182,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         if (ec) return Status::Fail(fmt::format("{}: cannot create: {}", (out_dir / dir).string(), ec.message()));
     }
 
-    TextureBlocks blocks = planTextureBlocks(scene, tree);
+    TextureBlocks blocks = planTextureBlocks(scene, tree, params.all_originals);
     const std::vector<double> texture_sizes = textureSizes(scene, blocks.texture_index);
     std::vector<NodeRecord> records(n_nodes);
     tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
@@ -212,7 +217,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                             if (node.children[q] >= 0)
                                 children[q] = geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)].get();
                         g = std::make_unique<NodeGeometry>(
-                            innerGeometry(tree, id, children, params.node_triangles, texel));
+                            innerGeometry(tree, id, layer, children, params.node_triangles, texel));
                     }
                     if (g->empty()) continue;
                     TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
@@ -259,7 +264,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                     lr.simplified = g->simplified;
                     lr.position_error_m = glb.max_position_error_m;
                     lr.position_bits = draco.position_bits;
-                    lr.uv_atlas_error_texels = glb.max_uv_atlas_error * A;
+                    lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
+                                                                                node.layers[static_cast<size_t>(li)].height);
                     if (!mesh.uv_original.empty()) {
                         lr.uv_original_error_texels = glb.max_uv_original_error * texels;
                         lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
@@ -396,11 +402,14 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
             const LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
             if (!lr.present) continue;
             json atlas_json = nullptr;
+            const atlas::NodeLayer& nl = node.layers[static_cast<size_t>(li)];
             if (!lr.atlas_uri.empty()) {
                 atlas_json = {{"uri", lr.atlas_uri},
                               {"bytes", lr.atlas_bytes},
                               {"format", li == static_cast<int>(Layer::Alpha) ? "BC3" : "BC1"},
-                              {"size_px", A},
+                              {"width_px", nl.width},
+                              {"height_px", nl.height},
+                              {"offset", {nl.offset[0], nl.offset[1]}},
                               {"mips", lr.atlas_mips},
                               {"psnr_db", std::round(lr.atlas_psnr_db * 100.0) / 100.0}};
                 ++stats.atlas_files;
@@ -453,8 +462,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         json ca = {{"id", id},
                    {"level", node.level},
                    {"quadrant", quadrant},
-                   {"offset", {node.offset[0], node.offset[1]}},
                    {"min_distance_m", node.min_distance_m},
+                   {"sharp_from_m", node.sharp_from_m},
                    {"world_texel_m", node.min_distance_m / ppm},
                    {"centre", {centre.x, centre.y, centre.z}},
                    {"layers", layers},
@@ -489,6 +498,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         materials.push_back({{"diffuse", m.diffuse}, {"transparency", m.transparency}});
     json textures = json::array();
     for (const TextureEntry& e : blocks.textures) {
+        const char* original = e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable";
         textures.push_back({{"block", e.block},
                             {"offset", e.offset},
                             {"bytes", e.bytes},
@@ -496,8 +506,12 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                             {"height", std::max(e.height, 1)},
                             {"format", e.channels == 4 ? "BC3" : "BC1"},
                             {"mips", std::max(e.mips, 1)},
-                            {"wrap", std::string(wrapModeName(e.wrap))}});
-        if (e.block >= 0) ++stats.textures_written; else ++stats.textures_unreadable;
+                            {"wrap", std::string(wrapModeName(e.wrap))},
+                            {"original", original}});
+        if (e.block >= 0) ++stats.textures_written;
+        else if (e.exact) ++stats.textures_exact;
+        else ++stats.textures_unreadable;
+        stats.bytes_originals_bc += atlas::bcBytesWithMips(std::max(e.width, 1), std::max(e.height, 1), e.channels);
     }
     json texture_blocks = json::array();
     for (size_t b = 0; b < blocks.block_bytes.size(); ++b) {
@@ -524,6 +538,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                   {"position_error_target_mm", params.position_error_target_m * 1000.0},
                   {"uv_bits", params.draco.uv_bits},
                   {"bc_quality", std::string(bcQualityName(params.bc_quality))},
+                  {"originals", params.all_originals ? "all" : "needed"},
+                  {"d_min_chosen_by", tree.stats.d_min_choice.rule},
                   {"node_triangles", params.node_triangles},
                   {"geometry_encoder", fmt::format("Draco {} (KHR_draco_mesh_compression, speed {})",
                                                    draco::kDracoVersion, params.draco.speed)},
@@ -546,7 +562,9 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                            {"bytes", {{"geometry", stats.bytes_geometry},
                                       {"atlases", stats.bytes_atlases},
                                       {"textures", stats.bytes_textures},
-                                      {"features", stats.bytes_features}}}}}};
+                                      {"features", stats.bytes_features},
+                                      {"originals_as_bc", stats.bytes_originals_bc}}},
+                           {"texture_ratio", textureRatio(stats)}}}};
     json tileset = json::object();
     tileset["asset"] = {{"version", "1.1"},
                         {"generator", fmt::format("cityatlas {}", kCityAtlasVersion)},

@@ -195,7 +195,8 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
         const double d = distanceToBox(camera.position, n.bounds);
         bool use_atlas = d >= n.min_distance_m * scale;
         bool coarse = false;
-        if (!use_atlas && n.leaf() && !params.originals) use_atlas = true;  // the atlas is the finest there is
+        // The atlas is the finest there is: originals off, or none listed (it holds every texture exactly).
+        if (!use_atlas && n.leaf() && (!params.originals || n.texture_blocks.empty())) use_atlas = true;
         if (!use_atlas && !refinementPossible(index, id, frustum, resident)) {
             use_atlas = true;
             coarse = true;

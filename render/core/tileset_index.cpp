@@ -132,7 +132,8 @@ void parseNode(const json& tile, int32_t parent, int level, TilesetIndex& index,
         if (!a.is_null()) {
             nl.atlas = addBlock(index, {BlockKind::Atlas, id, li, -1, uri(a, lw + " atlas"),
                                         static_cast<uint64_t>(integer(a, "bytes", lw + " atlas", 1, INT64_MAX))});
-            nl.atlas_size_px = static_cast<int>(integer(a, "size_px", lw + " atlas", 1, 1 << 16));
+            nl.atlas_width_px = static_cast<int>(integer(a, "width_px", lw + " atlas", 1, 1 << 16));
+            nl.atlas_height_px = static_cast<int>(integer(a, "height_px", lw + " atlas", 1, 1 << 16));
             nl.atlas_channels = member(a, "format", lw + " atlas") == "BC3" ? 4 : 3;
         }
         index.nodes[static_cast<size_t>(id)].layers[static_cast<size_t>(li)] = nl;

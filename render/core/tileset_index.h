@@ -45,7 +45,7 @@ struct NodeLayer {
     bool present = false;        ///< the node has triangles in this layer
     BlockId geometry = kNoBlock, atlas = kNoBlock;
     uint32_t triangles = 0;
-    int atlas_size_px = 0;
+    int atlas_width_px = 0, atlas_height_px = 0;  ///< at most BuildInfo::atlas_size_px each
     int atlas_channels = 3;      ///< 3: BC1, 4: BC3
     double geometric_error_m = 0;
     double position_error_mm = 0;

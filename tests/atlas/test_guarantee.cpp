@@ -93,17 +93,27 @@ double boxDistance(const Box3d& b, const Vec3d& c) {
     return length(Vec3d{gap(b.min.x, b.max.x, c.x), gap(b.min.y, b.max.y, c.y), gap(b.min.z, b.max.z, c.z)});
 }
 
-// World vectors of one texel step along the atlas's x and y at node N.
+// World vectors of one texel step along the atlas's x and y at node N, and
+// how many texels of the original texture each step spans (1: the atlas holds
+// the texture at its own resolution along that step; below 1 it would hold it
+// above its resolution, which the cap forbids).
 struct TexelEdges {
     Vec3d ex, ey;
+    double texture_x = 0, texture_y = 0;
 };
 
-std::optional<TexelEdges> texelEdges(const TreeTriangle& t, const AtlasNode& n, int atlas_size) {
+// The resolution cap's exemption: a step of exactly one texture texel may
+// cover more than a pixel (the texture has no more to give).
+constexpr double kNativeTolerance = 1e-6;
+bool nativeStep(double texture_texels) { return std::abs(texture_texels - 1.0) <= kNativeTolerance; }
+
+std::optional<TexelEdges> texelEdges(const TreeTriangle& t, const AtlasNode& n, int atlas_size, const Scene& scene) {
     std::array<Vec2d, 3> q;
-    const double scale = std::ldexp(1.0, n.level);
+    const NodeLayer& l = n.layers[static_cast<int>(t.layer)];
+    const double scale = std::ldexp(static_cast<double>(atlas_size), n.level);
     for (int c = 0; c < 3; ++c)
-        q[c] = {(t.atlas_uv[c].x * scale - n.offset[0]) * atlas_size,
-                (t.atlas_uv[c].y * scale - n.offset[1]) * atlas_size};
+        q[c] = {t.atlas_uv[c].x * scale - static_cast<double>(l.offset[0]),
+                t.atlas_uv[c].y * scale - static_cast<double>(l.offset[1])};
     const double a = q[1].x - q[0].x, c = q[1].y - q[0].y, b = q[2].x - q[0].x, d = q[2].y - q[0].y;
     const double det = a * d - b * c;
     // Degenerate texture coordinates (one colour, or a line) have no inverse:
@@ -111,19 +121,36 @@ std::optional<TexelEdges> texelEdges(const TreeTriangle& t, const AtlasNode& n, 
     if (!(std::abs(det) > 1e-9 * std::max(a * a + c * c, b * b + d * d))) return std::nullopt;
     const Vec3d dp1 = t.tri.position_local[1] - t.tri.position_local[0];
     const Vec3d dp2 = t.tri.position_local[2] - t.tri.position_local[0];
-    return TexelEdges{(1.0 / det) * (d * dp1 - c * dp2), (1.0 / det) * (a * dp2 - b * dp1)};
+    // The same inverse applied to uv: the texture step of one atlas texel.
+    const TextureRef& ref = scene.textures[static_cast<size_t>(t.tri.texture)];
+    const Vec2d du1{t.tri.uv[1].x - t.tri.uv[0].x, t.tri.uv[1].y - t.tri.uv[0].y};
+    const Vec2d du2{t.tri.uv[2].x - t.tri.uv[0].x, t.tri.uv[2].y - t.tri.uv[0].y};
+    auto texels = [&](double k1, double k2) {
+        const double su = (k1 * du1.x + k2 * du2.x) * ref.width_px, sv = (k1 * du1.y + k2 * du2.y) * ref.height_px;
+        return std::sqrt(su * su + sv * sv);
+    };
+    return TexelEdges{(1.0 / det) * (d * dp1 - c * dp2), (1.0 / det) * (a * dp2 - b * dp1), texels(d / det, -c / det),
+                      texels(-b / det, a / det)};
 }
 
 struct TexelOnScreen {
-    double axis = 0;   // the longer of |J e_x|, |J e_y|: the papers' per-axis criterion
+    double axis = 0;   // the longer of |J e_x|, |J e_y| not exempt by the cap: the papers' per-axis criterion
     double sigma = 0;  // largest singular value of J (any direction in texel space)
+    bool exempt = false;  // a step is one texel of the texture itself: the cap's, not the estimate's, texel
 };
 
 TexelOnScreen measure(const Camera& cam, const Vec3d& p, const TexelEdges& e) {
     const auto sx = screenVector(cam, p, e.ex), sy = screenVector(cam, p, e.ey);
     const double lx2 = sx[0] * sx[0] + sx[1] * sx[1], ly2 = sy[0] * sy[0] + sy[1] * sy[1];
     const double det = sx[0] * sy[1] - sx[1] * sy[0], tr = lx2 + ly2;
-    return {std::sqrt(std::max(lx2, ly2)), std::sqrt(0.5 * (tr + std::sqrt(std::max(0.0, tr * tr - 4 * det * det))))};
+    TexelOnScreen m;
+    m.sigma = std::sqrt(0.5 * (tr + std::sqrt(std::max(0.0, tr * tr - 4 * det * det))));
+    const double lx = std::sqrt(lx2), ly = std::sqrt(ly2);
+    const bool free_x = lx > 1 && nativeStep(e.texture_x), free_y = ly > 1 && nativeStep(e.texture_y);
+    m.exempt = nativeStep(e.texture_x) || nativeStep(e.texture_y);
+    m.axis = std::max(free_x ? 0.0 : lx, free_y ? 0.0 : ly);
+    if (free_x || free_y) m.sigma = 0;  // no bound to hold for any direction mixing a step over a pixel
+    return m;
 }
 
 // The camera basis whose ray through `px` is `ray` and whose radial screen
@@ -196,6 +223,7 @@ Vec3d randomPointOn(std::mt19937_64& rng, const std::array<Vec3d, 3>& p) {
 }
 
 struct Built {
+    Scene scene;
     AtlasTree tree;
     std::vector<int32_t> leaf_of;  // per tree triangle
     std::vector<int> height;       // per node: 0 for leaves
@@ -203,6 +231,7 @@ struct Built {
 
 Built build(const Scene& scene, const AtlasParams& params) {
     Built b;
+    b.scene = scene;
     Diagnostics diagnostics;
     const Status s = buildAtlasTree(scene, params, fs::path(), diagnostics, nullptr, &b.tree);
     EXPECT_TRUE(s.ok()) << s.error;
@@ -251,7 +280,7 @@ std::string describe(size_t tri, int32_t node, const Built& b, Pixel px, double 
 // node above them.
 struct RandomCheck {
     Worst axis, sigma, adversarial;
-    uint64_t samples = 0, degenerate = 0;
+    uint64_t samples = 0, degenerate = 0, exempt = 0;
 };
 
 RandomCheck randomCameras(const Built& b, int triangles, uint64_t seed) {
@@ -272,7 +301,7 @@ RandomCheck randomCameras(const Built& b, int triangles, uint64_t seed) {
         const TreeTriangle& tt = t.triangles[i];
         for (int32_t id = b.leaf_of[i]; id >= 0; id = t.nodes[id].parent) {
             const AtlasNode& n = t.nodes[id];
-            const auto edges = texelEdges(tt, n, a);
+            const auto edges = texelEdges(tt, n, a, b.scene);
             if (!edges) {
                 ++r.degenerate;
                 break;
@@ -283,6 +312,7 @@ RandomCheck randomCameras(const Built& b, int triangles, uint64_t seed) {
                 const Camera cam = placeOnRay(p, randomBasis(rng), px, view.f, n.bounds, n.min_distance_m);
                 const TexelOnScreen m = measure(cam, p, *edges);
                 ++r.samples;
+                r.exempt += m.exempt;
                 auto where = [&] { return describe(i, id, b, px, boxDistance(n.bounds, cam.pos)); };
                 r.axis.offer(m.axis, where);
                 r.sigma.offer(m.sigma, where);
@@ -303,6 +333,7 @@ RandomCheck randomCameras(const Built& b, int triangles, uint64_t seed) {
                 EXPECT_NEAR(seen.y, px.y, 1e-6 * view.h);
                 const TexelOnScreen m = measure(cam, p, *edges);
                 ++r.samples;
+                r.exempt += m.exempt;
                 auto where = [&] { return describe(i, id, b, px, boxDistance(n.bounds, cam.pos)) + ", adversarial"; };
                 r.adversarial.offer(m.axis, where);
                 r.axis.offer(m.axis, where);
@@ -330,6 +361,7 @@ struct Tight {
     double corner = 0;  // largest texel edge at a corner pixel
     double ratio = 0;   // largest corner / view-axis magnification, same point and distance
     uint64_t samples = 0;
+    uint64_t exempt = 0;  // samples of texture texels at their own resolution (> 1 px allowed)
 };
 
 Tight tightAt(const Built& b, int32_t id) {
@@ -347,7 +379,7 @@ Tight tightAt(const Built& b, int32_t id) {
         for (uint32_t i = l.range.first; i < l.range.first + l.range.count; ++i) {
             const TreeTriangle& tt = t.triangles[i];
             if (tt.tri.texture < 0) continue;
-            const auto edges = texelEdges(tt, n, t.params.atlas_size_px);
+            const auto edges = texelEdges(tt, n, t.params.atlas_size_px, b.scene);
             if (!edges) continue;
             for (const Vec3d& p : tt.tri.position_local) {
                 std::vector<Vec3d> normals;
@@ -372,10 +404,15 @@ Tight tightAt(const Built& b, int32_t id) {
                     const Vec3d ray = -1.0 * outward;
                     if (length(w - dot(w, ray) * ray) < 1e-9) continue;  // along the ray: projects to a point
                     const Camera centre{p + md * outward, orientFor({0, 0}, view.f, ray, w), view.f};
-                    const double at_centre = measure(centre, p, *edges).axis;
+                    const TexelOnScreen c = measure(centre, p, *edges);
+                    const double at_centre = c.exempt ? 0.0 : c.axis;
                     for (const Pixel& px : view.corners()) {
                         const Camera cam{p + md * outward, orientFor(px, view.f, ray, w), view.f};
                         const TexelOnScreen m = measure(cam, p, *edges);
+                        if (m.exempt) {  // a texel of the texture itself: nothing to be tight about
+                            ++r.exempt;
+                            continue;
+                        }
                         ++r.samples;
                         r.corner = std::max(r.corner, m.axis);
                         if (at_centre > 0) r.ratio = std::max(r.ratio, m.axis / at_centre);
@@ -420,8 +457,13 @@ TightSummary tightness(const Built& b) {
             // All children are leaves: a child's texel is half of N's, and N
             // serves from twice the child's distance, so N is as tight as
             // they are. Deeper inner nodes are looser wherever their subtree
-            // is shallower than its deepest leaf.
-            inner.push_back(static_cast<int32_t>(id));
+            // is shallower than its deepest leaf. Where a child holds capped
+            // regions, N serves from twice their sharp_from distance, which
+            // only their (interior) triangles reach: not measured here.
+            bool uncapped = true;
+            for (int32_t c : t.nodes[id].children)
+                uncapped &= c < 0 || t.nodes[c].sharp_from_m == t.nodes[c].min_distance_m;
+            if (uncapped) inner.push_back(static_cast<int32_t>(id));
         }
     }
     // A couple of them: the first, middle and last in depth-first order.
@@ -439,21 +481,78 @@ TightSummary tightness(const Built& b) {
     return s;
 }
 
-Scene townScene(uint32_t buildings, uint64_t seed) {
+// The resolution cap, from the outputs only: every packed region's rectangle
+// holds at most its texture's texels per unit of uv (per axis, rotation
+// included), and every atlas texel step of every triangle at every level spans
+// at least one texel of its texture.
+struct CapCheck {
+    uint64_t regions = 0, capped_regions = 0, steps = 0, native_steps = 0, violations = 0;
+};
+
+CapCheck capCheck(const Built& b) {
+    const AtlasTree& t = b.tree;
+    CapCheck c;
+    Violations bad;
+    for (size_t id = 0; id < t.nodes.size(); ++id)
+        for (const NodeLayer& l : t.nodes[id].layers)
+            for (const PackedRegion& r : l.regions) {
+                const TextureRef& ref = b.scene.textures[static_cast<size_t>(r.texture)];
+                const double du = r.uv_max.x - r.uv_min.x, dv = r.uv_max.y - r.uv_min.y;
+                const double along_u = r.rotated ? r.h : r.w, along_v = r.rotated ? r.w : r.h;
+                ++c.regions;
+                c.capped_regions += r.native_u || r.native_v;
+                if ((du > 0 && along_u / du > ref.width_px * (1 + 1e-9)) ||
+                    (dv > 0 && along_v / dv > ref.height_px * (1 + 1e-9))) {
+                    ++c.violations;
+                    ADD_FAILURE() << "node " << id << ": a region of texture " << r.texture << " (" << ref.width_px << "x"
+                                  << ref.height_px << ") holds " << along_u / du << " x " << along_v / dv
+                                  << " texels per unit of uv";
+                }
+            }
+    for (size_t i = 0; i < t.triangles.size(); ++i) {
+        const TreeTriangle& tt = t.triangles[i];
+        if (tt.tri.texture < 0) continue;
+        for (int32_t id = b.leaf_of[i]; id >= 0; id = t.nodes[id].parent) {
+            const auto e = texelEdges(tt, t.nodes[id], t.params.atlas_size_px, b.scene);
+            if (!e) break;
+            for (double step : {e->texture_x, e->texture_y}) {
+                ++c.steps;
+                c.native_steps += nativeStep(step);
+                if (step < 1 - kNativeTolerance) {
+                    ++c.violations;
+                    if (c.violations <= 5)
+                        ADD_FAILURE() << "triangle " << i << " in node " << id << ": one atlas texel spans " << step
+                                      << " texels of its texture (above its own resolution)";
+                }
+            }
+        }
+    }
+    return c;
+}
+
+Scene townScene(uint32_t buildings, uint64_t seed, int texture_px = 512) {
     synth::TownSettings settings;
     settings.buildings = buildings;
     settings.lod = 2;
     settings.seed = seed;
+    settings.texture_size_px = texture_px;
     // No file is written: render_images = false never opens a texture.
     return synth::townToScene(synth::generateTown(settings), fs::temp_directory_path() / "cityatlas_guarantee_town");
 }
 
-void checkScene(const Scene& scene, const AtlasParams& params, int triangles, uint64_t seed) {
+struct SceneCheck {
+    RandomCheck random;
+    CapCheck cap;
+};
+
+SceneCheck checkScene(const Scene& scene, const AtlasParams& params, int triangles, uint64_t seed) {
     const Built b = build(scene, params);
     const AtlasTree& t = b.tree;
-    ASSERT_FALSE(t.nodes.empty());
+    EXPECT_FALSE(t.nodes.empty());
+    if (t.nodes.empty()) return {};
     const RandomCheck r = randomCameras(b, triangles, seed);
     const TightSummary s = tightness(b);
+    const CapCheck cap = capCheck(b);
     uint64_t rotated = 0, regions = 0;
     for (const AtlasNode& n : t.nodes)
         for (const NodeLayer& l : n.layers)
@@ -469,7 +568,10 @@ void checkScene(const Scene& scene, const AtlasParams& params, int triangles, ui
               << s.best << " px, weakest leaf " << s.worst_leaf << " px, " << s.leaves_below_half << " below 0.5; "
               << s.inner << " inner nodes of height 1: " << s.inner_worst << " .. " << s.inner_best
               << " px; corner/centre " << s.ratio << "; corners without the factor " << s.corner_without_factor
-              << " px\n";
+              << " px\n"
+              << "  resolution cap: " << cap.capped_regions << " of " << cap.regions << " regions capped; "
+              << cap.native_steps << " of " << cap.steps << " texel steps at the texture's own resolution; "
+              << r.exempt << " random samples on them\n";
     ::testing::Test::RecordProperty("max_texel_edge_px", std::to_string(r.axis.value));
     ::testing::Test::RecordProperty("max_singular_value_px", std::to_string(r.sigma.value));
     ::testing::Test::RecordProperty("tight_max_px", std::to_string(s.best));
@@ -477,14 +579,20 @@ void checkScene(const Scene& scene, const AtlasParams& params, int triangles, ui
     EXPECT_GT(r.samples, 10000u);
     // Every leaf, not just the best one: a leaf whose texels stay far below a
     // pixel at its own min_distance wastes atlas space (or min_distance is
-    // larger than it needs to be).
-    EXPECT_GT(s.leaves, 0);
+    // larger than it needs to be). Texels at their texture's own resolution
+    // are exempt (capped, or promoted because that costs less than the original).
+    if (cap.capped_regions < cap.regions) {
+        EXPECT_GT(s.leaves, 0);
+    }
     EXPECT_EQ(s.leaves_below_half, 0) << "leaves whose texels never reach half a pixel at min_distance";
-    EXPECT_GE(s.worst_leaf, 0.5);
-    if (t.stats.depth > 0) {
-        EXPECT_GT(s.inner, 0);
+    if (s.leaves > 0) {
+        EXPECT_GE(s.worst_leaf, 0.5);
+    }
+    if (s.inner > 0) {
         EXPECT_GE(s.inner_worst, 0.5) << "an inner node of height 1 is wastefully loose";
     }
+    EXPECT_EQ(cap.violations, 0u);
+    return {r, cap};
 }
 
 AtlasParams fastParams() {
@@ -494,6 +602,28 @@ AtlasParams fastParams() {
 }
 
 TEST(AtlasGuarantee, Town40Defaults) { checkScene(townScene(40, 3), fastParams(), 1000, 101); }
+
+// Facades of 32 px at d_min 100 m: most regions would need more texels than
+// their texture has, so they are capped and hold the texture's own texels
+// (more than a pixel each at a leaf's min distance); the parents serve from
+// twice their sharp_from distance, so no texel of theirs exceeds a pixel.
+TEST(AtlasGuarantee, Town40LowResolutionTexturesAreCapped) {
+    AtlasParams p = fastParams();
+    p.d_min_m = 100.0;
+    const SceneCheck c = checkScene(townScene(40, 3, 32), p, 1000, 108);
+    EXPECT_GT(c.cap.capped_regions, c.cap.regions / 2);
+    EXPECT_GT(c.cap.native_steps, 0u);
+    EXPECT_GT(c.random.exempt, 0u);
+}
+
+// The same at a d_min a tenth of the default's: nearly every region capped.
+TEST(AtlasGuarantee, Town40CappedAtSmallDmin) {
+    AtlasParams p = fastParams();
+    p.d_min_m = 5.0;
+    const SceneCheck c = checkScene(townScene(40, 3), p, 1000, 109);
+    EXPECT_GT(c.cap.capped_regions, 0u);
+    EXPECT_GT(c.random.exempt, 0u);
+}
 
 TEST(AtlasGuarantee, Town150Defaults) { checkScene(townScene(150, 5), fastParams(), 1000, 102); }
 
@@ -537,6 +667,10 @@ TEST(AtlasGuarantee, BerlinVcsExport) {
     ASSERT_TRUE(s.ok()) << s.error;
     ASSERT_FALSE(collector.scene.triangles.empty());
     checkScene(collector.scene, fastParams(), 1000, 107);
+    AtlasParams p = fastParams();
+    p.d_min_m = 50.0;  // below every texture's own resolution: all capped
+    const SceneCheck c = checkScene(collector.scene, p, 1000, 110);
+    EXPECT_EQ(c.cap.capped_regions, c.cap.regions);
 }
 
 // The papers' estimate (theta = 0) divides by d only. Seen at a

@@ -283,16 +283,22 @@ World* AtlasMapping::world_ = nullptr;
 // ---------------------------------------------------------------------------
 // Looking up one point of one triangle in one node's atlas.
 
-Vec2d texelsAt(const AtlasNode& n, const Vec2d& root, int a) {
-    const Vec2d l = n.localFromRoot(root);
-    return {l.x * a, l.y * a};
+// atlas_tree.h: texel = root * A * 2^level - offset, per layer.
+Vec2d texelsAt(const AtlasNode& n, Layer layer, const Vec2d& root, int a) {
+    const NodeLayer& l = n.layers[static_cast<int>(layer)];
+    const double s = std::ldexp(static_cast<double>(a), n.level);
+    return {root.x * s - static_cast<double>(l.offset[0]), root.y * s - static_cast<double>(l.offset[1])};
 }
 
 // Root-atlas coordinates of a position in a leaf's atlas texels.
-Vec2d rootFromLeafTexels(const AtlasNode& leaf, const Vec2d& q, int a) {
-    const double s = std::ldexp(1.0, -leaf.level);
-    return {(q.x / a + leaf.offset[0]) * s, (q.y / a + leaf.offset[1]) * s};
+Vec2d rootFromLeafTexels(const AtlasNode& leaf, Layer layer, const Vec2d& q, int a) {
+    const NodeLayer& l = leaf.layers[static_cast<int>(layer)];
+    const double s = std::ldexp(1.0 / a, -leaf.level);
+    return {(q.x + static_cast<double>(l.offset[0])) * s, (q.y + static_cast<double>(l.offset[1])) * s};
 }
+
+// The border a region keeps on its narrower side (texel_estimate.h: at most --border).
+int regionBorder(const PackedRegion& r) { return std::min(r.border_u, r.border_v); }
 
 // A tree triangle as node N sees it: corners in N's atlas texels, the affine
 // map from those texels to the original uv, and its leaf region in N's texels.
@@ -303,10 +309,11 @@ struct View {
 };
 
 bool viewIn(const AtlasNode& n, const AtlasNode& leaf, const PackedRegion& r, const TreeTriangle& t, int a, View* v) {
-    for (int c = 0; c < 3; ++c) v->p[c] = texelsAt(n, t.atlas_uv[c], a);
-    v->lo = texelsAt(n, rootFromLeafTexels(leaf, {static_cast<double>(r.x), static_cast<double>(r.y)}, a), a);
-    v->hi =
-        texelsAt(n, rootFromLeafTexels(leaf, {static_cast<double>(r.x + r.w), static_cast<double>(r.y + r.h)}, a), a);
+    const Layer l = t.layer;
+    for (int c = 0; c < 3; ++c) v->p[c] = texelsAt(n, l, t.atlas_uv[c], a);
+    v->lo = texelsAt(n, l, rootFromLeafTexels(leaf, l, {static_cast<double>(r.x), static_cast<double>(r.y)}, a), a);
+    v->hi = texelsAt(n, l, rootFromLeafTexels(leaf, l, {static_cast<double>(r.x + r.w), static_cast<double>(r.y + r.h)}, a),
+                     a);
     return uvPerPosition(v->p, t.tri.uv, &v->uv_per_texel);
 }
 
@@ -321,7 +328,7 @@ const PackedRegion* leafRegion(const AtlasNode& leaf, const TreeTriangle& t, int
         if (r.texture != t.tri.texture) continue;
         bool inside = true;
         for (int c = 0; c < 3; ++c) {
-            const Vec2d q = texelsAt(leaf, t.atlas_uv[c], a);
+            const Vec2d q = texelsAt(leaf, t.layer, t.atlas_uv[c], a);
             inside =
                 inside && q.x >= r.x - 1e-6 && q.x <= r.x + r.w + 1e-6 && q.y >= r.y - 1e-6 && q.y <= r.y + r.h + 1e-6;
         }
@@ -420,7 +427,7 @@ using SampleFn = std::function<void(const TreeTriangle&, const LevelSample&)>;
 // its leaf up to the root, skipping levels where the region has shrunk to a
 // few texels and points inside the margin.
 void forEachLevelSample(World& w, Layer layer, uint64_t seed, int points_per_triangle, const SampleFn& fn) {
-    const int a = w.tree.params.atlas_size_px, border = w.tree.params.border_px;
+    const int a = w.tree.params.atlas_size_px;
     Rng rng{seed};
     for (uint32_t i = 0; i < w.tree.triangles.size(); ++i) {
         const TreeTriangle& t = w.tree.triangles[i];
@@ -429,6 +436,7 @@ void forEachLevelSample(World& w, Layer layer, uint64_t seed, int points_per_tri
         const AtlasNode& leaf = w.tree.nodes[w.leaf_of[i]];
         const PackedRegion* region = leafRegion(leaf, t, a);
         ASSERT_NE(region, nullptr) << "triangle " << i << " lies in no region of its texture in leaf " << w.leaf_of[i];
+        const int border = regionBorder(*region);
         {
             View v;
             if (!viewIn(leaf, leaf, *region, t, a, &v)) continue;
@@ -447,12 +455,13 @@ void forEachLevelSample(World& w, Layer layer, uint64_t seed, int points_per_tri
                 View v;
                 if (!viewIn(n, leaf, *region, t, a, &v)) break;
                 LevelSample ls;
-                ls.p = texelsAt(n, root, a);
+                ls.p = texelsAt(n, layer, root, a);
                 if (distanceToEdge(ls.p, v) < marginTexels(halvings)) continue;
                 const std::string& path = n.layers[static_cast<int>(layer)].atlas_path;
                 ls.atlas = w.atlas(path);
                 ASSERT_NE(ls.atlas, nullptr) << "node " << id << ": cannot read '" << path << "'";
-                ASSERT_EQ(ls.atlas->w, a);
+                ASSERT_EQ(ls.atlas->w, n.layers[static_cast<int>(layer)].width);
+                ASSERT_EQ(ls.atlas->h, n.layers[static_cast<int>(layer)].height);
                 ASSERT_EQ(ls.atlas->channels, layer == Layer::Opaque ? 3 : 4) << path;
                 ls.halvings = halvings, ls.node = id;
                 ls.uv = mix3(t.tri.uv, bary);
@@ -595,7 +604,7 @@ TEST_F(AtlasMapping, EveryBuildingShowsItsOwnNumberPlate) {
                 const auto bary = rng.barycentric();
                 const Vec2d uv = mix3(t.tri.uv, bary);
                 if (!plate.holdsPeriodic(uv)) continue;
-                const Vec2d p = texelsAt(leaf, mix3(t.atlas_uv, bary), a);
+                const Vec2d p = texelsAt(leaf, t.layer, mix3(t.atlas_uv, bary), a);
                 ++points;
                 for (int32_t f : facades)
                     error_sum[f] +=
@@ -628,7 +637,6 @@ TEST_F(AtlasMapping, EveryBuildingShowsItsOwnNumberPlate) {
 // layer, and the atlases' alpha must be the original's, prefiltered.
 TEST_F(AtlasMapping, RgbaFacadesLiveInTheAlphaLayerWithTheirAlpha) {
     World& w = *world_;
-    const int a = w.tree.params.atlas_size_px;
     size_t rgba_triangles = 0;
     for (uint32_t i = 0; i < w.tree.triangles.size(); ++i) {
         const TreeTriangle& t = w.tree.triangles[i];
@@ -645,7 +653,7 @@ TEST_F(AtlasMapping, RgbaFacadesLiveInTheAlphaLayerWithTheirAlpha) {
             const LinearImage* img = w.atlas(l.atlas_path);
             ASSERT_NE(img, nullptr) << l.atlas_path;
             ASSERT_EQ(img->channels, 4) << l.atlas_path;
-            ASSERT_EQ(img->w, a) << l.atlas_path;
+            ASSERT_EQ(img->w, l.width) << l.atlas_path;
         }
     }
     size_t rgba_buildings = 0;

@@ -142,9 +142,9 @@ struct Checker {
         const auto& nodes = tree.nodes;
         const auto n = static_cast<int32_t>(nodes.size());
         if (n == 0) return v.add("no nodes");
-        if (nodes[0].parent != -1 || nodes[0].level != 0 || nodes[0].offset != std::array<uint32_t, 2>{0, 0})
-            v.add("root: parent ", nodes[0].parent, " level ", nodes[0].level, " offset ", nodes[0].offset[0], ",",
-                  nodes[0].offset[1]);
+        if (nodes[0].parent != -1 || nodes[0].level != 0) v.add("root: parent ", nodes[0].parent, " level ", nodes[0].level);
+        for (const NodeLayer& l : nodes[0].layers)
+            if (l.offset != std::array<int64_t, 2>{0, 0}) v.add("root: offset ", l.offset[0], ",", l.offset[1]);
         std::vector<int> referenced(n, 0);
         int depth = 0;
         uint64_t leaf_count = 0;
@@ -153,6 +153,8 @@ struct Checker {
             depth = std::max(depth, node.level);
             leaf_count += node.leaf();
             double worst_child = 0;
+            // Children's halved atlases: inside this node's, apart from each other.
+            std::array<std::vector<std::array<int64_t, 4>>, kLayerCount> placed;
             for (int q = 0; q < 4; ++q) {
                 const int32_t c = node.children[q];
                 if (c < 0) continue;
@@ -164,24 +166,52 @@ struct Checker {
                 const AtlasNode& k = nodes[c];
                 if (k.parent != id) v.add("node ", c, ": parent ", k.parent, ", expected ", id);
                 if (k.level != node.level + 1) v.add("node ", c, ": level ", k.level, " under level ", node.level);
-                const uint64_t ox = 2 * uint64_t{node.offset[0]} + (q & 1),
-                               oy = 2 * uint64_t{node.offset[1]} + (q >> 1);
-                if (k.offset[0] != ox || k.offset[1] != oy)
-                    v.add("node ", c, ": offset ", k.offset[0], ",", k.offset[1], ", expected ", ox, ",", oy);
+                for (int l = 0; l < kLayerCount; ++l) {
+                    const NodeLayer &cl = k.layers[l], &pl = node.layers[l];
+                    if (cl.atlas_path.empty()) continue;
+                    if (pl.atlas_path.empty()) {
+                        v.add("node ", c, " layer ", l, ": an atlas under a parent without one");
+                        continue;
+                    }
+                    if (cl.offset[0] % 2 || cl.offset[1] % 2) {
+                        v.add("node ", c, " layer ", l, ": odd offset ", cl.offset[0], ",", cl.offset[1]);
+                        continue;
+                    }
+                    const int64_t x = cl.offset[0] / 2 - pl.offset[0], y = cl.offset[1] / 2 - pl.offset[1];
+                    const std::array<int64_t, 4> r{x, y, x + (cl.width + 1) / 2, y + (cl.height + 1) / 2};
+                    if (x < 0 || y < 0 || r[2] > pl.width || r[3] > pl.height)
+                        v.add("node ", c, " layer ", l, ": halved atlas at ", x, ",", y, " leaves its parent's ", pl.width,
+                              "x", pl.height);
+                    for (const auto& o : placed[l])
+                        if (r[0] < o[2] && o[0] < r[2] && r[1] < o[3] && o[1] < r[3])
+                            v.add("node ", c, " layer ", l, ": halved atlas overlaps a sibling's in node ", id);
+                    placed[l].push_back(r);
+                }
                 const Box3d& a = k.bounds;
                 const Box3d& b = node.bounds;
                 if (a.empty() || a.min.x < b.min.x || a.min.y < b.min.y || a.min.z < b.min.z || a.max.x > b.max.x ||
                     a.max.y > b.max.y || a.max.z > b.max.z)
                     v.add("node ", c, ": bounds not inside its parent ", id, "'s");
-                worst_child = std::max(worst_child, k.min_distance_m);
+                worst_child = std::max(worst_child, k.sharp_from_m);
             }
+            for (const NodeLayer& l : node.layers)
+                if (!l.atlas_path.empty() && (l.width <= 0 || l.height <= 0 || l.width % 4 || l.height % 4 ||
+                                              l.width > tree.params.atlas_size_px || l.height > tree.params.atlas_size_px))
+                    v.add("node ", id, ": atlas ", l.width, "x", l.height, " not whole blocks within A");
             if (node.leaf()) {
                 if (node.min_distance_m != tree.stats.d_min_used_m)
                     v.add("leaf ", id, ": min_distance ", node.min_distance_m, " != d_min used ",
                           tree.stats.d_min_used_m);
+                double sharp = node.min_distance_m;
+                for (const NodeLayer& l : node.layers)
+                    for (const PackedRegion& r : l.regions) sharp = std::max(sharp, r.sharp_from_m);
+                if (node.sharp_from_m != sharp)
+                    v.add("leaf ", id, ": sharp_from ", node.sharp_from_m, " != its regions' largest ", sharp);
             } else {
                 if (node.min_distance_m != 2.0 * worst_child)
                     v.add("node ", id, ": min_distance ", node.min_distance_m, " != 2 x ", worst_child);
+                if (node.sharp_from_m != node.min_distance_m)
+                    v.add("node ", id, ": sharp_from ", node.sharp_from_m, " != min_distance ", node.min_distance_m);
                 for (const NodeLayer& l : node.layers)
                     if (!l.regions.empty()) v.add("inner node ", id, " has packed regions");
             }
@@ -259,13 +289,12 @@ struct Checker {
     }
 
     void regions() {
-        const int a = tree.params.atlas_size_px;
-        const int cells = a / 4;
         for (int32_t id : leaves) {
             const AtlasNode& node = tree.nodes[id];
             for (int l = 0; l < kLayerCount; ++l) {
                 const NodeLayer& nl = node.layers[l];
-                std::vector<uint8_t> used(static_cast<size_t>(cells) * cells, 0);
+                const int cells_x = nl.width / 4, cells_y = nl.height / 4;
+                std::vector<uint8_t> used(static_cast<size_t>(cells_x) * cells_y, 0);
                 uint64_t texels = 0;
                 for (size_t k = 0; k < nl.regions.size(); ++k) {
                     const PackedRegion& r = nl.regions[k];
@@ -279,7 +308,7 @@ struct Checker {
                               " not on the 4-texel grid");
                         continue;
                     }
-                    if (r.x < 0 || r.y < 0 || r.x + r.w > a || r.y + r.h > a) {
+                    if (r.x < 0 || r.y < 0 || r.x + r.w > nl.width || r.y + r.h > nl.height) {
                         v.add("leaf ", id, " layer ", l, " region ", k, " leaves the atlas");
                         continue;
                     }
@@ -287,7 +316,7 @@ struct Checker {
                         v.add("leaf ", id, " layer ", l, " region ", k, ": empty uv box");
                     for (int y = r.y / 4; y < (r.y + r.h) / 4; ++y)
                         for (int x = r.x / 4; x < (r.x + r.w) / 4; ++x)
-                            if (used[static_cast<size_t>(y) * cells + x]++)
+                            if (used[static_cast<size_t>(y) * cells_x + x]++)
                                 v.add("leaf ", id, " layer ", l, " region ", k, " overlaps another at block ", x, ",",
                                       y);
                 }
@@ -310,9 +339,12 @@ struct Checker {
         if (atlases != tree.stats.atlases) v.add("stats.atlases ", tree.stats.atlases, ", counted ", atlases);
     }
 
+    // Root-atlas coordinates: every textured triangle's, recomputed from its
+    // region's mapping and its leaf's integer offset (atlas_tree.h: texel =
+    // root * A * 2^level - offset), and every corner inside its region's
+    // content (the region's border kept clear).
     void coordinates() {
-        const double a = tree.params.atlas_size_px, b = tree.params.border_px;
-        std::map<int32_t, std::vector<int>> paths;
+        const double a = tree.params.atlas_size_px;
         for (size_t i = 0; i < tree.triangles.size(); ++i) {
             const TreeTriangle& t = tree.triangles[i];
             const int32_t leaf = leaf_of[i];
@@ -327,20 +359,13 @@ struct Checker {
                     if (r.x != 0 || r.y != 0) v.add("untextured triangle ", i, " has atlas coordinates");
                 continue;
             }
-            auto [it, fresh] = paths.try_emplace(leaf);
-            if (fresh) it->second = quadrantPath(leaf);
-            const std::vector<int>& path = it->second;
-            const int k = static_cast<int>(path.size());
-            double ox = 0, oy = 0;
-            for (int level = 1; level <= k; ++level) {
-                ox += (path[level - 1] & 1) * std::ldexp(1.0, -level);
-                oy += (path[level - 1] >> 1) * std::ldexp(1.0, -level);
-            }
+            const NodeLayer& nl = node.layers[static_cast<int>(t.layer)];
+            const double scale = std::ldexp(1.0 / a, -node.level);
             // The region: same texture, uv box holding the triangle's uv, and
             // the one whose mapping reproduces atlas_uv (charts may overlap in uv).
             const PackedRegion* best = nullptr;
             double best_err = 1e300;
-            for (const PackedRegion& r : node.layers[static_cast<int>(t.layer)].regions) {
+            for (const PackedRegion& r : nl.regions) {
                 if (r.texture != t.tri.texture) continue;
                 bool inside = true;
                 for (const Vec2d& uv : t.tri.uv) {
@@ -352,8 +377,8 @@ struct Checker {
                 double err = 0;
                 for (int c = 0; c < 3; ++c) {
                     const Vec2d texel = r.toAtlasTexels(t.tri.uv[c]);
-                    const double rx = texel.x / a * std::ldexp(1.0, -k) + ox,
-                                 ry = texel.y / a * std::ldexp(1.0, -k) + oy;
+                    const double rx = (texel.x + static_cast<double>(nl.offset[0])) * scale,
+                                 ry = (texel.y + static_cast<double>(nl.offset[1])) * scale;
                     err = std::max({err, std::abs(rx - t.atlas_uv[c].x), std::abs(ry - t.atlas_uv[c].y)});
                 }
                 if (err < best_err) best_err = err, best = &r;
@@ -362,15 +387,16 @@ struct Checker {
                 v.add("triangle ", i, ": no region of texture ", t.tri.texture, " in leaf ", leaf, " holds its uv");
                 continue;
             }
-            if (best_err > 1e-12) v.add("triangle ", i, ": atlas_uv off the quadrant-path value by ", best_err);
+            if (best_err > 1e-12) v.add("triangle ", i, ": atlas_uv off its region's value by ", best_err);
+            const double bx = best->rotated ? best->border_v : best->border_u, by = best->rotated ? best->border_u : best->border_v;
             for (int c = 0; c < 3; ++c) {
-                const Vec2d local = node.localFromRoot(t.atlas_uv[c]);
-                const Vec2d p{local.x * a, local.y * a};
+                const Vec2d p{t.atlas_uv[c].x / scale - static_cast<double>(nl.offset[0]),
+                              t.atlas_uv[c].y / scale - static_cast<double>(nl.offset[1])};
                 const double tol = 1e-9 * a;
-                if (p.x < best->x + b - tol || p.x > best->x + best->w - b + tol || p.y < best->y + b - tol ||
-                    p.y > best->y + best->h - b + tol)
+                if (p.x < best->x + bx - tol || p.x > best->x + best->w - bx + tol || p.y < best->y + by - tol ||
+                    p.y > best->y + best->h - by + tol)
                     v.add("triangle ", i, " corner ", c, ": texel ", p.x, ",", p.y, " outside the content of region ",
-                          best->x, ",", best->y, " ", best->w, "x", best->h, " (border ", b, ")");
+                          best->x, ",", best->y, " ", best->w, "x", best->h, " (border ", bx, ",", by, ")");
             }
         }
     }
@@ -444,6 +470,12 @@ struct Checker {
     // Each texel edge of every atlas a triangle appears in, mapped to the
     // world through the triangle, is at most N.min_distance / (pixels per
     // metre at 1 m) long: at least one pixel per texel from min_distance on.
+    // Each texel edge of every atlas a triangle appears in, mapped to the
+    // world through the triangle, is at most N.min_distance / (pixels per
+    // metre at 1 m) long: at least one pixel per texel from min_distance on.
+    // The resolution cap's exception: an edge that spans exactly one texel of
+    // the texture (the atlas holds it at its own resolution). No edge may span
+    // less than one (the atlas above the texture's resolution).
     void guarantee() {
         const double ppm = tree.projection.pixelsPerMetreAt1m();
         const double a = tree.params.atlas_size_px;
@@ -453,17 +485,22 @@ struct Checker {
             if (worldDegenerate(t.tri.position_local) || uvDegenerate(t.tri.uv)) continue;
             const Vec3d v1 = sub(t.tri.position_local[1], t.tri.position_local[0]);
             const Vec3d v2 = sub(t.tri.position_local[2], t.tri.position_local[0]);
+            const Vec2d t1 = sub2(t.tri.uv[1], t.tri.uv[0]), t2 = sub2(t.tri.uv[2], t.tri.uv[0]);
+            const TextureRef& tex = scene.textures[static_cast<size_t>(t.tri.texture)];
             for (int32_t id = leaf_of[i]; id >= 0; id = tree.nodes[id].parent) {
                 const AtlasNode& node = tree.nodes[id];
+                const NodeLayer& nl = node.layers[static_cast<int>(t.layer)];
                 std::array<Vec2d, 3> p;
                 for (int c = 0; c < 3; ++c) {
-                    const Vec2d local = node.localFromRoot(t.atlas_uv[c]);
-                    const Vec2d check{t.atlas_uv[c].x * std::ldexp(1.0, node.level) - node.offset[0],
-                                      t.atlas_uv[c].y * std::ldexp(1.0, node.level) - node.offset[1]};
-                    if (local != check) v.add("node ", id, ": localFromRoot disagrees with root * 2^k - offset");
-                    if (check.x < -1e-9 || check.x > 1 + 1e-9 || check.y < -1e-9 || check.y > 1 + 1e-9)
-                        v.add("triangle ", i, " corner ", c, ": local ", check.x, ",", check.y, " outside node ", id);
-                    p[c] = {check.x * a, check.y * a};
+                    const Vec2d check{t.atlas_uv[c].x * std::ldexp(a, node.level) - static_cast<double>(nl.offset[0]),
+                                      t.atlas_uv[c].y * std::ldexp(a, node.level) - static_cast<double>(nl.offset[1])};
+                    if (nl.texelFromRoot(t.atlas_uv[c], node.level, tree.params.atlas_size_px) != check)
+                        v.add("node ", id, ": texelFromRoot disagrees with root * A * 2^k - offset");
+                    if (check.x < -1e-9 * a || check.x > nl.width * (1 + 1e-12) || check.y < -1e-9 * a ||
+                        check.y > nl.height * (1 + 1e-12))
+                        v.add("triangle ", i, " corner ", c, ": texel ", check.x, ",", check.y, " outside node ", id,
+                              "'s ", nl.width, "x", nl.height, " atlas");
+                    p[c] = check;
                 }
                 const Vec2d e1 = sub2(p[1], p[0]), e2 = sub2(p[2], p[0]);
                 const double d = det2(e1, e2);
@@ -471,13 +508,21 @@ struct Checker {
                     v.add("triangle ", i, ": collapsed in node ", id, "'s atlas");
                     break;
                 }
-                const Vec3d along_x = scaled(added(scaled(v1, e2.y), scaled(v2, -e1.y)), 1.0 / d);
-                const Vec3d along_y = scaled(added(scaled(v1, -e2.x), scaled(v2, e1.x)), 1.0 / d);
                 const double limit = node.min_distance_m / ppm * (1 + 1e-9);
-                const double worst = std::max(norm(along_x), norm(along_y));
-                if (worst > limit)
-                    v.add("triangle ", i, " (source ", t.source, ") in node ", id, " (level ", node.level,
-                          "): a texel edge spans ", worst, " m, more than ", limit, " m");
+                // Per atlas axis: its world edge and the texture texels it spans.
+                const std::array<std::pair<double, double>, 2> k{std::pair{e2.y / d, -e1.y / d}, std::pair{-e2.x / d, e1.x / d}};
+                for (int axis = 0; axis < 2; ++axis) {
+                    const auto [k1, k2] = k[static_cast<size_t>(axis)];
+                    const double world = norm(added(scaled(v1, k1), scaled(v2, k2)));
+                    const double su = (k1 * t1.x + k2 * t2.x) * tex.width_px, sv = (k1 * t1.y + k2 * t2.y) * tex.height_px;
+                    const double texels = std::sqrt(su * su + sv * sv);
+                    if (texels < 1 - 1e-6)
+                        v.add("triangle ", i, " in node ", id, ": an atlas texel spans ", texels,
+                              " texels of its texture (above its resolution)");
+                    if (world > limit && std::abs(texels - 1) > 1e-6)
+                        v.add("triangle ", i, " (source ", t.source, ") in node ", id, " (level ", node.level,
+                              "): a texel edge spans ", world, " m, more than ", limit, " m");
+                }
             }
         }
     }
@@ -627,8 +672,8 @@ void expectImagesWritten(const AtlasTree& tree, const fs::path& out) {
             if (rel.empty()) continue;
             auto in = OIIO::ImageInput::open((out / rel).string());
             ASSERT_TRUE(in) << rel << " cannot be opened";
-            EXPECT_EQ(in->spec().width, tree.params.atlas_size_px) << rel;
-            EXPECT_EQ(in->spec().height, tree.params.atlas_size_px) << rel;
+            EXPECT_EQ(in->spec().width, n.layers[l].width) << rel;
+            EXPECT_EQ(in->spec().height, n.layers[l].height) << rel;
             EXPECT_EQ(in->spec().nchannels, l == 0 ? 3 : 4) << rel;
         }
 }
@@ -661,7 +706,8 @@ TEST(AtlasTree, CheckerRejectsCorruptedTrees) {
     expectCaught("region off the grid", [&](AtlasTree& t) { t.nodes[leaf].layers[0].regions[0].w += 2; });
     expectCaught("min_distance halved", [&](AtlasTree& t) { t.nodes[0].min_distance_m *= 0.5; });
     expectCaught("leaf range shortened", [&](AtlasTree& t) { --t.nodes[leaf].layers[0].range.count; });
-    expectCaught("offset swapped", [&](AtlasTree& t) { t.nodes[1].offset[0] ^= 1; });
+    expectCaught("offset moved by one texel pair", [&](AtlasTree& t) { t.nodes[1].layers[0].offset[0] += 2; });
+    expectCaught("sharp_from of a leaf lowered", [&](AtlasTree& t) { t.nodes[leaf].sharp_from_m *= 0.5; });
     expectCaught("a triangle credited to another source", [&](AtlasTree& t) {
         t.triangles[textured].source =
             (t.triangles[textured].source + 1) % static_cast<uint32_t>(scene.triangles.size());
@@ -750,14 +796,15 @@ TEST(AtlasExtremes, HugeDminGivesOneRootLeaf) {
 
 // A texture repeated 1000 times over a quad needs the same texels per metre
 // as one stretched over it, so it must not take more atlas area; rendered,
-// to see the resampler cope with the repeats.
+// to see the resampler cope with the repeats. The texture (1024 px) has more
+// texels than either needs, so the resolution cap plays no part.
 TEST(AtlasExtremes, ThousandTextureRepeatsCostNoMoreThanOne) {
     const fs::path dir = test::scratchPath("atlas_tree", "repeats");
     fs::create_directories(dir);
     synth::FacadeStyle style;
     style.building_number = 7;
     std::string error;
-    ASSERT_TRUE(synth::writePng((dir / "facade.png").string(), synth::drawFacade(style, 64, 64), &error)) << error;
+    ASSERT_TRUE(synth::writePng((dir / "facade.png").string(), synth::drawFacade(style, 1024, 1024), &error)) << error;
 
     AtlasParams p;
     p.d_min_m = 100;  // 20 m at about 22 px/m: some 450 texels, inside a 512 atlas
@@ -765,7 +812,7 @@ TEST(AtlasExtremes, ThousandTextureRepeatsCostNoMoreThanOne) {
     for (int k = 0; k < 2; ++k) {
         const double repeats = k == 0 ? 1 : 1000;
         Scene scene;
-        const int tex = addTexture(scene, (dir / "facade.png").string(), 64);
+        const int tex = addTexture(scene, (dir / "facade.png").string(), 1024);
         addQuad(scene, 0, 0, 20, repeats, tex);
         const fs::path out = dir / (k == 0 ? "out1" : "out1000");
         const auto b = build(scene, p, k == 0 ? "repeats 1" : "repeats 1000", out);
@@ -785,7 +832,7 @@ TEST(AtlasExtremes, ThousandTextureRepeatsCostNoMoreThanOne) {
 
 TEST(AtlasExtremes, KilometreTriangleIsSplitNotEnlarged) {
     Scene scene;
-    const int tex = addTexture(scene, "/nonexistent/ground.png", 1024);
+    const int tex = addTexture(scene, "/nonexistent/ground.png", 16384);  // more texels than d_min asks for: no cap
     scene.triangles.push_back(triangle({0, 0, 0}, {1000, 0, 0}, {0, 1000, 0}, {0, 0}, {1, 0}, {0, 1}, tex));
     scene.triangles.back().semantic = SurfaceSemantic::Ground;
     AtlasParams p = structureOnly();
@@ -804,11 +851,12 @@ TEST(AtlasExtremes, KilometreTriangleIsSplitNotEnlarged) {
 }
 
 // The same triangle at d_min 1 m would need some 2.2 million texels along an
-// edge: about 10^8 pieces. Splitting is bounded (at most 10,000 pieces for a
-// small scene); beyond that d_min is raised, and the report says why.
+// edge: about 10^8 pieces, and its 65536 px texture still some 17,000 at its
+// own resolution. Splitting is bounded (at most 10,000 pieces for a small
+// scene); beyond that d_min is raised, and the report says why.
 TEST(AtlasExtremes, KilometreTriangleAtOneMetreRaisesDminToBoundSplitting) {
     Scene scene;
-    const int tex = addTexture(scene, "/nonexistent/ground.png", 1024);
+    const int tex = addTexture(scene, "/nonexistent/ground.png", 65536);
     scene.triangles.push_back(triangle({0, 0, 0}, {1000, 0, 0}, {0, 1000, 0}, {0, 0}, {1, 0}, {0, 1}, tex));
     AtlasParams p = structureOnly();
     p.d_min_m = 1;
@@ -821,6 +869,30 @@ TEST(AtlasExtremes, KilometreTriangleAtOneMetreRaisesDminToBoundSplitting) {
     EXPECT_EQ(s.triangles_split, 1u);
     EXPECT_LE(s.triangles_added_by_split, 10000u);
     EXPECT_GT(s.triangles_added_by_split, 1000u);  // raised only as far as the budget needs
+    EXPECT_TRUE(treeIsValid(scene, b->tree));
+}
+
+// With a 1024 px texture the same triangle at 1 m asks for far more than the
+// texture has: its pieces hold the texture's own texels (capped), a bounded
+// number whatever d_min, so d_min stays where it was asked.
+TEST(AtlasExtremes, KilometreTriangleWithAModestTextureIsCappedNotEnlarged) {
+    Scene scene;
+    const int tex = addTexture(scene, "/nonexistent/ground.png", 1024);
+    scene.triangles.push_back(triangle({0, 0, 0}, {1000, 0, 0}, {0, 1000, 0}, {0, 0}, {1, 0}, {0, 1}, tex));
+    AtlasParams p = structureOnly();
+    p.d_min_m = 1;
+    p.critical_fraction = 1.0;
+    const auto b = build(scene, p, "1 km triangle at 1 m, 1024 px");
+    ASSERT_TRUE(b->status.ok()) << b->status.error;
+    const AtlasStats& s = b->tree.stats;
+    EXPECT_FALSE(s.enlarged_for_split_budget);
+    EXPECT_EQ(s.d_min_used_m, 1.0);
+    EXPECT_EQ(s.triangles_split, 1u);
+    // 1024 x 1024 texels at full resolution, 496 x 496 of content per 512 atlas at most: at least 5 pieces.
+    EXPECT_GE(s.triangles_added_by_split, 4u);
+    EXPECT_LE(s.triangles_added_by_split, 64u);
+    for (const AtlasNode& n : b->tree.nodes)
+        for (const PackedRegion& r : n.layers[0].regions) EXPECT_TRUE(r.native_u && r.native_v) << "a region not capped";
     EXPECT_TRUE(treeIsValid(scene, b->tree));
 }
 
@@ -942,7 +1014,7 @@ void expectSameTree(const AtlasTree& a, const AtlasTree& b) {
         EXPECT_EQ(x.parent, y.parent) << i;
         EXPECT_EQ(x.children, y.children) << i;
         EXPECT_EQ(x.level, y.level) << i;
-        EXPECT_EQ(x.offset, y.offset) << i;
+        EXPECT_EQ(x.sharp_from_m, y.sharp_from_m) << i;
         EXPECT_EQ(x.bounds.min, y.bounds.min) << i;
         EXPECT_EQ(x.bounds.max, y.bounds.max) << i;
         EXPECT_EQ(x.min_distance_m, y.min_distance_m) << i;
@@ -951,6 +1023,9 @@ void expectSameTree(const AtlasTree& a, const AtlasTree& b) {
             EXPECT_EQ(p.range.first, q.range.first) << i;
             EXPECT_EQ(p.range.count, q.range.count) << i;
             EXPECT_EQ(p.atlas_path, q.atlas_path) << i;
+            EXPECT_EQ(p.offset, q.offset) << i;
+            EXPECT_EQ(p.width, q.width) << i;
+            EXPECT_EQ(p.height, q.height) << i;
             EXPECT_EQ(p.packed_texels, q.packed_texels) << i;
             ASSERT_EQ(p.regions.size(), q.regions.size()) << i;
             for (size_t k = 0; k < p.regions.size(); ++k) {

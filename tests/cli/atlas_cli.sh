@@ -25,10 +25,10 @@ import json, os, struct, sys, zlib
 d = sys.argv[1]
 r = json.load(open(os.path.join(d, "atlas_report.json")))
 A = r["parameters"]["atlas_size_px"]
-paths = [(name, l["atlas"]) for n in r["nodes"] for name, l in n["layers"].items() if l["atlas"] is not None]
+paths = [(name, l["atlas"], l["size"]) for n in r["nodes"] for name, l in n["layers"].items() if l["atlas"] is not None]
 assert len(paths) == r["tree"]["atlases"], (len(paths), r["tree"]["atlases"])
 on_disk = {os.path.relpath(os.path.join(root, f), d) for root, _, fs in os.walk(d) for f in fs}
-assert on_disk == {"atlas_report.json"} | {p for _, p in paths}, sorted(on_disk ^ ({"atlas_report.json"} | {p for _, p in paths}))[:5]
+assert on_disk == {"atlas_report.json"} | {p for _, p, _ in paths}, sorted(on_disk ^ ({"atlas_report.json"} | {p for _, p, _ in paths}))[:5]
 
 def png_shape(path):
     b = open(path, "rb").read()
@@ -49,11 +49,12 @@ def png_shape(path):
     assert len(zlib.decompress(idat)) == h * (1 + w * channels), path
     return w, h, channels
 
-for layer, p in paths:
+for layer, p, size in paths:
     w, h, c = png_shape(os.path.join(d, p))
-    assert (w, h) == (A, A), (p, w, h)
+    assert [w, h] == size and w % 4 == 0 and h % 4 == 0 and w <= A and h <= A, (p, w, h, size)
     assert c == {"opaque": 3, "alpha": 4}[layer], (p, c)
-print(f"ok: {d}: {len(paths)} atlases, all {A} x {A} PNGs (RGB opaque, RGBA alpha), no other files")
+print(f"ok: {d}: {len(paths)} atlases, PNGs of the sizes the report gives (at most {A} x {A}; RGB opaque, "
+      "RGBA alpha), no other files")
 PY
 }
 
@@ -101,7 +102,8 @@ assert T["depth"] == max(n["level"] for n in nodes), T
 assert T["triangles"] == r["scene"]["triangles"] + r["critical_triangles"]["triangles_added"], T
 
 root = nodes[0]
-assert root["parent"] == -1 and root["level"] == 0 and root["offset"] == [0, 0], root
+assert root["parent"] == -1 and root["level"] == 0, root
+assert all(l["offset"] == [0, 0] for l in root["layers"].values() if l["atlas"]), root
 L = root["layers"]
 opaque, alpha = L.get("opaque", {"first": 0, "count": 0}), L.get("alpha", {"first": 0, "count": 0})
 assert opaque["count"] + alpha["count"] == T["triangles"], (opaque, alpha, T)
@@ -112,7 +114,7 @@ d_used = r["d_min"]["used_m"]
 seen_as_child = set()
 for n in nodes:
     if is_leaf(n):
-        assert n["min_distance_m"] == d_used, n["id"]
+        assert n["min_distance_m"] == d_used and n["sharp_from_m"] >= d_used, n["id"]
         continue
     kids = [(q, c) for q, c in enumerate(n["children"]) if c >= 0]
     for q, c in kids:
@@ -120,10 +122,24 @@ for n in nodes:
         assert c > n["id"] and c not in seen_as_child, (n["id"], c)
         seen_as_child.add(c)
         assert k["parent"] == n["id"] and k["level"] == n["level"] + 1, (n["id"], c)
-        assert k["offset"] == [2 * n["offset"][0] + q % 2, 2 * n["offset"][1] + q // 2], (n["id"], q, k["offset"])
         for ax in range(3):
             assert n["bounds"]["min"][ax] <= k["bounds"]["min"][ax] and k["bounds"]["max"][ax] <= n["bounds"]["max"][ax]
-    assert n["min_distance_m"] == 2 * max(nodes[c]["min_distance_m"] for _, c in kids), n["id"]
+    # atlas_tree.h: twice the largest child distance at which every child texel is at most a pixel.
+    assert n["min_distance_m"] == 2 * max(nodes[c]["sharp_from_m"] for _, c in kids), n["id"]
+    assert n["sharp_from_m"] == n["min_distance_m"], n["id"]
+    # Each child's atlas, halved, lies inside this node's at offset(child) / 2 - offset(node), apart from its siblings'.
+    for name, mine in n["layers"].items():
+        if not mine["atlas"]: continue
+        rects = []
+        for _, c in kids:
+            cl = nodes[c]["layers"].get(name)
+            if not cl or not cl["atlas"]: continue
+            assert cl["offset"][0] % 2 == 0 and cl["offset"][1] % 2 == 0, (c, cl["offset"])
+            x, y = cl["offset"][0] // 2 - mine["offset"][0], cl["offset"][1] // 2 - mine["offset"][1]
+            rect = (x, y, x + (cl["size"][0] + 1) // 2, y + (cl["size"][1] + 1) // 2)
+            assert x >= 0 and y >= 0 and rect[2] <= mine["size"][0] and rect[3] <= mine["size"][1], (n["id"], c, rect, mine["size"])
+            assert not any(rect[0] < o[2] and o[0] < rect[2] and rect[1] < o[3] and o[1] < rect[3] for o in rects), (n["id"], c)
+            rects.append(rect)
     # Each layer's range is exactly its children's ranges laid end to end, and
     # its image exists exactly when one of theirs does (it is made of them).
     for name in ("opaque", "alpha"):
@@ -150,13 +166,28 @@ for n in nodes:
 
 # Regions are whole 4 x 4 blocks, so every leaf's packed area is a multiple of 16.
 leaf_layers = [l for n in nodes if is_leaf(n) for l in n["layers"].values() if "coverage" in l]
-areas = [l["coverage"] * A * A for l in leaf_layers]
-assert all(a == round(a) and round(a) % 16 == 0 and a > 0 for a in areas), areas[:5]
+areas = [l["coverage"] * l["size"][0] * l["size"][1] for l in leaf_layers]
+assert all(abs(a - round(a)) < 1e-6 and round(a) % 16 == 0 and a > 0 for a in areas), areas[:5]
 X, C = r["texels"], T["coverage"]
 assert X["packed_texels"] == sum(round(a) for a in areas), X
-assert X["leaf_atlas_texels"] == len(leaf_layers) * A * A, X
-assert X["atlas_texture_bytes"] == sum(A * A * {"opaque": 3, "alpha": 4}[name]
-                                       for n in nodes for name, l in n["layers"].items() if l["atlas"]), X
+assert X["leaf_atlas_texels"] == sum(l["size"][0] * l["size"][1] for l in leaf_layers), X
+atlases = [(name, l["size"]) for n in nodes for name, l in n["layers"].items() if l["atlas"]]
+assert X["atlas_texture_bytes"] == sum(w * h * {"opaque": 3, "alpha": 4}[name] for name, (w, h) in atlases), X
+# The texel budget accounts for every atlas texel; the inner part is exactly the inner nodes' atlases.
+B = X["budget"]
+assert B["total"] == sum(w * h for _, (w, h) in atlases) == sum(v for k, v in B.items() if k != "total"), B
+assert B["inner"] == sum(l["size"][0] * l["size"][1] for n in nodes if not is_leaf(n)
+                         for l in n["layers"].values() if l["atlas"]), B
+assert B["empty"] == X["leaf_atlas_texels"] - X["packed_texels"], B
+# Bytes as BC with full mips and a DDS header, recomputed from the sizes.
+def bc(w, h, ch):
+    total = 128
+    while True:
+        total += ((w + 3) // 4) * ((h + 3) // 4) * (16 if ch == 4 else 8)
+        if w == 1 and h == 1: return total
+        w, h = max(1, w // 2), max(1, h // 2)
+Y = r["bytes"]
+assert Y["atlases"] == sum(bc(w, h, 4 if name == "alpha" else 3) for name, (w, h) in atlases), Y
 assert close(C["overall"], X["packed_texels"] / X["leaf_atlas_texels"]), C
 assert close(C["leaf_min"], min(l["coverage"] for l in leaf_layers)), C
 assert close(C["leaf_mean"], sum(l["coverage"] for l in leaf_layers) / len(leaf_layers)), C
@@ -167,11 +198,20 @@ for f in glob.glob("town/textures/*.png"):
     w, h, _, colour = struct.unpack(">IIBB", open(f, "rb").read()[16:26])
     orig += w * h * {2: 3, 6: 4}[colour]
 assert X["original_texture_bytes"] == orig, (X, orig)
+orig_bc = 0
+for f in glob.glob("town/textures/*.png"):
+    w, h, _, colour = struct.unpack(">IIBB", open(f, "rb").read()[16:26])
+    orig_bc += bc(w, h, {2: 3, 6: 4}[colour])
+assert Y["originals_used"] == orig_bc and Y["originals_needed"] <= orig_bc, (Y, orig_bc)
+assert close(Y["ratio"], (Y["atlases"] + Y["originals_needed"]) / orig_bc), Y
+dm = r["d_min"]
+assert dm["textures_exact"] + dm["textures_needing_originals"] == truth["textures"]["count"], dm
+assert (Y["originals_needed"] == 0) == (dm["textures_needing_originals"] == 0), (Y, dm)
 assert X["textures_unreadable"] == 0 and r["warnings"] == {} and r["warnings_total"] == 0, r["warnings"]
 assert r["scene"]["textures"] == truth["textures"]["count"], r["scene"]
 
 # The defaults --help announces (checked separately) are the ones used.
-want = {"d_min_m": 150.0, "atlas_size_px": 512, "border_px": 8, "screen_width_px": 1920, "screen_height_px": 1080,
+want = {"d_min_m": 150.0, "d_min_from_data": True, "atlas_size_px": 512, "border_px": 8, "screen_width_px": 1920, "screen_height_px": 1080,
         "vertical_fov_deg": 60.0, "filter": "lanczos3", "packing": "maxrects", "critical_fraction": 0.1,
         "threads": 0, "cache_mb": 256}
 assert {k: P[k] for k in want} == want, P
@@ -204,7 +244,7 @@ cmp -s threads1.json threads2.json || { diff threads1.json threads2.json | head 
 echo "ok: --threads 1 and --threads 2 give identical files ($(wc -l < threads1.sha)) and reports"
 
 "$CITYATLAS" atlas --help > help.txt
-for opt_default in "d-min D/72" "atlas-size 512" "border 8" "screen 1920x1080" "fov 60" "filter lanczos3" \
+for opt_default in "d-min auto" "atlas-size 512" "border 8" "screen 1920x1080" "fov 60" "filter lanczos3" \
                    "packing maxrects" "critical-percent 10" "threads 0" "cache-mb 256"; do
   read -r opt default <<< "$opt_default"
   grep -Eq -- "^ *--$opt [^ ]*.*=$default( |$)" help.txt || fail "atlas --help does not give --$opt with default $default"

@@ -144,13 +144,13 @@ json writeNode(const fs::path& dir, int id, int level, int quadrant, std::array<
                   {"uv_atlas_error_texels", glb.max_uv_atlas_error * kAtlas},
                   {"simplified", false},
                   {"atlas",
-                   {{"uri", atlas}, {"bytes", dds.size()}, {"format", "BC1"}, {"size_px", kAtlas},
-                    {"mips", mips.size()}, {"psnr_db", 40.0}}}};
+                   {{"uri", atlas}, {"bytes", dds.size()}, {"format", "BC1"}, {"width_px", kAtlas},
+                    {"height_px", kAtlas}, {"offset", offset}, {"mips", mips.size()}, {"psnr_db", 40.0}}}};
     json ca = {{"id", id},
                {"level", level},
                {"quadrant", quadrant},
-               {"offset", offset},
                {"min_distance_m", min_distance},
+               {"sharp_from_m", min_distance},
                {"world_texel_m", min_distance / (kFocal * kCorner)},
                {"centre", {centre.x, centre.y, centre.z}},
                {"layers", {{"opaque", layer}}},
@@ -165,7 +165,9 @@ json writeNode(const fs::path& dir, int id, int level, int quadrant, std::array<
 }
 
 // A root (node 0) with two leaves (1: quadrant 0, 2: quadrant 3), opaque layers
-// only; two original textures (BC1 32x32, BC3 16x8) in one block; two features.
+// only, every atlas 64 x 64: the leaves' halves at (0, 0) and (32, 32) of the
+// root's, so their offsets are (0, 0) and (64, 64); two original textures
+// (BC1 32x32, BC3 16x8) in one block; two features.
 void writeValidFolder(const fs::path& dir) {
     for (const char* sub : {"geometry/opaque", "atlas/opaque", "textures", "features"})
         fs::create_directories(dir / sub);
@@ -175,7 +177,7 @@ void writeValidFolder(const fs::path& dir) {
     json root = writeNode(dir, 0, 0, -1, {0, 0}, 2 * kDMin, merged(a, b), lo1, hi2, {0, 1}, {}, &geometry_bytes,
                           &atlas_bytes);
     root["children"] = {writeNode(dir, 1, 1, 0, {0, 0}, kDMin, a, lo1, hi1, {0}, {0}, &geometry_bytes, &atlas_bytes),
-                        writeNode(dir, 2, 1, 3, {1, 1}, kDMin, b, lo2, hi2, {1}, {0}, &geometry_bytes, &atlas_bytes)};
+                        writeNode(dir, 2, 1, 3, {64, 64}, kDMin, b, lo2, hi2, {1}, {0}, &geometry_bytes, &atlas_bytes)};
 
     const std::vector<Image8> t0 = mipChain(testImage(32, 32, 3, 7)), t1 = mipChain(testImage(16, 8, 4, 8));
     std::vector<uint8_t> block = encodeDds(t0, BcQuality::Fast);
@@ -206,6 +208,8 @@ void writeValidFolder(const fs::path& dir) {
                   {"position_error_target_mm", 2.0},
                   {"uv_bits", 12},
                   {"bc_quality", "fast"},
+                  {"originals", "needed"},
+                  {"d_min_chosen_by", "given"},
                   {"node_triangles", 32768},
                   {"geometry_encoder", "Draco"},
                   {"texture_encoder", "stb_dxt"}};
@@ -219,9 +223,9 @@ void writeValidFolder(const fs::path& dir) {
                {"materials", {{{"diffuse", {0.5, 0.5, 0.5}}, {"transparency", 0.0}}}},
                {"textures",
                 {{{"block", 0}, {"offset", 0}, {"bytes", t0_bytes}, {"width", 32}, {"height", 32}, {"format", "BC1"},
-                  {"mips", t0.size()}, {"wrap", "wrap"}},
+                  {"mips", t0.size()}, {"wrap", "wrap"}, {"original", "written"}},
                  {{"block", 0}, {"offset", t0_bytes}, {"bytes", second.size()}, {"width", 16}, {"height", 8},
-                  {"format", "BC3"}, {"mips", t1.size()}, {"wrap", "clamp"}}}},
+                  {"format", "BC3"}, {"mips", t1.size()}, {"wrap", "clamp"}, {"original", "written"}}}},
                {"texture_blocks", {{{"uri", "textures/0.bin"}, {"bytes", block.size()}}}},
                {"features",
                 {{"count", 2},
@@ -233,7 +237,10 @@ void writeValidFolder(const fs::path& dir) {
                            {"bytes", {{"geometry", geometry_bytes},
                                       {"atlases", atlas_bytes},
                                       {"textures", block.size()},
-                                      {"features", table.size()}}}}}};
+                                      {"features", table.size()},
+                                      {"originals_as_bc", t0_bytes + second.size()}}},
+                           {"texture_ratio", static_cast<double>(atlas_bytes + block.size()) /
+                                                 static_cast<double>(t0_bytes + second.size())}}}};
     json tileset = {{"asset", {{"version", "1.1"},
                                {"generator", "cityatlas 0.1.0"},
                                {"tilesetVersion", "0123456789abcdef"},
@@ -403,9 +410,9 @@ TEST_F(Inspect, DdsSizeInTilesetWrong) {
                      leafLayer(ts, 0)["atlas"]["bytes"] = b.size();
                  }),
                  "atlas/opaque/1.dds", "its DDS header makes");
-    // A size_px the DDS does not have.
-    expectDefect(damaged([](const fs::path&, json& ts) { leafLayer(ts, 0)["atlas"]["size_px"] = 128; }),
-                 "atlas/opaque/1.dds", "128x128");
+    // A size the DDS does not have.
+    expectDefect(damaged([](const fs::path&, json& ts) { leafLayer(ts, 0)["atlas"]["height_px"] = 32; }),
+                 "atlas/opaque/1.dds", "64x32");
 }
 
 TEST_F(Inspect, TextureOffsetOutsideBlock) {
@@ -505,10 +512,22 @@ TEST_F(Inspect, TreeInconsistencies) {
                      ts["root"]["transform"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
                  }),
                  "tileset.json: /root/transform", "local_to_ecef");
+    expectDefect(damaged([](const fs::path&, json& ts) { leafLayer(ts, 0)["atlas"]["offset"][0] = 1; }),
+                 "tileset.json: /root/children/0 (node 1)", "offset [1, 0] is odd");
+    // Node 2's half moved onto node 1's, and past the root's atlas.
+    expectDefect(damaged([](const fs::path&, json& ts) { leafLayer(ts, 1)["atlas"]["offset"] = {32, 32}; }),
+                 "tileset.json: /root/children/1 (node 2)", "overlaps a sibling's");
+    expectDefect(damaged([](const fs::path&, json& ts) { leafLayer(ts, 1)["atlas"]["offset"] = {96, 64}; }),
+                 "tileset.json: /root/children/1 (node 2)", "leaves its parent's 64x64 atlas");
+    // A parent that serves from closer than twice its children's sharp_from.
     expectDefect(damaged([](const fs::path&, json& ts) {
-                     ts["root"]["children"][0]["extras"]["cityatlas"]["offset"][0] = 1;
+                     ts["root"]["children"][1]["extras"]["cityatlas"]["sharp_from_m"] = 1.5 * kDMin;
                  }),
-                 "tileset.json: /root/children/0 (node 1)", "offset [1, 0] is not quadrant 0");
+                 "tileset.json: /root/children/1 (node 2)", "more than half its parent's");
+    // A listed block that holds none of the leaf's textures... node 1 uses texture 0 only: lists block 0, fine;
+    // and the texture ratio the index claims.
+    expectDefect(damaged([](const fs::path&, json& ts) { ts["extras"]["cityatlas"]["totals"]["texture_ratio"] = 9.0; }),
+                 "tileset.json: /extras/cityatlas/totals/texture_ratio", "the index gives");
 }
 
 // Garbage in place of a GLB (same length, so it reaches the decoder), with

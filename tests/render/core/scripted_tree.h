@@ -84,7 +84,7 @@ inline TilesetIndex makeIndex(const std::vector<ScriptedNode>& script, const Bui
         NodeLayer& l = ix.nodes[i].layers[0];
         l.present = true;
         l.triangles = 10;
-        l.atlas_size_px = 256;
+        l.atlas_width_px = l.atlas_height_px = 256;
         ix.blocks.push_back({BlockKind::Geometry, static_cast<int32_t>(i), 0, -1, "g", geometry_bytes});
         l.geometry = static_cast<BlockId>(ix.blocks.size() - 1);
         ix.blocks.push_back({BlockKind::Atlas, static_cast<int32_t>(i), 0, -1, "a", atlas_bytes});

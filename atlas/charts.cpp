@@ -1,0 +1,195 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "atlas/charts.h"
+
+#include <algorithm>
+#include <queue>
+#include <tuple>
+
+namespace cityatlas::atlas {
+namespace {
+
+bool overlaps1d(double alo, double ahi, double blo, double bhi) {
+    const double lo = std::max(alo, blo), hi = std::min(ahi, bhi);
+    return hi > lo || (hi == lo && (alo == ahi || blo == bhi));
+}
+
+struct Chart {
+    double per_u_1m = 0, per_v_1m = 0;
+    Vec2d lo{1e300, 1e300}, hi{-1e300, -1e300};
+    void add(const ChartMember& c) {
+        per_u_1m = std::max(per_u_1m, c.per_u_1m), per_v_1m = std::max(per_v_1m, c.per_v_1m);
+        lo = {std::min(lo.x, c.uv_min.x), std::min(lo.y, c.uv_min.y)};
+        hi = {std::max(hi.x, c.uv_max.x), std::max(hi.y, c.uv_max.y)};
+    }
+    void add(const Chart& c) {
+        per_u_1m = std::max(per_u_1m, c.per_u_1m), per_v_1m = std::max(per_v_1m, c.per_v_1m);
+        lo = {std::min(lo.x, c.lo.x), std::min(lo.y, c.lo.y)};
+        hi = {std::max(hi.x, c.hi.x), std::max(hi.y, c.hi.y)};
+    }
+};
+
+class Planner {
+public:
+    explicit Planner(const ChartSettings& s) : s_(s) {}
+
+    RegionSize sizeOf(const Chart& c) const {
+        const double f = s_.shrink / s_.d_min_m;
+        double per_u = c.per_u_1m * f, per_v = c.per_v_1m * f;
+        if (s_.promote && s_.shrink >= 1.0 && (c.per_u_1m > 0 || c.per_v_1m > 0)) {  // at least the texture's own density: regionSize caps it there
+            if (s_.native.w > 0) per_u = std::max(per_u, 2.0 * s_.native.w);
+            if (s_.native.h > 0) per_v = std::max(per_v, 2.0 * s_.native.h);
+        }
+        RegionSize r = regionSize(per_u, per_v, c.lo, c.hi, s_.border_px, s_.native);
+        if (s_.shrink < 1.0) r.w = std::min(r.w, s_.atlas_size_px), r.h = std::min(r.h, s_.atlas_size_px);
+        return r;
+    }
+
+    // Greedy merging by saving; returns the surviving chart of every input chart.
+    std::vector<uint32_t> merge(std::vector<Chart>& charts, std::vector<RegionSize>& sizes) const {
+        std::vector<uint32_t> into(charts.size());
+        for (uint32_t k = 0; k < into.size(); ++k) into[k] = k;
+        std::vector<bool> alive(charts.size(), true);
+        // (saving, -i, -j): the largest saving first, then the lowest indices.
+        using Candidate = std::tuple<int64_t, int64_t, int64_t>;
+        std::priority_queue<Candidate> heap;
+        auto touch = [&](uint32_t a, uint32_t b) {
+            const RegionSize &x = sizes[a], &y = sizes[b];
+            return x.uv_min.x <= y.uv_max.x && y.uv_min.x <= x.uv_max.x && x.uv_min.y <= y.uv_max.y &&
+                   y.uv_min.y <= x.uv_max.y;
+        };
+        auto consider = [&](uint32_t a, uint32_t b) {
+            if (!touch(a, b)) return;
+            Chart u = charts[a];
+            u.add(charts[b]);
+            const RegionSize r = sizeOf(u);
+            const int limit_w = std::min(s_.atlas_size_px, std::max(s_.atlas_size_px, std::max(sizes[a].w, sizes[b].w)));
+            const int limit_h = std::min(s_.atlas_size_px, std::max(s_.atlas_size_px, std::max(sizes[a].h, sizes[b].h)));
+            if (r.w > limit_w || r.h > limit_h) return;
+            const int64_t saving = area(sizes[a]) + area(sizes[b]) - area(r);
+            if (saving > 0) heap.emplace(saving, -int64_t{std::min(a, b)}, -int64_t{std::max(a, b)});
+        };
+        // Initial pairs by a sweep over the bordered boxes' u extent.
+        std::vector<uint32_t> order(charts.size());
+        for (uint32_t k = 0; k < order.size(); ++k) order[k] = k;
+        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+            return sizes[a].uv_min.x != sizes[b].uv_min.x ? sizes[a].uv_min.x < sizes[b].uv_min.x : a < b;
+        });
+        std::vector<uint32_t> active;
+        for (uint32_t k : order) {
+            size_t kept = 0;
+            for (uint32_t j : active) {
+                if (sizes[j].uv_max.x < sizes[k].uv_min.x) continue;
+                active[kept++] = j;
+                consider(j, k);
+            }
+            active.resize(kept);
+            active.push_back(k);
+        }
+        while (!heap.empty()) {
+            const auto [saving, ni, nj] = heap.top();
+            heap.pop();
+            const auto a = static_cast<uint32_t>(-ni), b = static_cast<uint32_t>(-nj);
+            if (!alive[a] || !alive[b]) continue;
+            Chart u = charts[a];
+            u.add(charts[b]);
+            const auto k = static_cast<uint32_t>(charts.size());
+            charts.push_back(u);
+            sizes.push_back(sizeOf(u));
+            alive[a] = alive[b] = false;
+            alive.push_back(true);
+            into[a] = into[b] = k;
+            into.push_back(k);
+            for (uint32_t m = 0; m < k; ++m)
+                if (alive[m]) consider(m, k);
+        }
+        for (uint32_t k = static_cast<uint32_t>(into.size()); k-- > 0;)  // merged charts come later: one pass
+            if (into[k] != k) into[k] = into[into[k]];
+        return into;
+    }
+
+private:
+    static int64_t area(const RegionSize& r) { return int64_t{r.w} * r.h; }
+    const ChartSettings& s_;
+};
+
+}  // namespace
+
+// Charts: the members whose uv boxes overlap, transitively. Each chart becomes
+// its own region, so the two opposite walls of a building sharing a wrapped
+// facade texture do not pay for the walls between them in texture space (the
+// papers take one box per texture and node). Returns a chart id per member
+// (the smallest member position in it).
+std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
+    std::vector<uint32_t> parent(m.size());
+    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = k;
+    auto find = [&](uint32_t k) {
+        while (parent[k] != k) k = parent[k] = parent[parent[k]];
+        return k;
+    };
+    std::vector<uint32_t> order(m.size());
+    for (uint32_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+        return m[a].uv_min.x != m[b].uv_min.x ? m[a].uv_min.x < m[b].uv_min.x : a < b;
+    });
+    std::vector<uint32_t> active;
+    for (uint32_t k : order) {
+        size_t kept = 0;
+        for (uint32_t j : active) {
+            if (m[j].uv_max.x < m[k].uv_min.x) continue;  // ends before this one starts: never overlaps a later one
+            active[kept++] = j;
+            if (overlaps1d(m[j].uv_min.x, m[j].uv_max.x, m[k].uv_min.x, m[k].uv_max.x) &&
+                overlaps1d(m[j].uv_min.y, m[j].uv_max.y, m[k].uv_min.y, m[k].uv_max.y)) {
+                const uint32_t a = find(j), b = find(k);
+                if (a != b) parent[std::max(a, b)] = std::min(a, b);
+            }
+        }
+        active.resize(kept);
+        active.push_back(k);
+    }
+    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = find(k);
+    return parent;
+}
+
+TextureRegions planTextureRegions(std::span<const ChartMember> members, const ChartSettings& settings) {
+    TextureRegions out;
+    const std::vector<uint32_t> chart_of = uvCharts(members);
+    std::vector<uint32_t> index_of(members.size(), UINT32_MAX);  // chart id -> position in `charts`
+    std::vector<Chart> charts;
+    std::vector<uint32_t> member_chart(members.size());
+    for (size_t k = 0; k < members.size(); ++k) {
+        uint32_t& idx = index_of[chart_of[k]];
+        if (idx == UINT32_MAX) idx = static_cast<uint32_t>(charts.size()), charts.emplace_back();
+        charts[idx].add(members[k]);
+        member_chart[k] = idx;
+    }
+    const Planner planner(settings);
+    std::vector<RegionSize> sizes;
+    sizes.reserve(charts.size());
+    for (const Chart& c : charts) sizes.push_back(planner.sizeOf(c));
+    std::vector<uint32_t> into(charts.size());
+    for (uint32_t k = 0; k < into.size(); ++k) into[k] = k;
+    if (settings.merge && charts.size() > 1) into = planner.merge(charts, sizes);
+    std::vector<uint32_t> region_of_chart(charts.size(), UINT32_MAX);
+    for (uint32_t k = 0; k < charts.size(); ++k) {
+        if (into[k] != k) continue;
+        region_of_chart[k] = static_cast<uint32_t>(out.regions.size());
+        PlannedRegion r;
+        r.size = sizes[k];
+        r.per_u_1m = charts[k].per_u_1m, r.per_v_1m = charts[k].per_v_1m;
+        r.uv_min = charts[k].lo, r.uv_max = charts[k].hi;
+        r.single_colour = charts[k].per_u_1m == 0 && charts[k].per_v_1m == 0;
+        out.regions.push_back(r);
+    }
+    out.region_of.resize(members.size());
+    for (size_t k = 0; k < members.size(); ++k) out.region_of[k] = region_of_chart[into[member_chart[k]]];
+    return out;
+}
+
+double sharpFrom(const PlannedRegion& r) {
+    double d = 0;
+    if (r.size.density_u > 0) d = std::max(d, r.per_u_1m / r.size.density_u);
+    if (r.size.density_v > 0) d = std::max(d, r.per_v_1m / r.size.density_v);
+    return d;
+}
+
+}  // namespace cityatlas::atlas

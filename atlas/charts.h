@@ -1,0 +1,63 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// The regions one texture takes in one node's atlas (papers/000 §4.5.2,
+/// refined): its triangles are grouped into charts, each chart becomes one
+/// packed region at the largest density of its triangles (capped at the
+/// texture's own resolution), and neighbouring charts are merged where one
+/// region costs fewer texels than two (their borders and gaps overlap).
+/// Internal to the atlas stage; exposed for tests.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "atlas/texel_estimate.h"
+
+namespace cityatlas::atlas {
+
+/// One triangle as the planner sees it: its uv box and texels per unit of u
+/// and v at 1 m (texel density times ProjectionBound::pixelsPerMetreAt1m()).
+struct ChartMember {
+    Vec2d uv_min, uv_max;
+    double per_u_1m = 0, per_v_1m = 0;
+};
+
+struct PlannedRegion {
+    RegionSize size;
+    double per_u_1m = 0, per_v_1m = 0;  ///< the chart's need at 1 m (max over its members)
+    Vec2d uv_min, uv_max;               ///< the members' uv box, border excluded
+    bool single_colour = false;         ///< every member has one uv: the region is one colour
+};
+
+struct TextureRegions {
+    std::vector<PlannedRegion> regions;
+    std::vector<uint32_t> region_of;  ///< per member: its region
+};
+
+struct ChartSettings {
+    double d_min_m = 1;      ///< the distance the content is sized for
+    double shrink = 1;       ///< < 1 lowers the content resolution (forced leaves)
+    int border_px = 8;
+    int atlas_size_px = 512;
+    NativeSize native;       ///< the texture's own size (0: unknown, no cap)
+    bool merge = true;       ///< merge charts where that saves texels
+    /// Hold the texture at its own resolution on both axes (texture_economy.h):
+    /// exact regions, no original needed. Needs a known native size.
+    bool promote = false;
+};
+
+/// Charts: members whose uv boxes overlap, transitively. Returns a chart id per
+/// member (the smallest member position in its chart).
+std::vector<uint32_t> uvCharts(std::span<const ChartMember> members);
+
+/// Charts (transitively overlapping uv boxes), then greedy merging: two
+/// regions whose bordered uv boxes overlap or touch become one when the union's
+/// region has fewer texels than the two, and its sides stay within
+/// max(A/2, the larger input's) so packing stays easy. Deterministic.
+TextureRegions planTextureRegions(std::span<const ChartMember> members, const ChartSettings& settings);
+
+/// The distance from which every texel of `r` covers at most one pixel
+/// (0 for one colour).
+double sharpFrom(const PlannedRegion& r);
+
+}  // namespace cityatlas::atlas

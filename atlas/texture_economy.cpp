@@ -1,0 +1,80 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "atlas/texture_economy.h"
+
+#include <algorithm>
+
+#include "atlas/texel_budget.h"
+
+namespace cityatlas::atlas {
+namespace {
+
+// The levels above the leaves hold a leaf's texels again, halved and tiled:
+// about a third more (a full quadtree: 1/4 + 1/16 + ...).
+constexpr double kLevelsAbove = 4.0 / 3.0;
+
+struct Planned {
+    double texels = 0;
+    bool exact = true, promotable = true;
+};
+
+Planned planAt(const TextureModel& t, const AtlasParams& params, double d, bool promote) {
+    ChartSettings cs;
+    cs.d_min_m = d, cs.border_px = params.border_px, cs.atlas_size_px = params.atlas_size_px, cs.native = t.native;
+    cs.promote = promote;
+    const TextureRegions planned = planTextureRegions(t.members, cs);
+    Planned p;
+    for (const PlannedRegion& r : planned.regions) {
+        p.texels += static_cast<double>(r.size.w) * r.size.h;
+        const bool exact = r.single_colour || (r.size.native_u && r.size.native_v);
+        p.exact &= exact;
+        p.promotable &= exact || (r.uv_max.x > r.uv_min.x && r.uv_max.y > r.uv_min.y);
+    }
+    return p;
+}
+
+}  // namespace
+
+std::vector<TextureModel> modelTextures(const Scene& scene, double ppm) {
+    std::vector<TextureModel> m(scene.textures.size());
+    std::vector<Box3d> bounds(scene.textures.size());
+    for (const Triangle& t : scene.triangles) {
+        if (t.texture < 0) continue;
+        const TexelDensity d = texelDensity(t);
+        TextureModel& tm = m[static_cast<size_t>(t.texture)];
+        tm.members.push_back({d.uv_min, d.uv_max, d.s_world * ppm, d.t_world * ppm});
+        for (const Vec3d& p : t.position_local) bounds[static_cast<size_t>(t.texture)].extend(p);
+    }
+    for (size_t i = 0; i < m.size(); ++i) {
+        const TextureRef& r = scene.textures[i];
+        m[i].native = {std::max(0, r.width_px), std::max(0, r.height_px)};
+        m[i].channels = r.channels == 4 ? 4 : 3;
+        m[i].original_bytes =
+            static_cast<double>(bcBytesWithMips(std::max(1, r.width_px), std::max(1, r.height_px), m[i].channels));
+        if (!bounds[i].empty())
+            m[i].x = 0.5 * (bounds[i].min.x + bounds[i].max.x), m[i].y = 0.5 * (bounds[i].min.y + bounds[i].max.y);
+    }
+    return m;
+}
+
+TexturePlan planTexture(const TextureModel& t, const AtlasParams& params, double d) {
+    TexturePlan plan;
+    if (t.members.empty()) return plan;
+    const Planned at_d = planAt(t, params, d, false);
+    plan.region_texels = at_d.texels;
+    plan.exact = at_d.exact;
+    if (at_d.exact || !at_d.promotable || t.native.w <= 0 || t.native.h <= 0) return plan;
+    // Every triangle must still fit one atlas at full resolution (the
+    // critical-triangle split does not know of promotions).
+    const double room = params.atlas_size_px - 2.0 * params.border_px - 2.0;
+    for (const ChartMember& m : t.members)
+        if ((m.uv_max.x - m.uv_min.x) * t.native.w > room || (m.uv_max.y - m.uv_min.y) * t.native.h > room) return plan;
+    const Planned full = planAt(t, params, d, true);
+    const double original_texels = static_cast<double>(t.native.w) * t.native.h;
+    if (full.exact && (full.texels - at_d.texels) * kLevelsAbove <= original_texels) {
+        plan.region_texels = full.texels;
+        plan.exact = plan.promoted = true;
+    }
+    return plan;
+}
+
+}  // namespace cityatlas::atlas

@@ -1,0 +1,39 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// Per-texture economy over the whole scene: what a texture's atlas regions
+/// cost at a distance d, and whether holding it exactly (every region at the
+/// texture's own resolution) is cheaper than its original. The tree build
+/// promotes such textures (so no original is written for them) and the
+/// default d_min chooser estimates with the same model. Internal to the atlas stage.
+
+#include <vector>
+
+#include "atlas/atlas_tree.h"
+#include "atlas/charts.h"
+
+namespace cityatlas::atlas {
+
+struct TextureModel {
+    std::vector<ChartMember> members;  ///< every triangle of the texture, scene-wide
+    NativeSize native;
+    int channels = 3;
+    double original_bytes = 0;         ///< BC with mips
+    double x = 0, y = 0;               ///< centre of its triangles' bounds (local frame)
+};
+
+/// One model per scene texture (empty members for unused ones).
+std::vector<TextureModel> modelTextures(const Scene& scene, double pixels_per_metre_at_1m);
+
+struct TexturePlan {
+    double region_texels = 0;  ///< its regions' area at d (promoted: at full resolution)
+    bool exact = false;        ///< no original needed: every region capped on both axes, one colour, or promoted
+    bool promoted = false;     ///< held at full resolution because that is cheaper than the original
+};
+
+/// Plans the texture's regions at distance `d` as one node would (charts.h),
+/// and promotes it to full resolution when the extra atlas texels (with the
+/// levels above, a third more) cost less than its original's texels. Regions
+/// with a line of texture (no extent on an axis) cannot be promoted.
+TexturePlan planTexture(const TextureModel& texture, const AtlasParams& params, double d);
+
+}  // namespace cityatlas::atlas
