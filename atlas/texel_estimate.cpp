@@ -93,18 +93,19 @@ AxisSize axisSize(double per, double lo, double hi, int max_border, int native) 
         }
     }
     // Capped: the texture's own texels, whole ones, so the region copies them;
-    // the block rounding widens the border. 1e-9 texels absorbs uv values a
-    // hair off a texel boundary.
-    const double first = std::floor(lo * native + 1e-9), last = std::ceil(hi * native - 1e-9);
-    const double texels = std::max(1.0, last - first);
+    // and from a multiple of 4 of the texture's texels, so the copy's 4x4
+    // S3TC blocks are the original's blocks (the same block encodes the same
+    // way: the atlas then looks as the original would). The border widens to
+    // reach those boundaries. 1e-9 texels absorbs uv values a hair off a texel boundary.
+    const double first = std::floor(lo * native + 1e-9), last = std::max(first + 1, std::ceil(hi * native - 1e-9));
     a.native = true;
     a.density = native;
     a.content = span * native;
     a.border = borderFor(a.content, max_border);
-    a.total = roundUpToBlock(texels + 2.0 * a.border);
-    const double start = first - std::floor((a.total - texels) / 2.0);
+    const double start = 4 * std::floor((first - a.border) / 4), end = 4 * std::ceil((last + a.border) / 4);
+    a.total = static_cast<int>(end - start);
     a.lo = start / native;
-    a.hi = (start + a.total) / native;
+    a.hi = end / native;
     return a;
 }
 

@@ -380,6 +380,97 @@ TEST(Tileset, UnreadableOriginalsAreCountedAndLeaveNoEmptyBlocks) {
     EXPECT_TRUE(r.defects.empty()) << (r.defects.empty() ? "" : r.defects.front());
 }
 
+// Leaves whose atlas holds every texture at its own resolution get no
+// original blocks: their atlas has to be as good as the originals would have
+// been. Checked texel for texel against the source PNGs, with the originals
+// written anyway (--originals all; the tree and atlases do not change): over
+// every texel the leaves' triangles show, the atlas DDS is within 0.5 dB of
+// the original DDS, both measured against the PNG.
+TEST(Tileset, ExactLeavesShowTheirTexturesAsWellAsTheOriginals) {
+    TilesParams p = defaults();
+    p.all_originals = true;
+    const auto b = buildTown("exact", 20, {}, p, 150);  // 64 px facades at 150 m: capped, most leaves exact
+    ASSERT_FALSE(HasFailure());
+    const json& ca = b->tileset["extras"]["cityatlas"];
+    const int A = ca["build"]["atlas_size_px"];
+    std::map<int32_t, Image8> png, original;  // by scene texture
+    const TextureBlocks plan = planTextureBlocks(b->scene, b->tree, true);
+    auto texel = [](const Image8& img, int x, int y) { return &img.pixels[(static_cast<size_t>(y) * img.width + x) * img.channels]; };
+    double se_atlas = 0, se_original = 0;
+    uint64_t samples = 0, exact_leaves = 0;
+    forEachTile(b->tileset["root"], [&](const json& tile) {
+        const json& n = tile["extras"]["cityatlas"];
+        const auto id = n["id"].get<int32_t>();
+        const atlas::AtlasNode& node = b->tree.nodes[static_cast<size_t>(id)];
+        if (tile.contains("children") || !node.originals.empty()) return;
+        ++exact_leaves;
+        for (int li = 0; li < atlas::kLayerCount; ++li) {
+            const atlas::NodeLayer& nl = node.layers[static_cast<size_t>(li)];
+            const std::string lname(atlas::layerName(static_cast<atlas::Layer>(li)));
+            if (!n["layers"].contains(lname) || n["layers"][lname]["atlas"].is_null()) continue;
+            const json& a = n["layers"][lname]["atlas"];
+            const int channels = li == 0 ? 3 : 4;
+            const std::vector<uint8_t> dds = readFile(b->dir / "tiles" / a["uri"].get<std::string>());
+            const int w = a["width_px"], h = a["height_px"];
+            const Image8 atlas_img =
+                decodeBc(std::vector<uint8_t>(dds.begin() + 128, dds.begin() + 128 + static_cast<long>(bcBlockBytes(w, h, channels))), w, h, channels);
+            const double scale = std::ldexp(static_cast<double>(A), node.level);
+            for (uint32_t i = nl.range.first; i < nl.range.first + nl.range.count; ++i) {
+                const atlas::TreeTriangle& t = b->tree.triangles[i];
+                if (t.tri.texture < 0) continue;
+                const TextureRef& ref = b->scene.textures[static_cast<size_t>(t.tri.texture)];
+                if (!png.count(t.tri.texture)) {
+                    std::string why;
+                    ASSERT_TRUE(readImage8(ref.path, channels, &png[t.tri.texture], &why)) << why;
+                }
+                if (!original.count(t.tri.texture)) {
+                    // The tileset texture of this scene texture: the one its leaf geometry names (planTextureBlocks' order).
+                    const json& e = ca["textures"][static_cast<size_t>(plan.texture_index[static_cast<size_t>(t.tri.texture)])];
+                    const std::vector<uint8_t> block = readFile(b->dir / "tiles" / ca["texture_blocks"][e["block"].get<size_t>()]["uri"].get<std::string>());
+                    const size_t at = e["offset"].get<size_t>() + 128;
+                    const int tw = e["width"], th = e["height"];
+                    original[t.tri.texture] = decodeBc(
+                        std::vector<uint8_t>(block.begin() + static_cast<long>(at), block.begin() + static_cast<long>(at + bcBlockBytes(tw, th, channels))),
+                        tw, th, channels);
+                }
+                const Image8& src = png[t.tri.texture];
+                const Image8& orig = original[t.tri.texture];
+                // A grid of barycentric points, off the round fractions where
+                // texel boundaries lie; each maps to one texel of the texture
+                // and one of the atlas (both floored in v-up texels).
+                for (int k1 = 0; k1 < 12; ++k1)
+                    for (int k2 = 0; k1 + k2 < 11; ++k2) {
+                        const double c1 = (k1 + 0.3719) / 12.0, c2 = (k2 + 0.2903) / 12.0, c0 = 1 - c1 - c2;
+                        const Vec2d uv{c0 * t.tri.uv[0].x + c1 * t.tri.uv[1].x + c2 * t.tri.uv[2].x,
+                                       c0 * t.tri.uv[0].y + c1 * t.tri.uv[1].y + c2 * t.tri.uv[2].y};
+                        const Vec2d root{c0 * t.atlas_uv[0].x + c1 * t.atlas_uv[1].x + c2 * t.atlas_uv[2].x,
+                                         c0 * t.atlas_uv[0].y + c1 * t.atlas_uv[1].y + c2 * t.atlas_uv[2].y};
+                        const double ax = root.x * scale - static_cast<double>(nl.offset[0]);
+                        const double ay = root.y * scale - static_cast<double>(nl.offset[1]);
+                        const int px = static_cast<int>(std::floor(ax)), py = h - 1 - static_cast<int>(std::floor(ay));
+                        auto wrap = [](long v, int n) { return static_cast<int>(((v % n) + n) % n); };
+                        const int tx = wrap(static_cast<long>(std::floor(uv.x * src.width)), src.width);
+                        const int ty = src.height - 1 - wrap(static_cast<long>(std::floor(uv.y * src.height)), src.height);
+                        if (px < 0 || py < 0 || px >= w || py >= h) continue;
+                        const uint8_t *s0 = texel(src, tx, ty), *s1 = texel(atlas_img, px, py), *s2 = texel(orig, tx, ty);
+                        for (int c = 0; c < 3; ++c) {
+                            se_atlas += (s1[c] - s0[c]) * double(s1[c] - s0[c]);
+                            se_original += (s2[c] - s0[c]) * double(s2[c] - s0[c]);
+                        }
+                        ++samples;
+                    }
+            }
+        }
+    });
+    ASSERT_GT(exact_leaves, 0u);
+    ASSERT_GT(samples, 1000u);
+    auto psnr = [&](double se) { return 10 * std::log10(255.0 * 255.0 / (se / (3.0 * static_cast<double>(samples)) + 1e-12)); };
+    const double atlas_db = psnr(se_atlas), original_db = psnr(se_original);
+    std::cout << "[exact] " << exact_leaves << " leaves without originals, " << samples << " texels: atlas DDS "
+              << atlas_db << " dB, original DDS " << original_db << " dB against the PNGs\n";
+    EXPECT_GE(atlas_db, original_db - 0.5);
+}
+
 TEST(Tileset, SchemaAcceptsTheWrittenTileset) {
     // The schema is compiled in; inspect validates with it (tests/tiles/test_inspect.cpp
     // covers the defects). Here: the writer's own output has the required keys.
