@@ -15,6 +15,13 @@ double leafCoverage(const NodeLayer& layer) {
     return area > 0 ? std::min(1.0, static_cast<double>(layer.packed_texels) / area) : 0.0;
 }
 
+json dminCandidatesJson(const DminChoice& choice) {
+    json a = json::array();
+    for (const auto& c : choice.candidates)
+        a.push_back({{"d_m", c.d_m}, {"ratio", c.ratio}, {"originals_within_d_min_mb", c.originals_within_mb}});
+    return a;
+}
+
 json texelBudgetJson(const TexelBudget& b) {
     return {{"content_required", b.content_required}, {"content_native", b.content_native}, {"repeats", b.repeats},
             {"borders", b.borders},   {"rounding", b.rounding},   {"empty", b.empty},
@@ -63,13 +70,7 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
                                  {"reason", s.d_min_choice.reason},
                                  {"estimated_ratio", s.d_min_choice.estimated_ratio},
                                  {"originals_within_d_min_mb", s.d_min_choice.originals_within_m_mb},
-                                 {"candidates", [&] {
-                                      json a = json::array();
-                                      for (const auto& c : s.d_min_choice.candidates)
-                                          a.push_back({{"d_m", c.d_m}, {"ratio", c.ratio},
-                                                       {"originals_within_d_min_mb", c.originals_within_mb}});
-                                      return a;
-                                  }()}}}};
+                                 {"candidates", dminCandidatesJson(s.d_min_choice)}}}};
     j["critical_triangles"] = {{"at_requested_d_min", s.critical_triangles},
                                {"allowed_fraction", p.critical_fraction},
                                {"at_used_d_min", s.critical_after_enlarge},

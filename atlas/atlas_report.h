@@ -14,6 +14,8 @@ double leafCoverage(const NodeLayer& layer);
 /// The texel budget and the byte budget as the atlas and build reports write them.
 nlohmann::ordered_json texelBudgetJson(const TexelBudget& b);
 nlohmann::ordered_json byteBudgetJson(const ByteBudget& b);
+/// The default d_min's candidates: [{d_m, ratio, originals_within_d_min_mb}, ...].
+nlohmann::ordered_json dminCandidatesJson(const DminChoice& choice);
 
 nlohmann::ordered_json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostics& diagnostics);
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <queue>
 #include <tuple>
+#include <unordered_map>
 
 namespace cityatlas::atlas {
 namespace {
@@ -131,20 +132,46 @@ std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
     std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
         return m[a].uv_min.x != m[b].uv_min.x ? m[a].uv_min.x < m[b].uv_min.x : a < b;
     });
-    std::vector<uint32_t> active;
+    // A sweep along u over the boxes still open. When very many are open at
+    // once (one texture mapped 0..1 on thousands of walls), the open boxes of
+    // one chart are replaced by their union: the sweep stays linear, and a box
+    // touching only that union's gaps joins the chart (charts may then come
+    // out coarser, never split wrongly).
+    struct Open {
+        Vec2d lo, hi;
+        uint32_t member;
+    };
+    std::vector<Open> active;
+    size_t compress_at = 256;
     for (uint32_t k : order) {
         size_t kept = 0;
-        for (uint32_t j : active) {
-            if (m[j].uv_max.x < m[k].uv_min.x) continue;  // ends before this one starts: never overlaps a later one
-            active[kept++] = j;
-            if (overlaps1d(m[j].uv_min.x, m[j].uv_max.x, m[k].uv_min.x, m[k].uv_max.x) &&
-                overlaps1d(m[j].uv_min.y, m[j].uv_max.y, m[k].uv_min.y, m[k].uv_max.y)) {
-                const uint32_t a = find(j), b = find(k);
+        for (const Open& o : active) {
+            if (o.hi.x < m[k].uv_min.x) continue;  // ends before this one starts: never overlaps a later one
+            active[kept++] = o;
+            if (overlaps1d(o.lo.x, o.hi.x, m[k].uv_min.x, m[k].uv_max.x) &&
+                overlaps1d(o.lo.y, o.hi.y, m[k].uv_min.y, m[k].uv_max.y)) {
+                const uint32_t a = find(o.member), b = find(k);
                 if (a != b) parent[std::max(a, b)] = std::min(a, b);
             }
         }
         active.resize(kept);
-        active.push_back(k);
+        active.push_back({m[k].uv_min, m[k].uv_max, k});
+        if (active.size() > compress_at) {
+            std::vector<Open> merged;
+            std::unordered_map<uint32_t, size_t> slot;
+            for (const Open& o : active) {
+                const auto [it, fresh] = slot.emplace(find(o.member), merged.size());
+                if (fresh) {
+                    merged.push_back(o);
+                    continue;
+                }
+                Open& u = merged[it->second];
+                u.lo = {std::min(u.lo.x, o.lo.x), std::min(u.lo.y, o.lo.y)};
+                u.hi = {std::max(u.hi.x, o.hi.x), std::max(u.hi.y, o.hi.y)};
+            }
+            active = std::move(merged);
+            compress_at = std::max<size_t>(256, 2 * active.size());
+        }
     }
     for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = find(k);
     return parent;

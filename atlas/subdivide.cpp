@@ -46,6 +46,10 @@ template <class Key>
 std::array<std::vector<uint32_t>, 4> splitAlong(std::span<const uint32_t> ids, const Box3d& box, const Key& key,
                                                 std::span<const double> weight) {
     std::array<std::vector<uint32_t>, 4> groups;
+    if (ids.size() < 2) {
+        groups[0].assign(ids.begin(), ids.end());
+        return groups;
+    }
     const std::array<double, 3> extent{box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z};
     std::array<int, 3> axes{0, 1, 2};
     std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return extent[a] > extent[b]; });
@@ -73,11 +77,6 @@ std::array<std::vector<uint32_t>, 4> splitAlong(std::span<const uint32_t> ids, c
 
 std::array<std::vector<uint32_t>, 4> splitIntoFour(std::span<const uint32_t> ids, std::span<const Triangle> triangles,
                                                    std::span<const double> weight) {
-    if (ids.size() < 2) {
-        std::array<std::vector<uint32_t>, 4> groups;
-        groups[0].assign(ids.begin(), ids.end());
-        return groups;
-    }
     Box3d box;
     for (uint32_t i : ids)
         for (const Vec3d& p : triangles[i].position_local) box.extend(p);
@@ -86,11 +85,6 @@ std::array<std::vector<uint32_t>, 4> splitIntoFour(std::span<const uint32_t> ids
 
 std::array<std::vector<uint32_t>, 4> splitIntoFourAt(std::span<const uint32_t> ids, std::span<const Vec3d> points,
                                                      std::span<const double> weight) {
-    if (ids.size() < 2) {
-        std::array<std::vector<uint32_t>, 4> groups;
-        groups[0].assign(ids.begin(), ids.end());
-        return groups;
-    }
     Box3d box;
     for (uint32_t i : ids) box.extend(points[i]);
     return splitAlong(ids, box, [&](uint32_t i, int axis) { return coordinate(points[i], axis); }, weight);

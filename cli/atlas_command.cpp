@@ -222,11 +222,12 @@ RunFn addAtlasCommand(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand(
         "atlas",
         "Build the multiresolution texture-atlas tree (Buchholz & Doellner 2005) of city data: nodes split until\n"
-        "each node's textures, at the resolution a camera d_min away can resolve, pack into one A x A atlas; inner\n"
-        "atlases are their children halved. Writes atlas/<opaque|alpha>/<node>.png (8-bit sRGB) and\n"
-        "atlas_report.json (schema: schemas/atlas_report.schema.json) into a new folder, atomically.\n"
-        "Guarantee: from at least a node's min_distance_m, no atlas texel covers more than one pixel anywhere on\n"
-        "the assumed screen (frustum corners included).");
+        "each node's textures, at the resolution a camera d_min away can resolve but never above their own, pack\n"
+        "into one A x A atlas; every atlas is only as large as its content; inner atlases are their children halved.\n"
+        "Writes atlas/<opaque|alpha>/<node>.png (8-bit sRGB) and atlas_report.json (schema:\n"
+        "schemas/atlas_report.schema.json, with the texel budget and how d_min was chosen) into a new folder,\n"
+        "atomically. Guarantee: from at least a node's min_distance_m, no atlas texel covers more than one pixel\n"
+        "anywhere on the assumed screen (frustum corners included), or it is a texel of the texture itself.");
     addSceneInputOptions(cmd, &opt->input);
     cmd->add_option("-o,--output", opt->output, "Output folder (created; must not exist unless --overwrite)")->required();
     cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing output folder");

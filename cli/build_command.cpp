@@ -274,7 +274,8 @@ int runBuild(const BuildCliOptions& opt_in) {
                        {"chosen_by", as.d_min_choice.rule},
                        {"reason", as.d_min_choice.reason},
                        {"estimated_ratio", as.d_min_choice.estimated_ratio},
-                       {"originals_within_d_min_mb", as.d_min_choice.originals_within_m_mb}};
+                       {"originals_within_d_min_mb", as.d_min_choice.originals_within_m_mb},
+                       {"candidates", atlas::dminCandidatesJson(as.d_min_choice)}};
     // What the folder's textures cost over the data's own (issue: texel economy).
     report["texture_economy"] = {{"ratio", tiles::textureRatio(ts)},
                                  {"atlas_bytes", ts.bytes_atlases},
@@ -356,9 +357,11 @@ RunFn addBuildCommand(CLI::App& app) {
         "build",
         "Turn city data into a streamable tile folder in one run: read (as `ingest`), build the texture-atlas\n"
         "tree (as `atlas`), then write tileset.json (schemas/tileset.schema.json, OGC 3D Tiles conventions),\n"
-        "Draco-compressed glTF geometry per node, DDS atlases (BC1 opaque, BC3 alpha, full mips), the leaves'\n"
-        "original textures in blocks, feature attribute tables and build_report.json. The folder appears\n"
-        "complete or not at all. A rerun with the same input contents, textures and parameters does nothing.");
+        "Draco-compressed glTF geometry per node, DDS atlases (BC1 opaque, BC3 alpha, full mips), in blocks the\n"
+        "originals of the textures some leaf's atlas holds below their own resolution, feature attribute tables and\n"
+        "build_report.json (with the texture economy: atlases + originals over the data's textures as BC). The\n"
+        "folder appears complete or not at all. A rerun with the same input contents, textures and parameters does\n"
+        "nothing. Every default is meant to be kept; d_min is chosen from the data and printed with the reason.");
     addSceneInputOptions(cmd, &opt->input);
     cmd->add_option("-o,--output", opt->output, "Output folder")->required();
     cmd->add_flag("--force", opt->force, "Rebuild even when the output is up to date");

@@ -9,8 +9,10 @@
 /// ----------
 ///   tileset.json                 the index; schemas/tileset.schema.json (3D Tiles 1.1 conventions)
 ///   geometry/<layer>/<node>.glb  glTF 2.0 binary, one Draco primitive (tiles/glb_writer.h)
-///   atlas/<layer>/<node>.dds     the node's atlas, BC1 (opaque) / BC3 (alpha), full mip chain
-///   textures/<block>.bin         leaves' original textures: DDS files back to back
+///   atlas/<layer>/<node>.dds     the node's atlas, BC1 (opaque) / BC3 (alpha), full mip chain; as large
+///                                as its content (width_px x height_px in the index, at most A x A)
+///   textures/<block>.bin         originals of the textures some leaf's atlas holds below their own
+///                                resolution (all used textures with all_originals): DDS files back to back
 ///   features/<table>.json        feature attributes, `block_size` consecutive ids per table
 ///   build_report.json            written by `cityatlas build` (schemas/build_report.schema.json)
 /// <layer> is "opaque" or "alpha"; <node> the node index (depth-first preorder).
@@ -23,6 +25,11 @@
 /// world texel size). Atlas coordinates in a node's file are local to that
 /// node's atlas ([0,1]^2, no root-space scale), so float32 and Draco's
 /// quantization never lose precision with depth.
+///
+/// A leaf lists the texture blocks of the originals it needs; a leaf that
+/// lists none holds every texture exactly in its atlas and is drawn from it
+/// at any distance. Textures no leaf needs have an entry (leaf geometry names
+/// them) with block -1 and original "exact".
 ///
 /// Vertex attributes: POSITION (relative to the node's `centre`), TEXCOORD_n
 /// (named by the primitive's extras.cityatlas_texcoords: "original" in leaves,
