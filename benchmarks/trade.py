@@ -2,10 +2,10 @@
 # The driver behind benchmarks/trade.sh (see there for what it measures).
 import json
 import os
-import resource
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 CITYATLAS = "./build/cli/cityatlas"
@@ -21,15 +21,17 @@ which = args[0] if args else "all"
 
 
 def run(cmd):
-    """Runs cmd; returns (wall seconds, peak RSS MB of the child)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    """Runs cmd; returns (wall seconds, the child's own peak RSS in MB)."""
     t0 = time.monotonic()
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    wall = time.monotonic() - t0
-    if p.returncode != 0:
-        sys.exit(f"{' '.join(cmd)}: exit {p.returncode}: {p.stderr.strip()[-2000:]}")
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    return wall, max(peak, before) * 1024 / 1e6  # Linux: KiB; the largest child so far
+    with tempfile.TemporaryFile(mode="w+") as err:  # a file, not a pipe: wait4 cannot deadlock on it
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(p.pid, 0)
+        wall = time.monotonic() - t0
+        code = os.waitstatus_to_exitcode(status)
+        if code != 0:
+            err.seek(0)
+            sys.exit(f"{' '.join(cmd)}: exit {code}: {err.read().strip()[-2000:]}")
+    return wall, usage.ru_maxrss * 1024 / 1e6  # Linux: KiB
 
 
 def datasets():
@@ -130,7 +132,7 @@ def measure(name, source):
         runs.append(rec)
         print(f"  {rec['run']:14s} PSNR {rec['psnr_db_mean']:5.2f} (min {rec['psnr_db_min']:5.2f}) dB  nodes "
               f"{rec['nodes_drawn_mean']:6.1f}  loaded {rec['bytes_loaded'] / 1e6:7.1f} MB", flush=True)
-    return {"dataset": name, "source": source, "reference": {k: v for k, v in ref.items() if k != "candidates"}, "runs": runs}
+    return {"dataset": name, "source": source, "runs": runs}
 
 
 def plots(results):
@@ -140,7 +142,7 @@ def plots(results):
     colours = {"town200": "tab:blue", "berlin": "tab:orange"}
     written = []
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(8.4, 3.2), dpi=90)
+    fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(11.0, 3.3), dpi=90)
     for res in results:
         c = colours.get(res["dataset"], "k")
         default = next(r for r in res["runs"] if r["run"] == "default")
@@ -151,11 +153,18 @@ def plots(results):
         ax1.plot([default["d_min_m"]], [default["texture_ratio"]], "*", color=c, markersize=14)
         ax2.plot([r["d_min_m"] for r in pts], [r["psnr_db_mean"] for r in pts], "o-", color=c, label=f"{res['dataset']} mean")
         ax2.plot([r["d_min_m"] for r in pts], [r["psnr_db_min"] for r in pts], "v--", color=c, label=f"{res['dataset']} worst frame")
+        ax3.plot([r["d_min_m"] for r in pts], [r["bytes_loaded"] / 1e6 for r in pts], "o-", color=c, label=f"{res['dataset']} MB loaded")
+        ax3.plot([r["d_min_m"] for r in pts], [r["texture_binds_mean"] for r in pts], "s--", color=c, label=f"{res['dataset']} binds / frame")
+        ax3.plot([e["d_m"] for e in est], [max(e["originals_within_d_min_mb"], 1e-3) for e in est], ":", color=c,
+                 label=f"{res['dataset']} est. originals within d_min (MB)")
     ax1.set(xscale="log", yscale="log", xlabel="d_min (m)", ylabel="(atlases + originals) / originals",
-            title="Texture bytes over the data's (* = default)")
+            title="Storage: textures over the data's (* = default)")
     ax1.axhline(2.0, color="grey", linewidth=0.8)
-    ax2.set(xscale="log", xlabel="d_min (m)", ylabel="PSNR vs originals (dB)", title="Image error along the default path")
-    for ax in (ax1, ax2):
+    ax2.set(xscale="log", xlabel="d_min (m)", ylabel="PSNR vs originals (dB; 99 = identical)",
+            title="Atlas tree vs originals, default path")
+    ax3.set(xscale="log", yscale="log", xlabel="d_min (m)", title="Client load (the chooser limits 64 MB)", ylim=(0.5, None))
+    ax3.axhline(64, color="grey", linewidth=0.8)
+    for ax in (ax1, ax2, ax3):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
@@ -173,7 +182,9 @@ def plots(results):
                     markersize=10 if r["run"] == "default" else 7)
             ax.annotate(r["run"], (x, r["psnr_db_mean"]), fontsize=6, xytext=(3, 2), textcoords="offset points")
     ax.set(xscale="log", xlabel="texture bytes in the folder (MB)", ylabel="mean PSNR vs originals (dB)",
-           title="Every knob, one at a time: size against image error (big dot = default; blue town, orange Berlin)")
+           title="One knob at a time: texture bytes against image error (big dot: default; blue: town, orange: Berlin)",
+           )
+    ax.title.set_fontsize(9)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     written.append(os.path.join(OUT, "trade-size-error.png"))
@@ -190,6 +201,8 @@ def plots(results):
     ax1.set(xscale="log", xlabel="render --tau (pixels per texel)", ylabel="nodes drawn (mean)", title="What tau buys")
     ax2.set(xscale="log", xlabel="render --tau", ylabel="mean PSNR vs originals (dB)", title="What it costs")
     for ax in (ax1, ax2):
+        ax.set_xticks([0.5, 1, 2, 4], ["0.5", "1", "2", "4"])
+        ax.minorticks_off()
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
@@ -200,7 +213,10 @@ def plots(results):
 
 def main():
     os.makedirs(WORK, exist_ok=True)
-    results = [measure(n, s) for n, s in datasets()]
+    if "--plot-only" in sys.argv[1:]:  # redraw from the last run's table
+        results = json.load(open(os.path.join(OUT, "trade.json")))["datasets"]
+    else:
+        results = [measure(n, s) for n, s in datasets()]
     if not results:
         sys.exit("trade.sh: no dataset to measure")
     json.dump({"benchmark": "trade", "size": SIZE, "fps": FPS, "cores": os.cpu_count(), "datasets": results},

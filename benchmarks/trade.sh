@@ -12,8 +12,9 @@
 # rendering of the same data and parameters built with --originals all,
 # `render --mode original`: the atlas tree's own error; the encoders' own
 # errors, BC PSNR and position error, come from the build report) and nodes drawn.
-# Usage: benchmarks/trade.sh [DATASETS=all|town|berlin] [--docs]
-#   --docs also copies the plots (small PNGs) into docs/ for the README.
+# Usage: benchmarks/trade.sh [DATASETS=all|town|berlin] [--docs] [--plot-only]
+#   --docs also copies the plots (small PNGs) into docs/ for the README;
+#   --plot-only redraws them from the last out/benchmarks/trade.json.
 # Writes out/benchmarks/trade.json and out/benchmarks/trade-*.png; the tile
 # folders stay under out/benchmarks/trade/ for a look. Installs Debian's
 # python3-matplotlib when it is missing (as scripts/setup-deps does).

@@ -186,8 +186,8 @@ void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt) {
         ->default_val(512)
         ->group(g);
     cmd->add_option("--border", opt->params.border_px,
-                    "Border of real texture content around each packed region, texels (regions are rounded up to "
-                    "4x4 S3TC blocks)")
+                    "Border of real texture content around each packed region, texels; at most a quarter of a "
+                    "region's content (regions are rounded up to 4x4 S3TC blocks)")
         ->default_val(8)
         ->group(g);
     cmd->add_option("--screen", opt->screen, "Assumed viewport, WIDTHxHEIGHT pixels")->default_val("1920x1080")->group(g);
