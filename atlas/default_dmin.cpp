@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <unordered_map>
 
@@ -21,6 +22,9 @@ namespace {
 // leaves are paid twice. Measured 1.58-1.75 on the synthetic towns and the
 // shared real data; the larger value, so the estimate errs high.
 constexpr double kTreeOverRegions = 1.75;
+// Candidates estimated past the first that qualifies, for the report's curve
+// (the rest cost time: every candidate plans every texture).
+constexpr int kShownAfterTheChoice = 3;
 
 DminEstimate estimateAt(const std::vector<TextureModel>& textures, const AtlasParams& params, double d) {
     std::vector<TexturePlan> plans(textures.size());
@@ -67,9 +71,10 @@ double diagonalOf(const Scene& scene) {
 }  // namespace
 
 std::vector<DminEstimate> estimateDminCandidates(const Scene& scene, const AtlasParams& params,
-                                                 const ProjectionBound& projection) {
+                                                 const ProjectionBound& projection,
+                                                 const std::function<bool(const DminEstimate&)>& enough) {
     const double ppm = projection.pixelsPerMetreAt1m();
-    const std::vector<TextureModel> textures = modelTextures(scene, ppm);
+    const std::vector<TextureModel> textures = modelTextures(scene, ppm, params);
     // Below `lo` every triangle's texture is capped on both axes, so nothing
     // changes; above `hi` every one is below its own resolution.
     double lo = 1e300, hi = 0;
@@ -86,16 +91,22 @@ std::vector<DminEstimate> estimateDminCandidates(const Scene& scene, const Atlas
     // Beyond both, atlases keep shrinking (as 1/d^2) while the originals stay:
     // a few more octaves show where the ratio settles.
     hi = 16.0 * std::max({hi, diagonalOf(scene), lo});
+    int after_enough = -1;  // candidates still to show once `enough` said yes
     for (double d = lo;; d *= std::sqrt(2.0)) {
         out.push_back(estimateAt(textures, params, std::min(d, hi)));
-        if (d >= hi) break;
+        if (after_enough < 0 && enough && enough(out.back())) after_enough = kShownAfterTheChoice;
+        if (d >= hi || after_enough-- == 0) break;
     }
     return out;
 }
 
 DminChoice chooseDefaultDmin(const Scene& scene, const AtlasParams& params, const ProjectionBound& projection,
                              double* d_min_m, const DminRule& rule) {
-    const std::vector<DminEstimate> c = estimateDminCandidates(scene, params, projection);
+    const double limit = rule.originals_within_mb * 1e6;
+    auto qualifies = [&](const DminEstimate& e) {
+        return e.originals_within_bytes <= limit && e.ratio <= rule.ratio_target;
+    };
+    const std::vector<DminEstimate> c = estimateDminCandidates(scene, params, projection, qualifies);
     const double diagonal = diagonalOf(scene);
     if (c.empty()) {
         *d_min_m = diagonal * params.d_min_diagonal_fraction;
@@ -104,10 +115,9 @@ DminChoice chooseDefaultDmin(const Scene& scene, const AtlasParams& params, cons
                             1.0 / params.d_min_diagonal_fraction),
                 0, 0, {}};
     }
-    const double limit = rule.originals_within_mb * 1e6;
     const DminEstimate* pick = nullptr;
     for (const DminEstimate& e : c)
-        if (e.originals_within_bytes <= limit && e.ratio <= rule.ratio_target) {
+        if (qualifies(e)) {
             pick = &e;
             break;
         }

@@ -11,6 +11,7 @@
 /// The estimate plans every texture's regions as a node would (charts.h:
 /// caps, merging), over the whole scene.
 
+#include <functional>
 #include <vector>
 
 #include "atlas/atlas_tree.h"
@@ -29,10 +30,13 @@ struct DminEstimate {
     double originals_within_bytes = 0;  ///< the most any camera needs within d (estimated on a grid of d/4 cells)
 };
 
-/// The estimates at the candidate distances (d_full x sqrt(2)^k up to the
-/// diagonal), ascending; empty without textured triangles.
+/// The estimates at the candidate distances, ascending: from where every
+/// texture is capped, by factors of sqrt 2, to 16 x past where none is and the
+/// scene diagonal; with `enough`, stopping three candidates after the first it
+/// accepts. Empty without textured triangles.
 std::vector<DminEstimate> estimateDminCandidates(const Scene& scene, const AtlasParams& params,
-                                                 const ProjectionBound& projection);
+                                                 const ProjectionBound& projection,
+                                                 const std::function<bool(const DminEstimate&)>& enough = {});
 
 /// Picks d_min from the estimates by `rule`; without textures, the diagonal
 /// fraction. Sets *d_min_m and says why.

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 
+#include <tbb/parallel_for.h>
+
 #include "atlas/texel_budget.h"
 
 namespace cityatlas::atlas {
@@ -34,7 +36,7 @@ Planned planAt(const TextureModel& t, const AtlasParams& params, double d, bool 
 
 }  // namespace
 
-std::vector<TextureModel> modelTextures(const Scene& scene, double ppm) {
+std::vector<TextureModel> modelTextures(const Scene& scene, double ppm, const AtlasParams& params) {
     std::vector<TextureModel> m(scene.textures.size());
     std::vector<Box3d> bounds(scene.textures.size());
     for (const Triangle& t : scene.triangles) {
@@ -53,6 +55,20 @@ std::vector<TextureModel> modelTextures(const Scene& scene, double ppm) {
         if (!bounds[i].empty())
             m[i].x = 0.5 * (bounds[i].min.x + bounds[i].max.x), m[i].y = 0.5 * (bounds[i].min.y + bounds[i].max.y);
     }
+    // Every triangle must still fit one atlas at full resolution (the
+    // critical-triangle split does not know of promotions).
+    const double room = params.atlas_size_px - 2.0 * params.border_px - 2.0;
+    tbb::parallel_for(size_t{0}, m.size(), [&](size_t i) {
+        TextureModel& t = m[i];
+        if (t.members.empty() || t.native.w <= 0 || t.native.h <= 0) return;
+        t.full_fits = std::all_of(t.members.begin(), t.members.end(), [&](const ChartMember& c) {
+            return (c.uv_max.x - c.uv_min.x) * t.native.w <= room && (c.uv_max.y - c.uv_min.y) * t.native.h <= room;
+        });
+        if (!t.full_fits) return;
+        const Planned full = planAt(t, params, 1.0, true);  // any distance: promoted regions are capped at full resolution
+        t.full_texels = full.texels;
+        t.full_exact = full.exact;
+    });
     return m;
 }
 
@@ -62,16 +78,10 @@ TexturePlan planTexture(const TextureModel& t, const AtlasParams& params, double
     const Planned at_d = planAt(t, params, d, false);
     plan.region_texels = at_d.texels;
     plan.exact = at_d.exact;
-    if (at_d.exact || !at_d.promotable || t.native.w <= 0 || t.native.h <= 0) return plan;
-    // Every triangle must still fit one atlas at full resolution (the
-    // critical-triangle split does not know of promotions).
-    const double room = params.atlas_size_px - 2.0 * params.border_px - 2.0;
-    for (const ChartMember& m : t.members)
-        if ((m.uv_max.x - m.uv_min.x) * t.native.w > room || (m.uv_max.y - m.uv_min.y) * t.native.h > room) return plan;
-    const Planned full = planAt(t, params, d, true);
+    if (at_d.exact || !at_d.promotable || !t.full_fits || !t.full_exact) return plan;
     const double original_texels = static_cast<double>(t.native.w) * t.native.h;
-    if (full.exact && (full.texels - at_d.texels) * kLevelsAbove <= original_texels) {
-        plan.region_texels = full.texels;
+    if ((t.full_texels - at_d.texels) * kLevelsAbove <= original_texels) {
+        plan.region_texels = t.full_texels;
         plan.exact = plan.promoted = true;
     }
     return plan;

@@ -19,10 +19,15 @@ struct TextureModel {
     int channels = 3;
     double original_bytes = 0;         ///< BC with mips
     double x = 0, y = 0;               ///< centre of its triangles' bounds (local frame)
+    /// Its regions held at full resolution: the same at every distance, so planned once.
+    double full_texels = 0;
+    bool full_exact = false;           ///< every such region is exact (no line of texture)
+    bool full_fits = false;            ///< every triangle fits one atlas at full resolution
 };
 
-/// One model per scene texture (empty members for unused ones).
-std::vector<TextureModel> modelTextures(const Scene& scene, double pixels_per_metre_at_1m);
+/// One model per scene texture (empty members for unused ones), its
+/// full-resolution plan included; in parallel on the current TBB arena.
+std::vector<TextureModel> modelTextures(const Scene& scene, double pixels_per_metre_at_1m, const AtlasParams& params);
 
 struct TexturePlan {
     double region_texels = 0;  ///< its regions' area at d (promoted: at full resolution)

@@ -546,8 +546,8 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     // Textures whose full resolution costs less than their original (texture_economy.h).
     std::vector<uint8_t> promote(scene.textures.size(), 0);
     {
-        const std::vector<TextureModel> models = modelTextures(scene, ppm);
         arena.execute([&] {
+            const std::vector<TextureModel> models = modelTextures(scene, ppm, params);
             tbb::parallel_for(size_t{0}, models.size(), [&](size_t i) {
                 promote[i] = planTexture(models[i], params, stats.d_min_used_m).promoted ? 1 : 0;
             });
