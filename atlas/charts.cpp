@@ -63,9 +63,7 @@ public:
             Chart u = charts[a];
             u.add(charts[b]);
             const RegionSize r = sizeOf(u);
-            const int limit_w = std::min(s_.atlas_size_px, std::max(s_.atlas_size_px, std::max(sizes[a].w, sizes[b].w)));
-            const int limit_h = std::min(s_.atlas_size_px, std::max(s_.atlas_size_px, std::max(sizes[a].h, sizes[b].h)));
-            if (r.w > limit_w || r.h > limit_h) return;
+            if (r.w > s_.atlas_size_px || r.h > s_.atlas_size_px) return;  // a merged region must still fit an atlas
             const int64_t saving = area(sizes[a]) + area(sizes[b]) - area(r);
             if (saving > 0) heap.emplace(saving, -int64_t{std::min(a, b)}, -int64_t{std::max(a, b)});
         };

@@ -52,8 +52,7 @@ std::vector<uint32_t> uvCharts(std::span<const ChartMember> members);
 
 /// Charts (transitively overlapping uv boxes), then greedy merging: two
 /// regions whose bordered uv boxes overlap or touch become one when the union's
-/// region has fewer texels than the two, and its sides stay within
-/// max(A/2, the larger input's) so packing stays easy. Deterministic.
+/// region has fewer texels than the two and still fits one atlas. Deterministic.
 TextureRegions planTextureRegions(std::span<const ChartMember> members, const ChartSettings& settings);
 
 /// The distance from which every texel of `r` covers at most one pixel

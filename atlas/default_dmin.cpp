@@ -61,20 +61,11 @@ DminEstimate estimateAt(const std::vector<TextureModel>& textures, const AtlasPa
     return e;
 }
 
-double diagonalOf(const Scene& scene) {
-    Box3d box;
-    for (const Triangle& t : scene.triangles)
-        for (const Vec3d& p : t.position_local) box.extend(p);
-    return box.empty() ? 0 : length(box.max - box.min);
-}
-
 }  // namespace
 
-std::vector<DminEstimate> estimateDminCandidates(const Scene& scene, const AtlasParams& params,
-                                                 const ProjectionBound& projection,
+std::vector<DminEstimate> estimateDminCandidates(const std::vector<TextureModel>& textures, double diagonal_m,
+                                                 const AtlasParams& params,
                                                  const std::function<bool(const DminEstimate&)>& enough) {
-    const double ppm = projection.pixelsPerMetreAt1m();
-    const std::vector<TextureModel> textures = modelTextures(scene, ppm, params);
     // Below `lo` every triangle's texture is capped on both axes, so nothing
     // changes; above `hi` every one is below its own resolution.
     double lo = 1e300, hi = 0;
@@ -90,7 +81,7 @@ std::vector<DminEstimate> estimateDminCandidates(const Scene& scene, const Atlas
     if (lo >= 1e300) return out;
     // Beyond both, atlases keep shrinking (as 1/d^2) while the originals stay:
     // a few more octaves show where the ratio settles.
-    hi = 16.0 * std::max({hi, diagonalOf(scene), lo});
+    hi = 16.0 * std::max({hi, diagonal_m, lo});
     int after_enough = -1;  // candidates still to show once `enough` said yes
     for (double d = lo;; d *= std::sqrt(2.0)) {
         out.push_back(estimateAt(textures, params, std::min(d, hi)));
@@ -100,14 +91,13 @@ std::vector<DminEstimate> estimateDminCandidates(const Scene& scene, const Atlas
     return out;
 }
 
-DminChoice chooseDefaultDmin(const Scene& scene, const AtlasParams& params, const ProjectionBound& projection,
+DminChoice chooseDefaultDmin(const std::vector<TextureModel>& textures, double diagonal, const AtlasParams& params,
                              double* d_min_m, const DminRule& rule) {
     const double limit = rule.originals_within_mb * 1e6;
     auto qualifies = [&](const DminEstimate& e) {
         return e.originals_within_bytes <= limit && e.ratio <= rule.ratio_target;
     };
-    const std::vector<DminEstimate> c = estimateDminCandidates(scene, params, projection, qualifies);
-    const double diagonal = diagonalOf(scene);
+    const std::vector<DminEstimate> c = estimateDminCandidates(textures, diagonal, params, qualifies);
     if (c.empty()) {
         *d_min_m = diagonal * params.d_min_diagonal_fraction;
         return {"diagonal-fraction",

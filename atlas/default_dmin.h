@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
+#include "atlas/texture_economy.h"
 
 namespace cityatlas::atlas {
 
@@ -34,13 +35,14 @@ struct DminEstimate {
 /// texture is capped, by factors of sqrt 2, to 16 x past where none is and the
 /// scene diagonal; with `enough`, stopping three candidates after the first it
 /// accepts. Empty without textured triangles.
-std::vector<DminEstimate> estimateDminCandidates(const Scene& scene, const AtlasParams& params,
-                                                 const ProjectionBound& projection,
+std::vector<DminEstimate> estimateDminCandidates(const std::vector<TextureModel>& textures, double diagonal_m,
+                                                 const AtlasParams& params,
                                                  const std::function<bool(const DminEstimate&)>& enough = {});
 
 /// Picks d_min from the estimates by `rule`; without textures, the diagonal
-/// fraction. Sets *d_min_m and says why.
-DminChoice chooseDefaultDmin(const Scene& scene, const AtlasParams& params, const ProjectionBound& projection,
+/// fraction of `diagonal_m`. `textures`: modelTextures() of the scene. Sets
+/// *d_min_m and says why.
+DminChoice chooseDefaultDmin(const std::vector<TextureModel>& textures, double diagonal_m, const AtlasParams& params,
                              double* d_min_m, const DminRule& rule = {});
 
 }  // namespace cityatlas::atlas

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <set>
 #include <sys/resource.h>
 
 #include <fmt/format.h>
@@ -122,67 +123,12 @@ private:
     // buildings says nothing about where they are.
     std::array<std::vector<uint32_t>, 4> split(const std::vector<uint32_t>& ids, int level) const {
         const bool by_count = level >= kCountBalancedFromLevel;
-        const std::span<const double> weight = by_count ? std::span<const double>() : std::span<const double>(weight_);
-        struct Unit {
-            std::vector<uint32_t> ids;
-            int32_t texture = -1;
-            Vec3d world, uv;
-            double weight = 0, texels = 0;
-        };
-        std::vector<Unit> units;
-        std::map<int32_t, std::vector<uint32_t>> by_texture;
-        for (uint32_t i : ids) {
-            if (tris_[i].texture >= 0) {
-                by_texture[tris_[i].texture].push_back(i);
-            } else {
-                units.push_back({{i}, -1, {}, {}, 0, 0});
-            }
-        }
-        std::map<int32_t, double> texture_weight;
-        double total = 0;
-        for (const auto& [texture, members] : by_texture) {
-            std::vector<ChartMember> m(members.size());
-            for (size_t k = 0; k < members.size(); ++k) {
-                const TexelDensity& d = info_[members[k]].density;
-                m[k] = {d.uv_min, d.uv_max, 0, 0};
-            }
-            const std::vector<uint32_t> chart = uvCharts(m);
-            // A chart of one feature: a repeating texture shared by many
-            // buildings (paving on roofs) overlaps in uv across all of them,
-            // and those must stay free to go their own ways.
-            std::map<std::pair<uint32_t, uint32_t>, size_t> unit_of;
-            for (size_t k = 0; k < members.size(); ++k) {
-                auto [it, fresh] = unit_of.emplace(std::pair{chart[k], tris_[members[k]].feature}, units.size());
-                if (fresh) units.push_back({{}, texture, {}, {}, 0, 0});
-                units[it->second].ids.push_back(members[k]);
-            }
-            for (uint32_t i : members) texture_weight[texture] += weight_[i], total += weight_[i];
-        }
-        if (units.size() < 2) return splitIntoFour(ids, tris_, weight);
-        for (Unit& u : units) {
-            double w = 0;
-            for (uint32_t i : u.ids) {
-                const Triangle& t = tris_[i];
-                const Vec3d c = (1.0 / 3.0) * (t.position_local[0] + t.position_local[1] + t.position_local[2]);
-                const double wi = weight_[i] > 0 ? weight_[i] : 1e-300;
-                u.world = u.world + wi * c, u.uv = u.uv + wi * info_[i].uv_centre, w += wi;
-                u.weight += weight_[i], u.texels += texel_area_[i];
-            }
-            u.world = (1.0 / w) * u.world, u.uv = (1.0 / w) * u.uv;
-        }
-        // Texture space says where things are only within one object: a
-        // texture shared by many buildings (paving) is never cut in its space.
-        int32_t dominant = -1;
-        for (const auto& [t, w] : texture_weight)
-            if (total > 0 && w >= kDominantShare * total) dominant = t;
-        if (dominant >= 0) {
-            const uint32_t feature = tris_[by_texture[dominant].front()].feature;
-            for (uint32_t i : by_texture[dominant])
-                if (tris_[i].feature != feature) dominant = -1;
-        }
-        std::vector<uint32_t> mine, rest;  // unit indices
+        std::vector<Unit> units = unitsOf(ids);
+        if (units.size() < 2) return splitIntoFour(ids, tris_, by_count ? std::span<const double>() : weight_);
+        const int32_t dominant = dominantTexture(units);
+        std::vector<uint32_t> mine, rest;  // unit indices: of the dominant texture, the others
         for (uint32_t k = 0; k < units.size(); ++k) (dominant >= 0 && units[k].texture == dominant ? mine : rest).push_back(k);
-        if (mine.size() < 2) {
+        if (mine.size() < 2) {  // nothing to cut in texture space
             rest.insert(rest.end(), mine.begin(), mine.end());
             std::sort(rest.begin(), rest.end());
             mine.clear();
@@ -196,25 +142,8 @@ private:
         if (mine.empty()) {
             unit_groups = splitIntoFourAt(rest, world, weights(w));
         } else {
-            // The other units join the piece of the texture nearest to them in
-            // the world, so no child spans more than the node does.
             unit_groups = splitIntoFourAt(mine, uv, weights(texels));
-            std::array<Vec3d, 4> centre{};
-            for (int q = 0; q < 4; ++q) {
-                double sw = 0;
-                for (uint32_t k : unit_groups[q]) centre[q] = centre[q] + (units[k].weight + 1e-300) * units[k].world, sw += units[k].weight + 1e-300;
-                if (sw > 0) centre[q] = (1.0 / sw) * centre[q];
-            }
-            for (uint32_t k : rest) {
-                int best = -1;
-                double best_d = 1e300;
-                for (int q = 0; q < 4; ++q) {
-                    if (unit_groups[q].empty()) continue;
-                    const double d = length(units[k].world - centre[q]);
-                    if (d < best_d) best_d = d, best = q;
-                }
-                unit_groups[best].push_back(k);
-            }
+            joinNearest(units, rest, unit_groups);
         }
         std::array<std::vector<uint32_t>, 4> groups;
         for (int q = 0; q < 4; ++q) {
@@ -222,6 +151,97 @@ private:
             std::sort(groups[q].begin(), groups[q].end());
         }
         return groups;
+    }
+
+    struct Unit {
+        std::vector<uint32_t> ids;
+        int32_t texture = -1;
+        uint32_t feature = 0;
+        Vec3d world, uv;  // weighted centroids
+        double weight = 0, texels = 0;
+    };
+
+    // One unit per chart and feature of every texture (a repeating texture
+    // shared by many buildings, paving on roofs, overlaps in uv across all of
+    // them, and those must stay free to go their own ways); one per untextured triangle.
+    std::vector<Unit> unitsOf(const std::vector<uint32_t>& ids) const {
+        std::vector<Unit> units;
+        std::map<int32_t, std::vector<uint32_t>> by_texture;
+        for (uint32_t i : ids) {
+            if (tris_[i].texture >= 0) {
+                by_texture[tris_[i].texture].push_back(i);
+            } else {
+                units.push_back({{i}, -1, tris_[i].feature, {}, {}, 0, 0});
+            }
+        }
+        for (const auto& [texture, members] : by_texture) {
+            std::vector<ChartMember> m(members.size());
+            for (size_t k = 0; k < members.size(); ++k) {
+                const TexelDensity& d = info_[members[k]].density;
+                m[k] = {d.uv_min, d.uv_max, 0, 0};
+            }
+            const std::vector<uint32_t> chart = uvCharts(m);
+            std::map<std::pair<uint32_t, uint32_t>, size_t> unit_of;
+            for (size_t k = 0; k < members.size(); ++k) {
+                auto [it, fresh] = unit_of.emplace(std::pair{chart[k], tris_[members[k]].feature}, units.size());
+                if (fresh) units.push_back({{}, texture, tris_[members[k]].feature, {}, {}, 0, 0});
+                units[it->second].ids.push_back(members[k]);
+            }
+        }
+        for (Unit& u : units) {
+            double w = 0;
+            for (uint32_t i : u.ids) {
+                const Triangle& t = tris_[i];
+                const Vec3d c = (1.0 / 3.0) * (t.position_local[0] + t.position_local[1] + t.position_local[2]);
+                const double wi = weight_[i] > 0 ? weight_[i] : 1e-300;  // untextured: still a position
+                u.world = u.world + wi * c, u.uv = u.uv + wi * info_[i].uv_centre, w += wi;
+                u.weight += weight_[i], u.texels += info_[i].texel_area;
+            }
+            u.world = (1.0 / w) * u.world, u.uv = (1.0 / w) * u.uv;
+        }
+        return units;
+    }
+
+    // The texture holding at least kDominantShare of the units' textured area,
+    // if all of it belongs to one feature (texture space says where things are
+    // only within one object); -1 otherwise.
+    static int32_t dominantTexture(const std::vector<Unit>& units) {
+        std::map<int32_t, double> weight;
+        std::map<int32_t, std::set<uint32_t>> features;
+        double total = 0;
+        for (const Unit& u : units) {
+            if (u.texture < 0) continue;
+            weight[u.texture] += u.weight, total += u.weight;
+            features[u.texture].insert(u.feature);
+        }
+        for (const auto& [t, w] : weight)
+            if (total > 0 && w >= kDominantShare * total && features[t].size() == 1) return t;
+        return -1;
+    }
+
+    // The other units join the piece of the texture nearest to them in the
+    // world, so no child spans more than the node does.
+    static void joinNearest(const std::vector<Unit>& units, const std::vector<uint32_t>& rest,
+                            std::array<std::vector<uint32_t>, 4>& groups) {
+        std::array<Vec3d, 4> centre{};
+        for (int q = 0; q < 4; ++q) {
+            double sw = 0;
+            for (uint32_t k : groups[q]) {
+                const double wk = units[k].weight + 1e-300;
+                centre[q] = centre[q] + wk * units[k].world, sw += wk;
+            }
+            if (sw > 0) centre[q] = (1.0 / sw) * centre[q];
+        }
+        for (uint32_t k : rest) {
+            int best = -1;
+            double best_d = 1e300;
+            for (int q = 0; q < 4; ++q) {
+                if (groups[q].empty()) continue;
+                const double d = length(units[k].world - centre[q]);
+                if (d < best_d) best_d = d, best = q;
+            }
+            groups[best].push_back(k);
+        }
     }
     static constexpr double kDominantShare = 0.75;
 
@@ -299,16 +319,6 @@ private:
     double ppm_, d_min_;
     const std::vector<NativeSize>& native_;
     const std::vector<uint8_t>& promote_;
-    std::vector<Vec3d> uv_centres_ = [this] {
-        std::vector<Vec3d> c(info_.size());
-        for (size_t i = 0; i < c.size(); ++i) c[i] = info_[i].uv_centre;
-        return c;
-    }();
-    std::vector<double> texel_area_ = [this] {
-        std::vector<double> a(info_.size());
-        for (size_t i = 0; i < a.size(); ++i) a[i] = info_[i].texel_area;
-        return a;
-    }();
 };
 
 struct Flattener {
@@ -470,11 +480,16 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     stats.scene_diagonal_m = length(box.max - box.min);
     const double ppm = tree->projection.pixelsPerMetreAt1m();
     const std::vector<NativeSize> native = nativeSizes(scene);
+    // Every texture's economy, scene-wide: for the default d_min and the promotions.
+    std::vector<TextureModel> models;
+    arena.execute([&] { models = modelTextures(scene, ppm, params); });
     if (params.d_min_m) {
         stats.d_min_requested_m = *params.d_min_m;
         stats.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
     } else if (params.d_min_from_data) {
-        arena.execute([&] { stats.d_min_choice = chooseDefaultDmin(scene, params, tree->projection, &stats.d_min_requested_m); });
+        arena.execute([&] {
+            stats.d_min_choice = chooseDefaultDmin(models, stats.scene_diagonal_m, params, &stats.d_min_requested_m);
+        });
     } else {
         stats.d_min_requested_m = stats.scene_diagonal_m * params.d_min_diagonal_fraction;
         stats.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", stats.scene_diagonal_m,
@@ -547,7 +562,6 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     std::vector<uint8_t> promote(scene.textures.size(), 0);
     {
         arena.execute([&] {
-            const std::vector<TextureModel> models = modelTextures(scene, ppm, params);
             tbb::parallel_for(size_t{0}, models.size(), [&](size_t i) {
                 promote[i] = planTexture(models[i], params, stats.d_min_used_m).promoted ? 1 : 0;
             });

@@ -852,18 +852,29 @@ TEST(AtlasExtremes, KilometreTriangleIsSplitNotEnlarged) {
     expectReportSaysWhatHappened(*b, scene);
 }
 
+// One textured triangle with 1 km legs, its texture `texture_px` square over it.
+Scene kilometreTriangle(int texture_px) {
+    Scene scene;
+    const int tex = addTexture(scene, "/nonexistent/ground.png", texture_px);
+    scene.triangles.push_back(triangle({0, 0, 0}, {1000, 0, 0}, {0, 1000, 0}, {0, 0}, {1, 0}, {0, 1}, tex));
+    return scene;
+}
+
+// d_min 1 m, and the one triangle may stay critical (split, never enlarged for the fraction).
+AtlasParams oneMetreOneCritical() {
+    AtlasParams p = structureOnly();
+    p.d_min_m = 1;
+    p.critical_fraction = 1.0;
+    return p;
+}
+
 // The same triangle at d_min 1 m would need some 2.2 million texels along an
 // edge: about 10^8 pieces, and its 65536 px texture still some 17,000 at its
 // own resolution. Splitting is bounded (at most 10,000 pieces for a small
 // scene); beyond that d_min is raised, and the report says why.
 TEST(AtlasExtremes, KilometreTriangleAtOneMetreRaisesDminToBoundSplitting) {
-    Scene scene;
-    const int tex = addTexture(scene, "/nonexistent/ground.png", 65536);
-    scene.triangles.push_back(triangle({0, 0, 0}, {1000, 0, 0}, {0, 1000, 0}, {0, 0}, {1, 0}, {0, 1}, tex));
-    AtlasParams p = structureOnly();
-    p.d_min_m = 1;
-    p.critical_fraction = 1.0;
-    const auto b = build(scene, p, "1 km triangle at 1 m");
+    const Scene scene = kilometreTriangle(65536);
+    const auto b = build(scene, oneMetreOneCritical(), "1 km triangle at 1 m");
     ASSERT_TRUE(b->status.ok()) << b->status.error;
     const AtlasStats& s = b->tree.stats;
     EXPECT_TRUE(s.enlarged_for_split_budget);
@@ -878,13 +889,8 @@ TEST(AtlasExtremes, KilometreTriangleAtOneMetreRaisesDminToBoundSplitting) {
 // texture has: its pieces hold the texture's own texels (capped), a bounded
 // number whatever d_min, so d_min stays where it was asked.
 TEST(AtlasExtremes, KilometreTriangleWithAModestTextureIsCappedNotEnlarged) {
-    Scene scene;
-    const int tex = addTexture(scene, "/nonexistent/ground.png", 1024);
-    scene.triangles.push_back(triangle({0, 0, 0}, {1000, 0, 0}, {0, 1000, 0}, {0, 0}, {1, 0}, {0, 1}, tex));
-    AtlasParams p = structureOnly();
-    p.d_min_m = 1;
-    p.critical_fraction = 1.0;
-    const auto b = build(scene, p, "1 km triangle at 1 m, 1024 px");
+    const Scene scene = kilometreTriangle(1024);
+    const auto b = build(scene, oneMetreOneCritical(), "1 km triangle at 1 m, 1024 px");
     ASSERT_TRUE(b->status.ok()) << b->status.error;
     const AtlasStats& s = b->tree.stats;
     EXPECT_FALSE(s.enlarged_for_split_budget);
