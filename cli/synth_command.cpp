@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -137,6 +138,12 @@ int runSynth(const SynthOptions& opt_in) {
                 size(synth::kShapefileName).c_str());
     std::printf("  %-18s %10s  %zu PNG textures, %dx%d px\n", "textures/", humanBytes(texture_bytes).c_str(),
                 town.textures.size(), opt.town.texture_size_px, opt.town.texture_size_px);
+    if (town.orthophoto_texture >= 0)
+        std::printf("  %-18s %10s  orthophoto %dx%d px, %s m pixels, on every roof (%s)\n", "", "",
+                    town.orthophoto.width_px, town.orthophoto.height_px,
+                    synth::exactDecimal(town.orthophoto.pixel_m).c_str(),
+                    opt.town.orthophoto == synth::OrthophotoMode::WorldFile ? "world file orthophoto.pgw"
+                                                                            : "referencePoint + orientation");
     std::printf("  %-18s %10s  ground truth for tests\n", synth::kTruthName, size(synth::kTruthName).c_str());
     std::printf("Scene (textured triangle soup, local metres around the origin):\n");
     std::printf("  %zu triangles (%zu textured), %zu features, %zu textures, %zu materials\n", stats.triangles,
@@ -183,6 +190,17 @@ RunFn addSynthCommand(CLI::App& app) {
         ->expected(2, 3);
     cmd->add_flag("--extreme", opt->extreme,
                   "Place the town at extreme grid coordinates: E 833000, N 9900000 (UTM 33S, just south of the equator)");
+    static const std::map<std::string, synth::OrthophotoMode> orthophoto_modes = {
+        {"none", synth::OrthophotoMode::None},
+        {"world-file", synth::OrthophotoMode::WorldFile},
+        {"reference-point", synth::OrthophotoMode::ReferencePoint}};
+    cmd->add_option("--orthophoto", opt->town.orthophoto,
+                    "Texture every roof with one orthophoto of the town (textures/orthophoto.png, 0.25 m pixels, each "
+                    "roof's pixels in a colour that encodes its building number) as a CityGML GeoreferencedTexture "
+                    "placed by a world file (textures/orthophoto.pgw) or by referencePoint + orientation; none: paving "
+                    "and colours")
+        ->transform(CLI::CheckedTransformer(orthophoto_modes))
+        ->default_str("none");
     cmd->add_option("-o,--output", opt->out_dir, "Output folder (must not exist unless --overwrite)")->required();
     cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing output folder");
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");

@@ -45,7 +45,11 @@ inline constexpr const char* kTextureUnreadable = "texture_unreadable";      // 
 inline constexpr const char* kTexcoordsMismatch = "texcoords_mismatch";      // count != ring vertices
 inline constexpr const char* kSolidInverted = "solid_inverted";              // inward solid: faces flipped
 inline constexpr const char* kNoLodGeometry = "no_lod_geometry";             // building without LOD <= 2
-inline constexpr const char* kAppearanceUnsupported = "appearance_unsupported";  // e.g. GeoreferencedTexture
+inline constexpr const char* kAppearanceUnsupported = "appearance_unsupported";  // surface data we do not read
+inline constexpr const char* kGeoreferenceMissing = "georeference_missing";  // GeoreferencedTexture placed nowhere
+inline constexpr const char* kCityGmlNoNamespace = "citygml_no_namespace";    // <CityModel> root in no namespace
+inline constexpr const char* kCityGmlMemberMissing = "citygml_member_missing";  // object not in a cityObjectMember
+inline constexpr const char* kAdeIgnored = "ade_ignored";                    // ADE element in a city object: ignored
 inline constexpr const char* kCrsNotGeoreferenced = "crs_not_georeferenced";  // local engineering CRS
 inline constexpr const char* kCrsVerticalIgnored = "crs_vertical_ignored";    // unusable height part of a compound CRS
 // Footprints:

@@ -38,6 +38,7 @@ int32_t TextureResolver::resolve(const fs::path& base_dir, const std::string& ur
         ref.wrap = wrap;
         in->close();
         index = sink_.addTexture(ref);
+        refs_[index] = ref;
     }
     (index >= 0 ? ok_ : failed_)++;
     cache_[key] = index;

@@ -23,6 +23,11 @@ public:
     /// with `where` as the example's place).
     int32_t resolve(const std::filesystem::path& base_dir, const std::string& uri, WrapMode wrap,
                     const DiagnosticExample& where);
+    /// The image behind an index resolve() returned (path, size), or null.
+    const TextureRef* info(int32_t index) const {
+        auto it = refs_.find(index);
+        return it == refs_.end() ? nullptr : &it->second;
+    }
     uint64_t resolved() const { return ok_; }
     uint64_t failed() const { return failed_; }
 
@@ -30,6 +35,7 @@ private:
     SceneSink& sink_;
     Diagnostics& diagnostics_;
     std::unordered_map<std::string, int32_t> cache_;
+    std::unordered_map<int32_t, TextureRef> refs_;
     uint64_t ok_ = 0, failed_ = 0;
 };
 

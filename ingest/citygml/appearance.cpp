@@ -40,6 +40,14 @@ std::string themeOf(xmlNodePtr appearance) {
     return t ? text(t) : std::string();
 }
 
+// The first set's entries win, as the first of two definitions does elsewhere.
+void mergeInto(ThemeData& to, const ThemeData& from) {
+    to.ring_texcoords.insert(from.ring_texcoords.begin(), from.ring_texcoords.end());
+    to.texgen.insert(from.texgen.begin(), from.texgen.end());
+    to.georeferenced.insert(from.georeferenced.begin(), from.georeferenced.end());
+    to.materials.insert(from.materials.begin(), from.materials.end());
+}
+
 }  // namespace
 
 uint32_t AppearanceStore::image(const std::string& uri, WrapMode wrap) {
@@ -52,59 +60,110 @@ uint32_t AppearanceStore::image(const std::string& uri, WrapMode wrap) {
     return idx;
 }
 
+
 void AppearanceStore::addAppearance(xmlNodePtr appearance) {
     ThemeData& theme = themes[themeOf(appearance)];
     for (xmlNodePtr member = firstChild(appearance); member; member = nextSibling(member)) {
         if (!isNamed(member, "surfaceDataMember")) continue;
-        xmlNodePtr data = firstChild(member);
-        if (!data) continue;
-        if (isNamed(data, "ParameterizedTexture")) {
-            xmlNodePtr uri = child(data, "imageURI");
-            if (!uri) continue;
-            xmlNodePtr wrap = child(data, "wrapMode");
-            const uint32_t img = image(text(uri), wrap ? parseWrap(text(wrap)) : WrapMode::None);
-            for (xmlNodePtr target = firstChild(data); target; target = nextSibling(target)) {
-                if (!isNamed(target, "target")) continue;
-                const std::string target_id = stripHash(attribute(target, "uri"));
-                for (xmlNodePtr param = firstChild(target); param; param = nextSibling(param)) {
-                    if (isNamed(param, "TexCoordList")) {
-                        for (xmlNodePtr tc = firstChild(param); tc; tc = nextSibling(tc)) {
-                            if (!isNamed(tc, "textureCoordinates")) continue;
-                            RingTexcoords rt;
-                            rt.image = img;
-                            std::vector<double> v;
-                            if (!parseNumbers(text(tc), &v)) continue;  // reported as a mismatch at use
-                            for (size_t i = 0; i + 1 < v.size(); i += 2) rt.uv.push_back({v[i], v[i + 1]});
-                            auto [it, inserted] = theme.ring_texcoords.emplace(stripHash(attribute(tc, "ring")), std::move(rt));
-                            if (!inserted) theme.duplicate_ring_targets++;
-                        }
-                    } else if (isNamed(param, "TexCoordGen")) {
-                        xmlNodePtr m = child(param, "worldToTexture");
-                        std::vector<double> v;
-                        if (m && parseNumbers(text(m), &v) && v.size() == 12) {
-                            TexGen g;
-                            g.image = img;
-                            std::copy(v.begin(), v.end(), g.world_to_texture.begin());
-                            theme.texgen.emplace(target_id, g);
-                        }
-                    }
-                }
-            }
-        } else if (isNamed(data, "X3DMaterial")) {
-            Material mat;
-            std::vector<double> v;
-            if (xmlNodePtr d = child(data, "diffuseColor"); d && parseNumbers(text(d), &v) && v.size() == 3)
-                mat.diffuse = {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])};
-            v.clear();
-            if (xmlNodePtr t = child(data, "transparency"); t && parseNumbers(text(t), &v) && v.size() == 1)
-                mat.transparency = static_cast<float>(v[0]);
-            for (xmlNodePtr target = firstChild(data); target; target = nextSibling(target))
-                if (isNamed(target, "target")) theme.materials.emplace(stripHash(text(target)), mat);
-        } else {
-            theme.unsupported++;  // GeoreferencedTexture and anything newer
-            unsupported_seen.emplace_back(lineOf(data), localName(data));
+        if (xmlNodePtr data = firstChild(member)) {
+            const uint64_t unsupported_before = theme.unsupported;
+            addSurfaceData(data, theme);
+            const std::string id = gmlId(data);
+            if (!id.empty() && theme.unsupported == unsupported_before) addSurfaceData(data, surface_data_by_id_[id]);
+        } else if (auto it = surface_data_by_id_.find(xlinkHref(member)); it != surface_data_by_id_.end()) {
+            mergeInto(theme, it->second);
         }
     }
+}
+
+void AppearanceStore::addSurfaceData(xmlNodePtr data, ThemeData& theme) {
+    if (isNamed(data, "ParameterizedTexture")) {
+        addParameterizedTexture(data, theme);
+    } else if (isNamed(data, "GeoreferencedTexture")) {
+        addGeoreferencedTexture(data, theme);
+    } else if (isNamed(data, "X3DMaterial")) {
+        Material mat;
+        std::vector<double> v;
+        if (xmlNodePtr d = child(data, "diffuseColor"); d && parseNumbers(text(d), &v) && v.size() == 3)
+            mat.diffuse = {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])};
+        v.clear();
+        if (xmlNodePtr t = child(data, "transparency"); t && parseNumbers(text(t), &v) && v.size() == 1)
+            mat.transparency = static_cast<float>(v[0]);
+        for (xmlNodePtr target = firstChild(data); target; target = nextSibling(target))
+            if (isNamed(target, "target")) theme.materials.emplace(stripHash(text(target)), mat);
+    } else {
+        theme.unsupported++;  // CityGML 3.0's and ADEs' surface data
+        unsupported_seen.emplace_back(lineOf(data), localName(data));
+    }
+}
+
+void AppearanceStore::addParameterizedTexture(xmlNodePtr data, ThemeData& theme) {
+    xmlNodePtr uri = child(data, "imageURI");
+    if (!uri) return;
+    xmlNodePtr wrap = child(data, "wrapMode");
+    const uint32_t img = image(text(uri), wrap ? parseWrap(text(wrap)) : WrapMode::None);
+    auto addRing = [&](const std::string& ring, std::vector<Vec2d> uv) {
+        RingTexcoords rt;
+        rt.image = img;
+        rt.uv = std::move(uv);
+        if (!theme.ring_texcoords.emplace(ring, std::move(rt)).second) theme.duplicate_ring_targets++;
+    };
+    for (xmlNodePtr target = firstChild(data); target; target = nextSibling(target)) {
+        if (!isNamed(target, "target")) continue;
+        const std::string target_id = stripHash(attribute(target, "uri"));
+        if (!firstChild(target)) {  // the parameterization by reference
+            if (auto it = texcoord_lists_by_id_.find(xlinkHref(target)); it != texcoord_lists_by_id_.end())
+                for (const auto& [ring, uv] : it->second) addRing(ring, uv);
+            continue;
+        }
+        for (xmlNodePtr param = firstChild(target); param; param = nextSibling(param)) {
+            if (isNamed(param, "TexCoordList")) {
+                std::vector<std::pair<std::string, std::vector<Vec2d>>> list;
+                for (xmlNodePtr tc = firstChild(param); tc; tc = nextSibling(tc)) {
+                    if (!isNamed(tc, "textureCoordinates")) continue;
+                    std::vector<double> v;
+                    if (!parseNumbers(text(tc), &v)) continue;  // reported as a mismatch at use
+                    std::vector<Vec2d> uv;
+                    for (size_t i = 0; i + 1 < v.size(); i += 2) uv.push_back({v[i], v[i + 1]});
+                    list.emplace_back(stripHash(attribute(tc, "ring")), std::move(uv));
+                }
+                for (const auto& [ring, uv] : list) addRing(ring, uv);
+                if (const std::string id = gmlId(param); !id.empty()) texcoord_lists_by_id_.emplace(id, std::move(list));
+            } else if (isNamed(param, "TexCoordGen")) {
+                xmlNodePtr m = child(param, "worldToTexture");
+                std::vector<double> v;
+                if (m && parseNumbers(text(m), &v) && v.size() == 12) {
+                    TexGen g;
+                    g.image = img;
+                    std::copy(v.begin(), v.end(), g.world_to_texture.begin());
+                    theme.texgen.emplace(target_id, g);
+                }
+            }
+        }
+    }
+}
+
+void AppearanceStore::addGeoreferencedTexture(xmlNodePtr data, ThemeData& theme) {
+    xmlNodePtr uri = child(data, "imageURI");
+    if (!uri) return;
+    xmlNodePtr wrap = child(data, "wrapMode");
+    GeoTexture g;
+    g.image = image(text(uri), wrap ? parseWrap(text(wrap)) : WrapMode::None);
+    g.line = lineOf(data);
+    if (xmlNodePtr p = child(data, "preferWorldFile")) g.prefer_world_file = text(p) != "false" && text(p) != "0";
+    std::vector<double> ref, m;
+    xmlNodePtr point = child(data, "referencePoint");
+    if (point) point = child(point, "Point");
+    xmlNodePtr pos = point ? child(point, "pos") : nullptr;
+    if (!pos && point) pos = child(point, "coordinates");
+    xmlNodePtr orientation = child(data, "orientation");
+    if (pos && orientation && parseNumbers(text(pos), &ref) && ref.size() >= 2 && parseNumbers(text(orientation), &m) &&
+        m.size() == 4 && m[0] * m[3] - m[1] * m[2] != 0) {
+        g.has_georeference = true;  // orientation row-major: x = m0 col + m1 row, y = m2 col + m3 row
+        g.pixel_to_world = {m[0], m[1], ref[0], m[2], m[3], ref[1]};
+    }
+    for (xmlNodePtr target = firstChild(data); target; target = nextSibling(target))
+        if (isNamed(target, "target")) theme.georeferenced.emplace(stripHash(text(target)), g);
 }
 
 void ThemeCatalogue::note(xmlNodePtr appearance) {
@@ -112,7 +171,9 @@ void ThemeCatalogue::note(xmlNodePtr appearance) {
     bool has_texture = false;
     for (xmlNodePtr member = firstChild(appearance); member; member = nextSibling(member))
         if (isNamed(member, "surfaceDataMember"))
-            if (xmlNodePtr d = firstChild(member); d && isNamed(d, "ParameterizedTexture")) has_texture = true;
+            if (xmlNodePtr d = firstChild(member);
+                d && (isNamed(d, "ParameterizedTexture") || isNamed(d, "GeoreferencedTexture")))
+                has_texture = true;
     auto it = textured.find(name);
     if (it == textured.end()) {
         order.push_back(name);

@@ -29,30 +29,54 @@ struct RingTexcoords {
 
 struct TexGen {
     uint32_t image = 0;
-    std::array<double, 12> world_to_texture{};  ///< 3x4, row-major, applied to source coordinates
+    std::array<double, 12> world_to_texture{};  ///< 3x4, row-major, applied to source coordinates - offset
+    Vec3d offset{};  ///< 0 for a TexCoordGen; a georeferenced image's corner, so large coordinates cancel exactly
+};
+
+/// A GeoreferencedTexture: an image laid over the ground plan. Its pixel
+/// grid's georeference, (x, y) = M (col, row) + reference with (col, row) the
+/// centre of a pixel counted from the upper left one, comes from
+/// referencePoint + orientation when both are given, else from the image's
+/// world file or its embedded GeoTIFF tags (found by the reader, which knows
+/// the files).
+struct GeoTexture {
+    uint32_t image = 0;
+    bool has_georeference = false;       ///< referencePoint and orientation both given
+    std::array<double, 6> pixel_to_world{};  ///< x = a0 col + a1 row + a2, y = a3 col + a4 row + a5
+    bool prefer_world_file = true;       ///< over the image's own georeference (CityGML's default)
+    int64_t line = 0;
 };
 
 /// Everything one theme says, keyed by gml:id without '#'.
 struct ThemeData {
     std::unordered_map<std::string, RingTexcoords> ring_texcoords;  ///< by LinearRing id
     std::unordered_map<std::string, TexGen> texgen;                 ///< by target surface id
+    std::unordered_map<std::string, GeoTexture> georeferenced;      ///< by target surface id
     std::unordered_map<std::string, Material> materials;            ///< by target surface id
-    uint64_t unsupported = 0;   ///< GeoreferencedTexture and other surface data we skip
+    uint64_t unsupported = 0;   ///< surface data we skip (CityGML 3.0's, ADEs')
     uint64_t duplicate_ring_targets = 0;  ///< a ring's coordinates given twice (first kept)
 };
 
 struct AppearanceStore {
     std::vector<TextureImage> images;
     std::map<std::string, ThemeData> themes;   ///< "" for appearances without a theme
-    /// Surface data we do not use (GeoreferencedTexture, ...): (line, element
-    /// name), for the reader to warn about; it clears the list.
+    /// Surface data we do not use: (line, element name), for the reader to
+    /// warn about; it clears the list.
     std::vector<std::pair<int64_t, std::string>> unsupported_seen;
-    /// Parses one app:Appearance element into the store.
+    /// Parses one app:Appearance element into the store. Surface data and
+    /// TexCoordLists with a gml:id are kept, so a later surfaceDataMember or
+    /// target that points at them by xlink:href (another theme reusing a
+    /// texture) gets the same data.
     void addAppearance(xmlNodePtr appearance);
 
 private:
     std::map<std::pair<std::string, int>, uint32_t> image_index_;  // (uri, wrap) -> index
+    std::unordered_map<std::string, ThemeData> surface_data_by_id_;
+    std::unordered_map<std::string, std::vector<std::pair<std::string, std::vector<Vec2d>>>> texcoord_lists_by_id_;
     uint32_t image(const std::string& uri, WrapMode wrap);
+    void addSurfaceData(xmlNodePtr data, ThemeData& theme);
+    void addParameterizedTexture(xmlNodePtr data, ThemeData& theme);
+    void addGeoreferencedTexture(xmlNodePtr data, ThemeData& theme);
 };
 
 /// Theme names in document order and whether each has a texture (for the

@@ -14,6 +14,7 @@
 
 #include "ingest/citygml/appearance.h"
 #include "ingest/citygml/xml_input.h"
+#include "ingest/image_georeference.h"
 #include "ingest/texture_resolver.h"
 #include "ingest/triangulate.h"
 
@@ -57,6 +58,20 @@ bool isCityGmlNamespace(const std::string& ns) {
     return ns.find("opengis.net/citygml") != std::string::npos || ns.find("citygml.org/citygml") != std::string::npos;
 }
 
+bool isFeatureCollectionNamespace(const std::string& ns) {
+    return ns.rfind("http://www.opengis.net/wfs", 0) == 0 || ns.rfind("http://www.opengis.net/gml", 0) == 0;
+}
+
+// Namespaces whose elements the reader knows (CityGML modules, GML, xAL
+// addresses, XLink); an element in any other namespace inside a city object
+// is an Application Domain Extension (ADE) and is ignored, counted.
+bool isKnownNamespace(xmlNodePtr n) {
+    if (!n->ns || !n->ns->href) return true;  // no namespace: read by local name, as before
+    const std::string ns = reinterpret_cast<const char*>(n->ns->href);
+    return isCityGmlNamespace(ns) || ns.rfind("http://www.opengis.net/gml", 0) == 0 ||
+           ns.find("xAL") != std::string::npos || ns == "http://www.w3.org/1999/xlink";
+}
+
 SurfaceSemantic semanticOf(const char* name) {
     static const std::pair<const char*, SurfaceSemantic> table[] = {
         {"WallSurface", SurfaceSemantic::Wall},        {"RoofSurface", SurfaceSemantic::Roof},
@@ -83,6 +98,20 @@ bool parseDoubles(const char* p, const char* end, std::vector<double>* out) {
         p = next;
     }
     return true;
+}
+
+// The dimension of a ring's numbers when no srsDimension says it (GML's
+// default is the CRS's, which a 3D city model's projected CRS does not give):
+// the one under which the ring closes, 3 before 2; else the one that divides
+// the count, 3 before 2.
+int guessDimension(const std::vector<double>& v) {
+    auto closes = [&](size_t d) {
+        return v.size() % d == 0 && v.size() >= 4 * d &&
+               std::equal(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(d), v.end() - static_cast<std::ptrdiff_t>(d));
+    };
+    if (closes(3)) return 3;
+    if (closes(2)) return 2;
+    return v.size() % 3 == 0 ? 3 : v.size() % 2 == 0 ? 2 : 3;
 }
 
 // srsDimension declared on the element or its ancestors, else 0.
@@ -151,16 +180,45 @@ private:
 
     // ---- pass 1 ---------------------------------------------------------------
 
-    Status openRoot(XmlInput& in) {
+    // The root: a CityModel in a CityGML namespace; also, as producers write
+    // them, a CityModel in no namespace at all (FME's CityGML 1.0 exports:
+    // only the bldg:/gen: children carry one) and a WFS/GML FeatureCollection
+    // (3DCityDB's WFS). The first pass reports the no-namespace root once.
+    Status openRoot(XmlInput& in, bool report) {
         if (Status s = in.open(file_); !s.ok()) return s;
         std::string name, ns;
         if (Status s = in.rootElement(&name, &ns); !s.ok()) return s;
-        if (name != "CityModel" || !isCityGmlNamespace(ns))
+        const bool city_model = name == "CityModel" && (ns.empty() || isCityGmlNamespace(ns));
+        const bool collection = name == "FeatureCollection" && isFeatureCollectionNamespace(ns);
+        if (!city_model && !collection)
             return Status::Fail(fmt::format("{}: {}: the root element is <{}>{}, not a CityGML CityModel",
                                             fatal::kNotCityGml, file_.string(), name,
                                             ns.empty() ? "" : " in namespace " + ns));
-        summary_.citygml_version = versionOf(ns);
+        if (report && city_model && ns.empty())
+            warn(warn::kCityGmlNoNamespace, 1, "",
+                 "<CityModel> has no namespace (CityGML's is http://www.opengis.net/citygml/<version>); read as CityGML, "
+                 "the version taken from the city objects");
+        if (report) summary_.citygml_version = versionOf(ns);
         return Status::Ok();
+    }
+
+    // A child of the root that holds a city object: the object inside a
+    // member element, or (schema-invalid, but written) the object itself.
+    enum class RootChild { Other, Member, BareObject };
+    static RootChild classify(const std::string& local_name) {
+        if (local_name == "cityObjectMember" || local_name == "featureMember" || local_name == "member")
+            return RootChild::Member;
+        if (local_name == "Building") return RootChild::BareObject;
+        return RootChild::Other;
+    }
+    static xmlNodePtr objectOf(xmlNodePtr child, RootChild kind) {
+        return kind == RootChild::BareObject ? child : firstChild(child);
+    }
+
+    // The version of a file whose root does not say it, from its first city object.
+    void noteVersion(xmlNodePtr object) {
+        if (!summary_.citygml_version.empty() || !object || !object->ns || !object->ns->href) return;
+        summary_.citygml_version = versionOf(reinterpret_cast<const char*>(object->ns->href));
     }
 
     void readEnvelope(xmlNodePtr bounded_by) {
@@ -217,7 +275,7 @@ private:
 
     Status indexPass() {
         XmlInput in;
-        if (Status s = openRoot(in); !s.ok()) return s;
+        if (Status s = openRoot(in, true); !s.ok()) return s;
         summary_.path = file_.string();
         summary_.bytes = in.fileSize();
         uint32_t member = 0;
@@ -225,8 +283,14 @@ private:
             const std::string name = in.currentLocalName();
             if (name == "boundedBy") {
                 if (xmlNodePtr n = in.expand()) readEnvelope(n);
-            } else if (name == "cityObjectMember" || name == "featureMember") {
-                if (xmlNodePtr n = in.expand()) indexMember(n, member);
+            } else if (const RootChild kind = classify(name); kind != RootChild::Other) {
+                if (xmlNodePtr n = in.expand()) {
+                    if (kind == RootChild::BareObject)
+                        warn(warn::kCityGmlMemberMissing, lineOf(n), gmlId(n),
+                             "a <Building> directly under the root, not inside a <cityObjectMember>; read all the same");
+                    noteVersion(objectOf(n, kind));
+                    indexMember(n, member);
+                }
                 ++member;
             } else if (name == "appearanceMember") {
                 if (xmlNodePtr n = in.expand())
@@ -333,10 +397,9 @@ private:
 
     Status foreignPass() {
         XmlInput in;
-        if (Status s = openRoot(in); !s.ok()) return s;
+        if (Status s = openRoot(in, false); !s.ok()) return s;
         while (in.nextChild()) {
-            const std::string name = in.currentLocalName();
-            if (name != "cityObjectMember" && name != "featureMember") continue;
+            if (classify(in.currentLocalName()) == RootChild::Other) continue;
             xmlNodePtr n = in.expand();
             if (!n) break;
             ids_.clear();
@@ -382,14 +445,14 @@ private:
 
     Status readPass() {
         XmlInput in;
-        if (Status s = openRoot(in); !s.ok()) return s;
+        if (Status s = openRoot(in, false); !s.ok()) return s;
         uint64_t members = 0;
         while (in.nextChild()) {
-            const std::string name = in.currentLocalName();
-            if (name != "cityObjectMember" && name != "featureMember") continue;
+            const RootChild kind = classify(in.currentLocalName());
+            if (kind == RootChild::Other) continue;
             xmlNodePtr member = in.expand();
             if (!member) break;
-            xmlNodePtr object = firstChild(member);
+            xmlNodePtr object = objectOf(member, kind);
             if (!object) continue;
             if (isNamed(object, "Building")) {
                 ids_.clear();
@@ -436,10 +499,8 @@ private:
                     f.measured_height_m = v;
             } else if (std::strcmp(n, "roofType") == 0) f.roof_type = text(c);
             else if (std::strcmp(n, "function") == 0) f.function = text(c);
-            else if (std::strstr(n, "Attribute")) {  // gen:stringAttribute, intAttribute, ... (2.0 and 1.0)
-                const std::string key = attribute(c, "name");
-                xmlNodePtr v = child(c, "value");
-                if (!key.empty() && v) f.attributes[key] = text(v);
+            else if (isGenericAttribute(c)) {  // gen:stringAttribute, intAttribute, ... (2.0 and 1.0)
+                readGenericAttribute(c, "", &f.attributes);
             } else if (std::strcmp(n, "genericAttribute") == 0) {  // CityGML 3.0
                 if (xmlNodePtr a = firstChild(c)) {
                     xmlNodePtr k = child(a, "name"), v = child(a, "value");
@@ -448,6 +509,28 @@ private:
             }
         }
         return f;
+    }
+
+    // CityGML 1.0/2.0 generic attributes (gen:stringAttribute ... and sets);
+    // not an ADE's element that merely has "Attribute" in its name.
+    static bool isGenericAttribute(xmlNodePtr c) {
+        static const char* names[] = {"stringAttribute", "intAttribute",     "doubleAttribute",    "dateAttribute",
+                                      "uriAttribute",    "measureAttribute", "genericAttributeSet"};
+        if (!isKnownNamespace(c)) return false;
+        for (const char* g : names)
+            if (std::strcmp(localName(c), g) == 0) return true;
+        return false;
+    }
+    // A set's members are keyed "set.member".
+    static void readGenericAttribute(xmlNodePtr c, const std::string& prefix, std::map<std::string, std::string>* out) {
+        const std::string key = prefix + attribute(c, "name");
+        if (attribute(c, "name").empty()) return;
+        if (std::strcmp(localName(c), "genericAttributeSet") == 0) {
+            for (xmlNodePtr m = firstChild(c); m; m = nextSibling(m))
+                if (isGenericAttribute(m)) readGenericAttribute(m, key + ".", out);
+            return;
+        }
+        if (xmlNodePtr v = child(c, "value")) (*out)[key] = text(v);
     }
 
     // Reads a Building or BuildingPart; returns whether it or a part had geometry.
@@ -474,6 +557,8 @@ private:
                        std::strstr(n, "TerrainIntersection") || std::strstr(n, "MultiCurve") ||
                        std::strcmp(n, "interiorRoom") == 0 || std::strcmp(n, "interiorBuildingInstallation") == 0) {
                 state_.counts.geometry_skipped[n]++;
+            } else if (!isKnownNamespace(c)) {
+                warnAde(c);
             }
         }
         int lod = state_.options.lod;
@@ -532,7 +617,15 @@ private:
             else if (std::strcmp(n, "lod1MultiSurface") == 0) collectGeometry(g, sem, {}, false, "", out[1]);
             else if (startsWith(n, "lod3") || startsWith(n, "lod4") || std::strcmp(n, "opening") == 0)
                 state_.counts.geometry_skipped[n]++;
+            else if (!isKnownNamespace(g))
+                warnAde(g);
         }
+    }
+
+    void warnAde(xmlNodePtr n) {
+        warn(warn::kAdeIgnored, lineOf(n), gmlId(n->parent),
+             fmt::format("<{}{}{}> in namespace {} (an ADE) is not read", n->ns->prefix ? reinterpret_cast<const char*>(n->ns->prefix) : "",
+                         n->ns->prefix ? ":" : "", localName(n), reinterpret_cast<const char*>(n->ns->href)));
     }
 
     void readInstallation(xmlNodePtr inst, std::vector<RawPolygon>* out) {
@@ -576,7 +669,7 @@ private:
             return false;
         }
         if (!dim) dim = file_dimension_;
-        if (!dim) dim = v.size() % 3 == 0 ? 3 : v.size() % 2 == 0 ? 2 : 3;
+        if (!dim) dim = guessDimension(v);
         if (dim != 2 && dim != 3) dim = 3;
         if (v.size() % static_cast<size_t>(dim) != 0) {
             warn(warn::kCoordinateParse, out->line, out->id,
@@ -700,6 +793,49 @@ private:
         return textures_.resolve(file_.parent_path(), img.uri, img.wrap, {file_.string(), line, polygon_id, ""});
     }
 
+    // A GeoreferencedTexture as a texture-generation matrix: the inverse of
+    // its pixel-to-world map, scaled to the image's size, applied to a
+    // vertex's ground position (source coordinates, easting first).
+    std::optional<TexGen> georeferencedTexGen(const AppearanceStore& store, const GeoTexture& geo,
+                                              const std::string& polygon_id) {
+        const int32_t texture = sceneTexture(store, geo.image, geo.line, polygon_id);
+        const TextureRef* ref = texture >= 0 ? textures_.info(texture) : nullptr;
+        if (!ref || ref->width_px <= 0 || ref->height_px <= 0) return std::nullopt;  // texture_missing/unreadable
+        std::array<double, 6> a = geo.pixel_to_world;
+        if (!geo.has_georeference) {
+            const std::string key = ref->path + (geo.prefer_world_file ? "#w" : "#i");
+            auto it = image_georeference_.find(key);
+            if (it == image_georeference_.end())
+                it = image_georeference_.emplace(key, readImageGeoreference(ref->path, geo.prefer_world_file)).first;
+            if (!it->second) {
+                if (georeference_missing_warned_.insert(ref->path).second)
+                    warn(warn::kGeoreferenceMissing, geo.line, polygon_id,
+                         fmt::format("GeoreferencedTexture {}: no referencePoint and orientation, no world file (.{}w, "
+                                     ".wld, ...) and no georeference in the image; a colour is used instead",
+                                     ref->path, fs::path(ref->path).extension().string().substr(1)));
+                return std::nullopt;
+            }
+            a = *it->second;
+        }
+        // (col, row) = A^-1 ((x, y) - (a2, a5)); s = (col + 1/2) / w; t = 1 - (row + 1/2) / h (t up).
+        // The difference to the reference pixel is taken first (TexGen::offset):
+        // applied to raw coordinates of 10^6 m the constant terms would cancel
+        // to 1e-11 of the image.
+        const double det = a[0] * a[4] - a[1] * a[3];
+        const double i00 = a[4] / det, i01 = -a[1] / det, i10 = -a[3] / det, i11 = a[0] / det;
+        const double w = ref->width_px, h = ref->height_px;
+        double sx = i00 / w, sy = i01 / w, tx = -i10 / h, ty = -i11 / h;
+        Vec3d offset{a[2], a[5], 0};
+        if (lat_lon_order_) std::swap(sx, sy), std::swap(tx, ty), std::swap(offset.x, offset.y);  // file order: y first
+        TexGen g;
+        g.image = geo.image;
+        g.offset = offset;
+        g.world_to_texture = {sx, sy, 0, 0.5 / w, tx, ty, 0, 1.0 - 0.5 / h, 0, 0, 0, 1};
+        return g;
+    }
+    std::unordered_map<std::string, std::optional<std::array<double, 6>>> image_georeference_;
+    std::unordered_set<std::string> georeference_missing_warned_;
+
     // ---- cleanup, triangulation, output ---------------------------------------------
 
     struct CleanRing {
@@ -821,11 +957,19 @@ private:
                 ids.insert(ids.end(), p.surface_ids.begin(), p.surface_ids.end());
                 for (const std::string& id : ids) {
                     const TexGen* g = lookup(&ThemeData::texgen, id, &tex_store);
+                    std::optional<TexGen> from_georeference;
+                    if (!g)
+                        if (const GeoTexture* geo = lookup(&ThemeData::georeferenced, id, &tex_store)) {
+                            from_georeference = georeferencedTexGen(*tex_store, *geo, pid);
+                            if (!from_georeference) break;  // warned; a colour instead
+                            g = &*from_georeference;
+                        }
                     if (!g) continue;
                     const auto& m = g->world_to_texture;
                     for (const RawRing& r : p.rings) {
                         std::vector<Vec2d> uv;
-                        for (const Vec3d& q : r.points) {
+                        for (const Vec3d& source : r.points) {
+                            const Vec3d q = source - g->offset;
                             const double s = m[0] * q.x + m[1] * q.y + m[2] * q.z + m[3];
                             const double t = m[4] * q.x + m[5] * q.y + m[6] * q.z + m[7];
                             const double w = m[8] * q.x + m[9] * q.y + m[10] * q.z + m[11];

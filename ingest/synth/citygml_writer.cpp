@@ -257,6 +257,30 @@ Status writeCityGml(const Town& town, const std::filesystem::path& file) {
         w.parameterizedTexture(town.textures[0], paved);
         w.out += "    </app:Appearance>\n  </app:appearanceMember>\n";
     }
+    // The orthophoto on every roof: one GeoreferencedTexture whose targets
+    // are the roof polygons; placed by the world file beside the image, or
+    // by referencePoint + orientation (the centre of the upper left pixel).
+    if (town.orthophoto_texture >= 0) {
+        const OrthophotoGrid& g = town.orthophoto;
+        fmt::format_to(std::back_inserter(w.out),
+                       "  <app:appearanceMember>\n    <app:Appearance>\n      <app:theme>{}</app:theme>\n"
+                       "      <app:surfaceDataMember>\n        <app:GeoreferencedTexture>\n"
+                       "          <app:imageURI>{}</app:imageURI>\n          <app:mimeType>image/png</app:mimeType>\n"
+                       "          <app:wrapMode>none</app:wrapMode>\n",
+                       kTheme, town.textures[town.orthophoto_texture].relative_path);
+        if (s.orthophoto == OrthophotoMode::ReferencePoint)
+            fmt::format_to(std::back_inserter(w.out),
+                           "          <app:referencePoint><gml:Point><gml:pos srsDimension=\"2\">{} {}</gml:pos></gml:Point>"
+                           "</app:referencePoint>\n          <app:orientation>{} 0 0 {}</app:orientation>\n",
+                           exactDecimal(g.west_m + 0.5 * g.pixel_m), exactDecimal(g.north_m - 0.5 * g.pixel_m),
+                           exactDecimal(g.pixel_m), exactDecimal(-g.pixel_m));
+        for (const SynthBuilding& b : town.buildings)
+            for (const SynthSurface& sf : b.surfaces)
+                if (sf.texture == town.orthophoto_texture)
+                    fmt::format_to(std::back_inserter(w.out), "          <app:target>#{}</app:target>\n", sf.gml_id);
+        w.out += "        </app:GeoreferencedTexture>\n      </app:surfaceDataMember>\n    </app:Appearance>\n"
+                 "  </app:appearanceMember>\n";
+    }
     w.out += "</core:CityModel>\n";
     os.write(w.out.data(), static_cast<std::streamsize>(w.out.size()));
     os.close();

@@ -384,6 +384,31 @@ SynthBuilding makeBuilding(const TownSettings& settings, uint32_t number, PlanPo
     return b;
 }
 
+// Every roof polygon gets the orthophoto instead of paving or a colour.
+void coverRoofsWithOrthophoto(Town& town) {
+    town.orthophoto = orthophotoGrid(town);
+    SynthTexture photo;
+    photo.kind = SynthTexture::Kind::Orthophoto;
+    photo.relative_path = "textures/orthophoto.png";
+    photo.channels = 3;
+    town.textures.push_back(photo);
+    town.orthophoto_texture = static_cast<int32_t>(town.textures.size() - 1);
+    const Vec3d o = town.settings.origin_source;
+    for (SynthBuilding& b : town.buildings) {
+        b.roof_texture = town.orthophoto_texture;
+        for (SynthSurface& s : b.surfaces) {
+            if (s.semantic != SurfaceSemantic::Roof) continue;
+            s.texture = town.orthophoto_texture;
+            s.material = -1;
+            s.uv.clear();
+            for (const auto& ring : s.rings) {
+                s.uv.emplace_back();
+                for (const Vec3d& p : ring) s.uv.back().push_back(town.orthophoto.uv(p.x + o.x, p.y + o.y));
+            }
+        }
+    }
+}
+
 }  // namespace
 
 Town generateTown(const TownSettings& settings) {
@@ -419,6 +444,7 @@ Town generateTown(const TownSettings& settings) {
                                static_cast<int64_t>(std::llround(y * kEighths))};
         town.buildings.push_back(makeBuilding(settings, i + 1, centre, town));
     }
+    if (settings.orthophoto != OrthophotoMode::None) coverRoofsWithOrthophoto(town);
     return town;
 }
 
@@ -433,6 +459,10 @@ Scene townToScene(const Town& town, const std::filesystem::path& output_dir) {
         ref.width_px = ref.height_px = t.size_px;
         ref.channels = t.channels;
         ref.wrap = WrapMode::Wrap;
+        if (t.kind == SynthTexture::Kind::Orthophoto) {
+            ref.width_px = town.orthophoto.width_px, ref.height_px = town.orthophoto.height_px;
+            ref.wrap = WrapMode::None;
+        }
         scene.textures.push_back(ref);
     }
     for (const SynthBuilding& b : town.buildings) {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "ingest/scene.h"
+#include "ingest/synth/orthophoto.h"
 
 namespace cityatlas::synth {
 
@@ -30,13 +31,19 @@ std::string_view roofTypeName(RoofType r);        ///< "flat", "gable", "hip", "
 std::string_view roofTypeCityGmlCode(RoofType r); ///< AdV/SIG3D codes: 1000, 1030, 1040, 1070
 std::string_view roofTypeOsmName(RoofType r);     ///< OSM roof:shape: flat, gabled, hipped, pyramidal
 
+/// How roofs get the town's orthophoto (see orthophoto.h): not at all (paving
+/// and colours, the default), as a GeoreferencedTexture placed by a world file
+/// beside the image, or by referencePoint + orientation in the CityGML.
+enum class OrthophotoMode : uint8_t { None, WorldFile, ReferencePoint };
+
 struct TownSettings {
     uint32_t buildings = 100;
     int lod = 2;                  ///< 1: flat blocks (lod1Solid); 2: roofs and thematic surfaces
     uint64_t seed = 1;
     int texture_size_px = 512;    ///< facade and paving textures are square
     int crs_epsg = 25832;         ///< a projected CRS in metres
-    Vec3d origin_source{690000, 5336000, 0};  ///< south-west corner of the town, source CRS
+    Vec3d origin_source{690000, 5336000, 0};  ///< centre of the town, source CRS
+    OrthophotoMode orthophoto = OrthophotoMode::None;
 };
 
 /// One textured or coloured polygon. Rings are open (no closing duplicate);
@@ -70,9 +77,9 @@ struct SynthBuilding {
 };
 
 struct SynthTexture {
-    enum class Kind : uint8_t { Facade, Paving } kind = Kind::Facade;
+    enum class Kind : uint8_t { Facade, Paving, Orthophoto } kind = Kind::Facade;
     std::string relative_path;    ///< relative to the output folder, '/' separated
-    int size_px = 0;
+    int size_px = 0;              ///< square side; the orthophoto's size is the Town's orthophoto grid
     int channels = 3;
     uint32_t building_number = 0; ///< facades only
     int storeys = 1, window_columns = 1;
@@ -85,6 +92,8 @@ struct Town {
     std::vector<SynthTexture> textures;
     std::vector<Material> materials;
     double paving_repeat_m = 0;   ///< one paving texture tile covers this many metres
+    OrthophotoGrid orthophoto;    ///< when settings.orthophoto is not None
+    int32_t orthophoto_texture = -1;
 };
 
 /// Builds the town's geometry, texture list and materials in memory (no I/O).

@@ -34,6 +34,8 @@ Status writeTextures(const Town& town, const fs::path& dir, const ProgressFn& pr
         Image8 image;
         if (t.kind == SynthTexture::Kind::Paving) {
             image = drawPaving(t.size_px, t.seed);
+        } else if (t.kind == SynthTexture::Kind::Orthophoto) {
+            image = drawOrthophoto(town);
         } else {
             FacadeStyle style;
             style.building_number = t.building_number;
@@ -57,6 +59,14 @@ Status writeTextures(const Town& town, const fs::path& dir, const ProgressFn& pr
     });
     if (progress) progress("textures", total, total);
     if (!first_error.empty()) return Status::Fail(first_error);
+    if (town.orthophoto_texture >= 0 && town.settings.orthophoto == OrthophotoMode::WorldFile) {
+        const fs::path png = dir / town.textures[town.orthophoto_texture].relative_path;
+        const fs::path world = fs::path(png).replace_extension(".pgw");
+        std::ofstream os(world, std::ios::binary);
+        os << worldFileText(town.orthophoto);
+        os.close();
+        if (!os) return Status::Fail(fmt::format("{}: write failed (disk full?)", world.string()));
+    }
     return Status::Ok();
 }
 
@@ -150,16 +160,32 @@ nlohmann::ordered_json makeTruth(const Town& town) {
     j["coloured_polygons"] = total.coloured;
     j["surfaces"] = surfaces;
 
-    uint64_t rgba = 0, facades = 0;
+    // Textures a surface uses (a reader sees only those); files: all written.
+    std::vector<bool> used(town.textures.size(), false);
+    for (const SynthBuilding& b : town.buildings)
+        for (const SynthSurface& sf : b.surfaces)
+            if (sf.texture >= 0) used[static_cast<size_t>(sf.texture)] = true;
+    uint64_t count = 0, rgba = 0, facades = 0, paving = 0, orthophotos = 0;
     json files = json::array();
-    for (const SynthTexture& t : town.textures) {
+    for (size_t i = 0; i < town.textures.size(); ++i) {
+        const SynthTexture& t = town.textures[i];
+        files.push_back(t.relative_path);
+        if (!used[i]) continue;
+        count++;
         rgba += t.channels == 4;
         facades += t.kind == SynthTexture::Kind::Facade;
-        files.push_back(t.relative_path);
+        paving += t.kind == SynthTexture::Kind::Paving;
+        orthophotos += t.kind == SynthTexture::Kind::Orthophoto;
     }
-    j["textures"] = {{"count", town.textures.size()}, {"facade", facades},
-                     {"paving", town.textures.size() - facades}, {"rgb", town.textures.size() - rgba},
+    j["textures"] = {{"count", count}, {"facade", facades}, {"paving", paving}, {"rgb", count - rgba},
                      {"rgba", rgba}, {"size_px", s.texture_size_px}, {"files", files}};
+    if (town.orthophoto_texture >= 0) {
+        const OrthophotoGrid& g = town.orthophoto;
+        j["textures"]["orthophoto"] = {{"file", town.textures[town.orthophoto_texture].relative_path},
+                                       {"width_px", g.width_px}, {"height_px", g.height_px},
+                                       {"pixel_m", g.pixel_m}, {"west_m", g.west_m}, {"north_m", g.north_m},
+                                       {"mode", s.orthophoto == OrthophotoMode::WorldFile ? "world_file" : "reference_point"}};
+    }
     j["materials"] = town.materials.size();
     j["paving_repeat_m"] = town.paving_repeat_m;
     j["max_abs_uv"] = max_abs_uv;
