@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "ingest/footprints/footprint_reader.h"
+#include "ingest/input_overlap.h"
 
 namespace cityatlas::cli {
 namespace fs = std::filesystem;
@@ -172,8 +173,13 @@ Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState&
             files->size() > 1 ? fmt::format("{} file {}/{}", pass, file_index + 1, files->size()) : std::string(pass);
         progress.update(step.c_str(), done, total, true);
     };
+    // Every building passes the overlap watch on its way to the caller's sink.
+    SceneSink* sink = state.sink;
+    OverlapWatch overlap(*sink);
+    state.sink = &overlap;
     for (file_index = 0; file_index < files->size(); ++file_index) {
         const fs::path& f = (*files)[file_index];
+        overlap.beginFile(f.string());
         Status s = isCityGmlName(f) ? readCityGml(f, state) : readFootprints(f, footprint_options, state);
         if (!s.ok()) {
             if (s.error.rfind("usage: ", 0) == 0) {
@@ -181,10 +187,13 @@ Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState&
                 s.error.erase(0, 7);
             }
             state.progress = nullptr;
+            state.sink = sink;
             return s;
         }
     }
     state.progress = nullptr;
+    state.sink = sink;
+    overlap.report(state.diagnostics);
     return Status::Ok();
 }
 

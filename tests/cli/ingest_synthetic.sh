@@ -23,3 +23,16 @@ assert r["polygons"]["textured"] == t["textured_polygons"], (r["polygons"], t["t
 print("ok:", t["settings"]["crs"], "LOD", t["settings"]["lod"], "-", t["triangles"], "triangles match truth")
 PY
 done
+
+# The synth folder itself holds every building twice (town.gml and
+# footprints.shp): reading the folder warns once, naming both files; reading
+# town.gml alone does not.
+"$CITYATLAS" synth --buildings 12 --seed 4 --texture-size 16 -q -o twice > /dev/null
+"$CITYATLAS" ingest -q twice --report twice.json > twice.txt || fail "ingest of a synth folder failed"
+check_eq "inputs_overlap warnings for a synth folder" 1 "$(json twice.json "j['warnings']['inputs_overlap']['count']")"
+detail=$(json twice.json "j['warnings']['inputs_overlap']['examples'][0]['file'] + ' | ' + j['warnings']['inputs_overlap']['examples'][0]['detail']")
+case "$detail" in *town.gml*footprints.shp*|*footprints.shp*town.gml*) echo "ok: names both: $detail" ;;
+  *) fail "the overlap warning does not name both files: $detail" ;; esac
+grep -q "inputs_overlap" twice.txt || fail "the overlap warning is not printed"
+"$CITYATLAS" ingest -q twice/town.gml --report once.json > /dev/null
+check_eq "warnings for town.gml alone" 0 "$(json once.json "j['warnings_total']")"

@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// Inputs that hold the same buildings twice (a synth folder's CityGML and its
+/// footprint shapefile; two exports of one district; a tile read twice under
+/// two names) would draw every such building twice. OverlapWatch sits between
+/// the readers and the real sink, keeps per building only its id, its file and
+/// its ground-plan box, and at the end names every pair of files that share
+/// most of their buildings: by gml:id (copies within 50 m of each other), or
+/// by footprint (ground-plan boxes equal within kOverlapTolerance_m). It warns; it does not drop anything, since which copy
+/// is the one wanted is the user's call.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ingest/diagnostics.h"
+#include "ingest/scene_sink.h"
+
+namespace cityatlas {
+
+inline constexpr double kOverlapTolerance_m = 1.0;  ///< roof overhangs and rounding between producers
+inline constexpr double kOverlapShare = 0.5;        ///< of the smaller file's buildings: "heavily"
+
+class OverlapWatch : public SceneSink {
+public:
+    explicit OverlapWatch(SceneSink& inner) : inner_(inner) {}
+    /// The file the next features come from.
+    void beginFile(const std::string& path);
+    /// Warns (inputs_overlap) once per pair of files that overlap heavily.
+    void report(Diagnostics& diagnostics) const;
+
+    void setGeoreference(const Georeference& g) override { inner_.setGeoreference(g); }
+    int32_t addTexture(const TextureRef& t) override { return inner_.addTexture(t); }
+    int32_t addMaterial(const Material& m) override { return inner_.addMaterial(m); }
+    uint32_t addFeature(Feature f) override;
+    void setFeatureLod(uint32_t feature, int8_t lod) override { inner_.setFeatureLod(feature, lod); }
+    void addTriangles(std::vector<Triangle>& triangles) override;
+
+private:
+    struct Building {
+        std::string gml_id;
+        uint32_t file = 0;
+        double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
+    };
+    static bool near(const Building& a, const Building& b);
+    SceneSink& inner_;
+    std::vector<std::string> files_;
+    std::vector<Building> buildings_;       // top-level features only
+    std::vector<uint32_t> building_of_;     // feature index -> index into buildings_
+};
+
+}  // namespace cityatlas
