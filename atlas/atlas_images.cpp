@@ -301,7 +301,7 @@ Status writeCanvas(const Canvas& c, Layer layer, const fs::path& path) {
         }
     }
     auto out = OIIO::ImageOutput::create(path.string());
-    if (!out) return Status::Fail(fmt::format("{}: cannot create a PNG writer", path.string()));
+    if (!out) return Status::Io(fmt::format("{}: cannot create a PNG writer", path.string()));
     OIIO::ImageSpec spec(c.w, c.h, nc, OIIO::TypeDesc::UINT8);
     // Speed over size (an intermediate: the tiles stage re-encodes): fastest
     // deflate, and one fixed row filter ("up") instead of libpng trying all five per row.
@@ -310,7 +310,7 @@ Status writeCanvas(const Canvas& c, Layer layer, const fs::path& path) {
     spec.attribute("oiio:ColorSpace", "sRGB");
     spec.attribute("oiio:UnassociatedAlpha", 1);  // the bytes are straight alpha already (divided above)
     if (!out->open(path.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close())
-        return Status::Fail(fmt::format("{}: cannot write: {}", path.string(), out->geterror()));
+        return Status::Io(fmt::format("{}: cannot write: {}", path.string(), out->geterror()));
     return Status::Ok();
 }
 
@@ -517,7 +517,7 @@ Status renderAtlases(const Scene& scene, const AtlasTree& tree, const fs::path& 
     for (Layer l : {Layer::Opaque, Layer::Alpha}) {
         std::error_code ec;
         fs::create_directories(output_dir / "atlas" / layerName(l), ec);
-        if (ec) return Status::Fail(fmt::format("{}: cannot create: {}", (output_dir / "atlas").string(), ec.message()));
+        if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (output_dir / "atlas").string(), ec.message()));
     }
     Renderer renderer(scene, tree, output_dir, progress);
     return renderer.run(result);

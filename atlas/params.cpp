@@ -29,21 +29,21 @@ std::optional<ResampleFilter> filterFromName(std::string_view name) {
 Status validateParams(const AtlasParams& p) {
     const int a = p.atlas_size_px;
     if (a < 64 || a > 4096 || (a & (a - 1)) != 0)
-        return Status::Fail(fmt::format("atlas size (--atlas-size) {} must be a power of two from 64 to 4096", a));
+        return Status::Usage(fmt::format("atlas size (--atlas-size) {} must be a power of two from 64 to 4096", a));
     if (p.border_px < 0 || p.border_px >= a / 4)
-        return Status::Fail(fmt::format("border (--border) {} texels must be in [0, {}) for atlas size {}", p.border_px, a / 4, a));
+        return Status::Usage(fmt::format("border (--border) {} texels must be in [0, {}) for atlas size {}", p.border_px, a / 4, a));
     if (p.screen_width_px < 1 || p.screen_height_px < 1)
-        return Status::Fail("screen size (--screen) must be positive");
+        return Status::Usage("screen size (--screen) must be positive");
     if (!(p.vertical_fov_deg > 0 && p.vertical_fov_deg < 170))
-        return Status::Fail(fmt::format("vertical field of view (--fov) {} must be in (0, 170) degrees", p.vertical_fov_deg));
+        return Status::Usage(fmt::format("vertical field of view (--fov) {} must be in (0, 170) degrees", p.vertical_fov_deg));
     if (p.d_min_m && !(*p.d_min_m > 0 && std::isfinite(*p.d_min_m)))
-        return Status::Fail(fmt::format("d_min (--d-min) {} m must be positive", *p.d_min_m));
+        return Status::Usage(fmt::format("d_min (--d-min) {} m must be positive", *p.d_min_m));
     if (!(p.d_min_diagonal_fraction > 0 && p.d_min_diagonal_fraction <= 1))
-        return Status::Fail("d_min (--d-min D/N) as a fraction of the scene diagonal must be in (0, 1]");
+        return Status::Usage("d_min (--d-min D/N) as a fraction of the scene diagonal must be in (0, 1]");
     if (!(p.critical_fraction >= 0 && p.critical_fraction <= 1))
-        return Status::Fail("the critical-triangle fraction (--critical-percent) must be in [0, 100] %");
-    if (p.threads < 0) return Status::Fail("threads (--threads) must be >= 0");
-    if (p.cache_mb < 16) return Status::Fail("the texture cache (--cache-mb) needs at least 16 MB");
+        return Status::Usage("the critical-triangle fraction (--critical-percent) must be in [0, 100] %");
+    if (p.threads < 0) return Status::Usage("threads (--threads) must be >= 0");
+    if (p.cache_mb < 16) return Status::Usage("the texture cache (--cache-mb) needs at least 16 MB");
     return Status::Ok();
 }
 

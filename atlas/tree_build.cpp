@@ -468,7 +468,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
         stats.steps.push_back({name, std::chrono::duration<double>(now - clock).count(), peakRssMb()});
         clock = now;
     };
-    if (scene.triangles.empty()) return Status::Fail("the scene has no triangles: nothing to build an atlas tree from");
+    if (scene.triangles.empty()) return Status::Invalid("the scene has no triangles: nothing to build an atlas tree from");
 
     const int threads = params.threads > 0 ? params.threads : static_cast<int>(tbb::info::default_concurrency());
     tbb::task_arena arena(threads);
@@ -496,7 +496,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
                                                               1.0 / params.d_min_diagonal_fraction), 0, 0, {}};
     }
     if (!(stats.d_min_requested_m > 0))
-        return Status::Fail("the scene has zero extent: give --d-min in metres");
+        return Status::Usage("the scene has zero extent: give --d-min in metres");
 
     // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
     // exactly its original resolution on its more demanding axis.

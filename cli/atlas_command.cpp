@@ -13,6 +13,7 @@
 #include "atlas/atlas_tree.h"
 #include "cli/atlas_options.h"
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/progress.h"
 #include "cli/scene_input.h"
 
@@ -55,25 +56,25 @@ Status parseAtlasTreeOptions(const AtlasTreeOptions& opt, atlas::AtlasParams* p)
         p->d_min_from_data = true;
     } else if (d.rfind("D/", 0) == 0) {
         const double n = std::strtod(d.c_str() + 2, &end);
-        if (*end || !(n >= 1)) return Status::Fail(fmt::format("--d-min {}: expected auto, metres or D/N with N >= 1", d));
+        if (*end || !(n >= 1)) return Status::Usage(fmt::format("--d-min {}: expected auto, metres or D/N with N >= 1", d));
         p->d_min_m.reset();
         p->d_min_from_data = false;
         p->d_min_diagonal_fraction = 1.0 / n;
     } else {
         const double m = std::strtod(d.c_str(), &end);
         if (*end || end == d.c_str() || !(m > 0))
-            return Status::Fail(fmt::format("--d-min {}: expected auto, metres or D/N", d));
+            return Status::Usage(fmt::format("--d-min {}: expected auto, metres or D/N", d));
         p->d_min_m = m;
     }
     int w = 0, h = 0;
     if (std::sscanf(opt.screen.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1)
-        return Status::Fail(fmt::format("--screen {}: expected WIDTHxHEIGHT in pixels", opt.screen));
+        return Status::Usage(fmt::format("--screen {}: expected WIDTHxHEIGHT in pixels", opt.screen));
     p->screen_width_px = w, p->screen_height_px = h;
     const auto f = atlas::filterFromName(opt.filter);
-    if (!f) return Status::Fail(fmt::format("--filter {}: expected box, triangle, mitchell or lanczos3", opt.filter));
+    if (!f) return Status::Usage(fmt::format("--filter {}: expected box, triangle, mitchell or lanczos3", opt.filter));
     p->filter = *f;
     const auto m = atlas::packingMethodFromName(opt.packing);
-    if (!m) return Status::Fail(fmt::format("--packing {}: expected maxrects or igarashi-cosgrove", opt.packing));
+    if (!m) return Status::Usage(fmt::format("--packing {}: expected maxrects or igarashi-cosgrove", opt.packing));
     p->packing = *m;
     p->critical_fraction = opt.critical_percent / 100.0;
     return atlas::validateParams(*p);
@@ -81,25 +82,18 @@ Status parseAtlasTreeOptions(const AtlasTreeOptions& opt, atlas::AtlasParams* p)
 
 namespace {
 
-int fail(Progress& progress, const std::string& message) {
-    progress.finish();
-    std::fprintf(stderr, "cityatlas atlas: error: %s\n", message.c_str());
-    return kExitFailure;
-}
+int fail(Progress& progress, const Status& s) { return cli::fail("atlas", s, &progress); }
 
 int runAtlas(const AtlasCliOptions& opt) {
     atlas::AtlasParams params;
-    if (Status s = parseAtlasTreeOptions(opt.tree, &params); !s.ok()) {
-        std::fprintf(stderr, "cityatlas atlas: %s\n", s.error.c_str());
-        return kExitUsage;
-    }
+    if (Status s = parseAtlasTreeOptions(opt.tree, &params); !s.ok()) return cli::fail("atlas", s);
     const fs::path target = fs::path(opt.output).lexically_normal();
     std::error_code ec;
     if (target.empty() || target == "." || target == "/")
-        return fail(*std::make_unique<Progress>(false), fmt::format("{}: refusing to use this as the output folder", opt.output));
+        return cli::fail("atlas", Status::Io(fmt::format("{}: refusing to use this as the output folder", opt.output)));
     if (fs::exists(target, ec) && !opt.overwrite)
-        return fail(*std::make_unique<Progress>(false),
-                    fmt::format("{}: already exists (use --overwrite to replace it)", target.string()));
+        return cli::fail("atlas", Status::Io(fmt::format("{}: already exists (use --overwrite to replace it)",
+                                                            target.string())));
 
     Progress progress(!opt.quiet);
     const auto t_start = std::chrono::steady_clock::now();
@@ -107,13 +101,7 @@ int runAtlas(const AtlasCliOptions& opt) {
     SceneCollector collector;
     state.sink = &collector;
     std::vector<fs::path> files;
-    bool usage = false;
-    if (Status s = readInputs(opt.input, progress, state, &files, &usage); !s.ok()) {
-        if (!usage) return fail(progress, s.error);
-        progress.finish();
-        std::fprintf(stderr, "cityatlas atlas: %s\n", s.error.c_str());
-        return kExitUsage;
-    }
+    if (Status s = readInputs(opt.input, progress, state, &files); !s.ok()) return fail(progress, s);
     Scene& scene = collector.scene;
     attachGeoreference(state, computeStats(scene).bounds_local, scene.georef, files.front());
     const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
@@ -122,11 +110,11 @@ int runAtlas(const AtlasCliOptions& opt) {
     // Everything goes to a sibling working folder renamed into place at the
     // end: a failed or interrupted run never leaves a half-written tree.
     fs::path tmp;
-    if (const Status st = startWorkingFolder(target, {}, &tmp); !st.ok()) return fail(progress, st.error);
-    auto abandon = [&](const std::string& message) {
+    if (const Status st = startWorkingFolder(target, {}, &tmp); !st.ok()) return fail(progress, st);
+    auto abandon = [&](const Status& s) {
         std::error_code ignored;
         fs::remove_all(tmp, ignored);
-        return fail(progress, message);
+        return fail(progress, s);
     };
 
     atlas::AtlasTree tree;
@@ -134,12 +122,12 @@ int runAtlas(const AtlasCliOptions& opt) {
     const Status built = atlas::buildAtlasTree(
         scene, params, tmp, diagnostics,
         [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &tree);
-    if (!built.ok()) return abandon(built.error);
+    if (!built.ok()) return abandon(built);
     tree.stats.steps.insert(tree.stats.steps.begin(), {"read", read_seconds, read_peak_mb});
     const auto report = atlas::makeAtlasReport(tree, scene, diagnostics);
     if (Status s = writeTextAtomically(tmp / "atlas_report.json", report.dump(2) + "\n"); !s.ok())
-        return abandon(s.error);
-    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s.error);
+        return abandon(s);
+    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s);
     progress.finish();
 
     const atlas::AtlasStats& s = tree.stats;
@@ -155,12 +143,7 @@ int runAtlas(const AtlasCliOptions& opt) {
                 s.leaf_atlas_texels ? 100.0 * static_cast<double>(s.packed_texels) / s.leaf_atlas_texels : 0.0,
                 humanBytes(s.original_texture_bytes).c_str(), humanBytes(s.atlas_texture_bytes).c_str());
     std::printf("  %s\n", textureEconomySentence(s).c_str());
-    if (diagnostics.total()) {
-        std::printf("Warnings: %llu\n", static_cast<unsigned long long>(diagnostics.total()));
-        for (const auto& [code, e] : diagnostics.entries())
-            std::printf("  %-24s %6llu  e.g. %s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
-                        e.examples.front().file.c_str(), e.examples.front().detail.c_str());
-    }
+    printWarnings(diagnostics);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("Output: %s (report: atlas_report.json)\nTime %.2f s, peak memory %s\n", target.string().c_str(),
                 seconds, humanBytes(peakRssBytes()).c_str());

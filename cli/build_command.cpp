@@ -18,6 +18,7 @@
 #include "cli/atlas_options.h"
 #include "cli/build_hash.h"
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/progress.h"
 #include "cli/scene_input.h"
 #include "ingest/ingest_report.h"
@@ -42,11 +43,7 @@ struct BuildCliOptions {
     bool quiet = false;
 };
 
-int fail(Progress& progress, const std::string& message, int code = kExitFailure) {
-    progress.finish();
-    std::fprintf(stderr, "cityatlas build: %s%s\n", code == kExitFailure ? "error: " : "", message.c_str());
-    return code;
-}
+int fail(Progress& progress, const Status& s) { return cli::fail("build", s, &progress); }
 
 // Everything that changes the output, as text (threads and cache size do not).
 std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::AtlasParams& a) {
@@ -123,27 +120,20 @@ ordered_json stagesJson(const std::vector<std::pair<std::string, std::pair<doubl
 int runBuild(const BuildCliOptions& opt_in) {
     BuildCliOptions opt = opt_in;
     atlas::AtlasParams params;
-    if (Status s = parseAtlasTreeOptions(opt.tree, &params); !s.ok()) {
-        std::fprintf(stderr, "cityatlas build: %s\n", s.error.c_str());
-        return kExitUsage;
-    }
+    if (Status s = parseAtlasTreeOptions(opt.tree, &params); !s.ok()) return cli::fail("build", s);
     const auto quality = tiles::bcQualityFromName(opt.bc_quality);
-    if (!quality) {
-        std::fprintf(stderr, "cityatlas build: --bc-quality %s: expected fast or best\n", opt.bc_quality.c_str());
-        return kExitUsage;
-    }
+    if (!quality)
+        return cli::fail("build", Status::Usage(fmt::format("--bc-quality {}: expected fast or best", opt.bc_quality)));
     opt.tiles.bc_quality = *quality;
-    if (opt.originals != "needed" && opt.originals != "all") {
-        std::fprintf(stderr, "cityatlas build: --originals %s: expected needed or all\n", opt.originals.c_str());
-        return kExitUsage;
-    }
+    if (opt.originals != "needed" && opt.originals != "all")
+        return cli::fail("build", Status::Usage(fmt::format("--originals {}: expected needed or all", opt.originals)));
     opt.tiles.all_originals = opt.originals == "all";
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
     opt.tiles.threads = params.threads;
     Progress progress(!opt.quiet);
     const fs::path target = fs::path(opt.output).lexically_normal();
     if (target.empty() || target == "." || target == "/")
-        return fail(progress, fmt::format("{}: refusing to use this as the output folder", opt.output));
+        return fail(progress, Status::Io(fmt::format("{}: refusing to use this as the output folder", opt.output)));
     const auto t_start = std::chrono::steady_clock::now();
     auto clock = t_start;
     std::vector<std::pair<std::string, std::pair<double, double>>> stages;
@@ -155,11 +145,11 @@ int runBuild(const BuildCliOptions& opt_in) {
 
     // --- Fingerprint of the inputs: decides whether there is anything to do.
     std::vector<fs::path> files;
-    if (Status s = expandInputs(opt.input.inputs, &files); !s.ok()) return fail(progress, s.error);
+    if (Status s = expandInputs(opt.input.inputs, &files); !s.ok()) return fail(progress, s);
     std::vector<FileDigest> input_digests;
     for (const fs::path& f : withSidecars(files)) {
         FileDigest d;
-        if (Status s = digestFile(f, &d); !s.ok()) return fail(progress, s.error);
+        if (Status s = digestFile(f, &d); !s.ok()) return fail(progress, s);
         input_digests.push_back(d);
     }
     const std::vector<std::string> param_key = parameterKey(opt, params);
@@ -176,11 +166,10 @@ int runBuild(const BuildCliOptions& opt_in) {
             return kExitOk;
         }
         if (!previous && !opt.overwrite)
-            return fail(progress, fmt::format("{}: exists and is not a cityatlas build (use --overwrite to replace it)",
-                                              target.string()));
+            return fail(progress, Status::Io(fmt::format(
+                                      "{}: exists and is not a cityatlas build (use --overwrite to replace it)", target.string())));
         if (previous && !opt.quiet)
-            std::fprintf(stderr, "cityatlas build: rebuilding %s: %s\n", target.string().c_str(),
-                         opt.force ? "--force" : why.c_str());
+            note("build", fmt::format("rebuilding {}: {}", target.string(), opt.force ? "--force" : why));
     }
 
     // --- Read.
@@ -188,13 +177,11 @@ int runBuild(const BuildCliOptions& opt_in) {
     SceneCollector collector;
     state.sink = &collector;
     std::vector<fs::path> read_files;
-    bool usage = false;
-    if (Status s = readInputs(opt.input, progress, state, &read_files, &usage); !s.ok())
-        return fail(progress, s.error, usage ? kExitUsage : kExitFailure);
+    if (Status s = readInputs(opt.input, progress, state, &read_files); !s.ok()) return fail(progress, s);
     Scene& scene = collector.scene;
     const SceneStats scene_stats = computeStats(scene);
     attachGeoreference(state, scene_stats.bounds_local, scene.georef, read_files.front());
-    if (scene.triangles.empty()) return fail(progress, "the inputs hold no triangles: nothing to build");
+    if (scene.triangles.empty()) return fail(progress, Status::Invalid("the inputs hold no triangles: nothing to build"));
     std::vector<FileDigest> texture_digests;
     {
         std::set<std::string> seen;
@@ -211,12 +198,12 @@ int runBuild(const BuildCliOptions& opt_in) {
 
     // --- Atlas tree and tiles, into a sibling folder renamed into place at the end.
     fs::path tmp;
-    if (const Status st = startWorkingFolder(target, ".atlas-png", &tmp); !st.ok()) return fail(progress, st.error);
+    if (const Status st = startWorkingFolder(target, ".atlas-png", &tmp); !st.ok()) return fail(progress, st);
     const fs::path work = tmp / ".atlas-png";
-    auto abandon = [&](const std::string& message) {
+    auto abandon = [&](const Status& s) {
         std::error_code ignored;
         fs::remove_all(tmp, ignored);
-        return fail(progress, message);
+        return fail(progress, s);
     };
     atlas::AtlasTree tree;
     Diagnostics& diagnostics = state.diagnostics;
@@ -226,14 +213,14 @@ int runBuild(const BuildCliOptions& opt_in) {
             progress.update(fmt::format("atlas: {}", step).c_str(), done, total);
         },
         &tree);
-    if (!built.ok()) return abandon(built.error);
+    if (!built.ok()) return abandon(built);
     endStage("atlas");
 
     tiles::TilesStats ts;
     const Status written = tiles::writeTileset(
         scene, tree, work, opt.tiles, tmp, build_hash, diagnostics,
         [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts);
-    if (!written.ok()) return abandon(written.error);
+    if (!written.ok()) return abandon(written);
     fs::remove_all(work, ec);
     endStage("tiles");
 
@@ -308,8 +295,8 @@ int runBuild(const BuildCliOptions& opt_in) {
     for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.peak_rss_mb}});
     for (const auto& s : ts.steps) stages.push_back({"tiles: " + s.name, {s.seconds, s.peak_rss_mb}});
     report["stages"] = stagesJson(stages);
-    if (Status s = writeTextAtomically(tmp / "build_report.json", report.dump(2) + "\n"); !s.ok()) return abandon(s.error);
-    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s.error);
+    if (Status s = writeTextAtomically(tmp / "build_report.json", report.dump(2) + "\n"); !s.ok()) return abandon(s);
+    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s);
     progress.finish();
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
@@ -336,12 +323,7 @@ int runBuild(const BuildCliOptions& opt_in) {
                     : fmt::format(" ({} dropped below its geometric error; listed in tileset.json)",
                                   ts.root_features_dropped.size())
                           .c_str());
-    if (diagnostics.total()) {
-        std::printf("Warnings: %llu\n", static_cast<unsigned long long>(diagnostics.total()));
-        for (const auto& [code, e] : diagnostics.entries())
-            std::printf("  %-24s %6llu  e.g. %s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
-                        e.examples.front().file.c_str(), e.examples.front().detail.c_str());
-    }
+    printWarnings(diagnostics);
     for (const auto& [name, t] : stages)
         if (name.find(':') == std::string::npos)
             std::printf("  %-6s %8.2f s, peak memory %.0f MB\n", name.c_str(), t.first, t.second);

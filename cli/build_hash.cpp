@@ -13,7 +13,7 @@ namespace fs = std::filesystem;
 
 Status digestFile(const fs::path& path, FileDigest* out) {
     std::ifstream f(path, std::ios::binary);
-    if (!f) return Status::Fail(fmt::format("{}: cannot open for hashing", path.string()));
+    if (!f) return Status::Io(fmt::format("{}: cannot open for hashing", path.string()));
     std::unique_ptr<XXH3_state_t, decltype(&XXH3_freeState)> state(XXH3_createState(), &XXH3_freeState);
     XXH3_64bits_reset(state.get());
     std::vector<char> buffer(1 << 20);
@@ -24,7 +24,7 @@ Status digestFile(const fs::path& path, FileDigest* out) {
         XXH3_64bits_update(state.get(), buffer.data(), n);
         bytes += n;
     }
-    if (f.bad()) return Status::Fail(fmt::format("{}: read error while hashing", path.string()));
+    if (f.bad()) return Status::Io(fmt::format("{}: read error while hashing", path.string()));
     out->path = path.string();
     out->bytes = bytes;
     out->xxh3 = fmt::format("{:016x}", XXH3_64bits_digest(state.get()));

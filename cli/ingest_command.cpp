@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/progress.h"
 #include "cli/scene_input.h"
 #include "ingest/citygml/citygml_reader.h"
@@ -36,11 +37,7 @@ struct IngestCliOptions {
     bool quiet = false;
 };
 
-int fail(Progress& progress, const Status& s) {
-    progress.finish();
-    std::fprintf(stderr, "cityatlas ingest: error: %s\n", s.error.c_str());
-    return kExitFailure;
-}
+int fail(Progress& progress, const Status& s) { return cli::fail("ingest", s, &progress); }
 
 int runIngest(const IngestCliOptions& opt) {
     Progress progress(!opt.quiet);
@@ -54,13 +51,7 @@ int runIngest(const IngestCliOptions& opt) {
     std::vector<StepTiming> steps;
     auto t0 = std::chrono::steady_clock::now();
     std::vector<fs::path> files;
-    bool usage = false;
-    if (Status s = readInputs(opt.input, progress, state, &files, &usage); !s.ok()) {
-        if (!usage) return fail(progress, s);
-        progress.finish();
-        std::fprintf(stderr, "cityatlas ingest: %s\n", s.error.c_str());
-        return kExitUsage;
-    }
+    if (Status s = readInputs(opt.input, progress, state, &files); !s.ok()) return fail(progress, s);
     steps.push_back({"read", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                      static_cast<double>(peakRssBytes()) / 1e6});
 
@@ -82,7 +73,7 @@ int runIngest(const IngestCliOptions& opt) {
         if (!opt.quiet) progress.update("writing glb", 0, 1);
         t0 = std::chrono::steady_clock::now();
         if (Status s = writeDebugGlb(collector.scene, opt.glb); !s.ok())
-            return fail(progress, Status::Fail("io_error: " + s.error));
+            return fail(progress, Status::Io("io_error: " + s.error));
         steps.push_back({"write_glb", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          static_cast<double>(peakRssBytes()) / 1e6});
     }
@@ -105,15 +96,7 @@ int runIngest(const IngestCliOptions& opt) {
                         stats.triangles_by_semantic[k], stats.area_by_semantic_m2[k]);
     for (const auto& [kind, n] : state.counts.objects_skipped)
         std::printf("  skipped %llu %s\n", static_cast<unsigned long long>(n), kind.c_str());
-    if (state.diagnostics.total()) {
-        std::printf("Warnings: %llu\n", static_cast<unsigned long long>(state.diagnostics.total()));
-        for (const auto& [code, e] : state.diagnostics.entries()) {
-            const auto& ex = e.examples.front();
-            std::printf("  %-24s %6llu  e.g. %s%s%s%s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
-                        ex.file.c_str(), ex.line ? fmt::format(":{}", ex.line).c_str() : "",
-                        ex.gml_id.empty() ? "" : " ", ex.gml_id.c_str(), ex.detail.c_str());
-        }
-    }
+    printWarnings(state.diagnostics);
     if (!opt.glb.empty()) std::printf("Debug view: %s\n", opt.glb.c_str());
     if (!opt.report.empty()) std::printf("Report: %s\n", opt.report.c_str());
     std::printf("Time %.2f s, peak memory %s\n", steps.front().seconds, humanBytes(peakRssBytes()).c_str());

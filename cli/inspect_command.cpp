@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/progress.h"
 #include "tiles/inspect.h"
 
@@ -49,13 +50,10 @@ void printSummary(const std::string& folder, const tiles::InspectResult& r, doub
 int runInspect(const InspectCliOptions& opt) {
     std::error_code ec;
     if (!fs::is_directory(opt.folder, ec)) {
-        std::fprintf(stderr, "cityatlas inspect: %s: no such folder\n", opt.folder.c_str());
-        return kExitFailure;
+        return fail("inspect", Status::Io(fmt::format("{}: no such folder", opt.folder)));
     }
     if (!fs::exists(fs::path(opt.folder) / "tileset.json", ec)) {
-        std::fprintf(stderr, "cityatlas inspect: %s: no tileset.json: not a cityatlas tile folder\n",
-                     opt.folder.c_str());
-        return kExitFailure;
+        return fail("inspect", Status::Invalid(fmt::format("{}: no tileset.json: not a cityatlas tile folder", opt.folder)));
     }
     const auto t0 = std::chrono::steady_clock::now();
     const tiles::InspectResult r = tiles::inspectTileFolder(opt.folder, opt.threads);
@@ -66,9 +64,8 @@ int runInspect(const InspectCliOptions& opt) {
         std::printf("OK: %llu files checked, no defects\n", static_cast<unsigned long long>(r.files_checked));
         return kExitOk;
     }
-    for (const std::string& d : r.defects) std::fprintf(stderr, "cityatlas inspect: %s\n", d.c_str());
-    std::fprintf(stderr, "cityatlas inspect: %zu defect(s)\n", r.defects.size());
-    return kExitFailure;
+    for (const std::string& d : r.defects) note("inspect", d);
+    return fail("inspect", Status::Invalid(fmt::format("{} defect(s)", r.defects.size())));
 }
 
 }  // namespace

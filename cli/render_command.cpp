@@ -19,6 +19,7 @@
 
 #include "cityatlas_version.h"
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/progress.h"
 #include "render/client/streaming_client.h"
 #include "render/core/camera_path.h"
@@ -213,14 +214,8 @@ json summaryJson(const json& frames, const std::vector<size_t>& cut_frames, cons
 }
 
 int runRender(const RenderCliOptions& opt) {
-    auto fail = [](const std::string& message) {
-        std::fprintf(stderr, "cityatlas render: %s\n", message.c_str());
-        return kExitFailure;
-    };
-    auto usage = [](const std::string& message) {
-        std::fprintf(stderr, "cityatlas render: %s\n", message.c_str());
-        return kExitUsage;
-    };
+    auto fail = [](const Status& s) { return cli::fail("render", s); };
+    auto usage = [](const std::string& message) { return cli::fail("render", Status::Usage(message)); };
     int width = 0, height = 0;
     if (!parseSize(opt.size, &width, &height)) return usage(fmt::format("--size {}: expected WxH, 16..16384 each", opt.size));
     uint64_t budget = 0;
@@ -242,18 +237,18 @@ int runRender(const RenderCliOptions& opt) {
     // The GL context first: it must outlive the client and the target, which free GL objects.
     Status st;
     auto context = render::HeadlessContext::create(&st);
-    if (!context) return fail(st.error);
+    if (!context) return fail(st);
     auto client = render::StreamingClient::open(opt.source, co, &st);
-    if (!client) return fail(st.error);
+    if (!client) return fail(st);
 
     CameraPath path;
     std::string path_name = "default (overview, oblique flight, street level)";
     if (!opt.path_file.empty()) {
         std::ifstream f(opt.path_file);
-        if (!f) return fail(fmt::format("{}: cannot read", opt.path_file));
+        if (!f) return fail(Status::Io(fmt::format("{}: cannot read", opt.path_file)));
         std::stringstream ss;
         ss << f.rdbuf();
-        if (Status ps = render::parseCameraPath(ss.str(), opt.path_file, &path); !ps.ok()) return fail(ps.error);
+        if (Status ps = render::parseCameraPath(ss.str(), opt.path_file, &path); !ps.ok()) return fail(ps);
         path_name = opt.path_file;
     } else {
         path = render::defaultPath(client->index().nodes[0].bounds);
@@ -264,16 +259,15 @@ int runRender(const RenderCliOptions& opt) {
 
     const render::GlInfo gl = render::queryGlInfo();
     auto target = render::OffscreenTarget::create(width, height, &st);
-    if (!target) return fail(st.error);
-    if (Status gs = client->initGl(); !gs.ok()) return fail(gs.error);
+    if (!target) return fail(st);
+    if (Status gs = client->initGl(); !gs.ok()) return fail(gs);
     if (!opt.quiet && client->usesCpuDecode())
-        std::fprintf(stderr, "cityatlas render: %s has no sRGB S3TC: textures are decoded on the CPU (4 bytes per texel)\n",
-                     gl.renderer.c_str());
+        note("render", fmt::format("{} has no sRGB S3TC: textures are decoded on the CPU (4 bytes per texel)", gl.renderer));
 
     std::error_code ec;
     if (!opt.out_dir.empty()) {
         fs::create_directories(opt.out_dir, ec);
-        if (ec) return fail(fmt::format("{}: cannot create: {}", opt.out_dir, ec.message()));
+        if (ec) return fail(Status::Io(fmt::format("{}: cannot create: {}", opt.out_dir, ec.message())));
     }
     std::vector<size_t> cut_frames;
     for (const render::CameraKey& k : path.keys) {
@@ -294,8 +288,8 @@ int runRender(const RenderCliOptions& opt) {
     // The root comes first: the client never shows a frame without texture.
     const render::Camera first = cameraFor(render::sampleFrame(path, 0));
     if (!client->waitForRoot(first, opt.wait_timeout_s))
-        return fail(fmt::format("{}: the root's blocks did not load within {} s{}", opt.source, opt.wait_timeout_s,
-                                client->errors().empty() ? "" : ": " + client->errors().front()));
+        return fail(Status::Io(fmt::format("{}: the root\'s blocks did not load within {} s{}", opt.source, opt.wait_timeout_s,
+                                client->errors().empty() ? "" : ": " + client->errors().front())));
 
     Progress progress(!opt.quiet);
     json frame_list = json::array();
@@ -327,7 +321,7 @@ int runRender(const RenderCliOptions& opt) {
             target->readPixels(&pixels);
             std::string why;
             if (!writePng(fs::path(opt.out_dir) / image, width, height, pixels, &why))
-                return fail(fmt::format("{}: cannot write: {}", (fs::path(opt.out_dir) / image).string(), why));
+                return fail(Status::Io(fmt::format("{}: cannot write: {}", (fs::path(opt.out_dir) / image).string(), why)));
         }
         // The building at the image centre, as `view` picks on a click.
         const render::PickHit centre = client->pick(cam, 0.5 * width, 0.5 * height);
@@ -371,7 +365,7 @@ int runRender(const RenderCliOptions& opt) {
     if (!report_path.empty()) {
         std::ofstream f(report_path);
         f << report.dump(1) << "\n";
-        if (!f) return fail(fmt::format("{}: cannot write", report_path));
+        if (!f) return fail(Status::Io(fmt::format("{}: cannot write", report_path)));
     }
     if (!opt.quiet) {
         fmt::print("{} frames ({}x{}, {} mode{}) in {:.1f} s: frame {:.1f} ms mean, {:.1f} ms worst; nodes {:.1f} mean, {} "

@@ -38,12 +38,12 @@ Status parseFootprintOptions(const SceneInputOptions& opt, FootprintOptions* out
     for (const std::string& m : opt.maps) {
         const size_t eq = m.find('=');
         if (eq == std::string::npos || eq == 0 || eq + 1 == m.size())
-            return Status::Fail(fmt::format("--map {}: expected ROLE=FIELD", m));
+            return Status::Usage(fmt::format("--map {}: expected ROLE=FIELD", m));
         const std::string role = m.substr(0, eq);
         if (std::find(footprintRoles().begin(), footprintRoles().end(), role) == footprintRoles().end()) {
             std::string roles;
             for (const auto& r : footprintRoles()) roles += (roles.empty() ? "" : ", ") + r;
-            return Status::Fail(fmt::format("--map {}: unknown role \"{}\" (roles: {})", m, role, roles));
+            return Status::Usage(fmt::format("--map {}: unknown role \"{}\" (roles: {})", m, role, roles));
         }
         out->fields[role] = m.substr(eq + 1);
     }
@@ -53,7 +53,7 @@ Status parseFootprintOptions(const SceneInputOptions& opt, FootprintOptions* out
         char* end = nullptr;
         out->height_unit_m = std::strtod(opt.height_unit.c_str(), &end);
         if (*end || !(out->height_unit_m > 0))
-            return Status::Fail(fmt::format("--height-unit {}: expected m, ft or metres per unit", opt.height_unit));
+            return Status::Usage(fmt::format("--height-unit {}: expected m, ft or metres per unit", opt.height_unit));
     }
     out->default_height_m = opt.default_height_m;
     out->storey_height_m = opt.storey_height_m;
@@ -64,7 +64,7 @@ Status parseFootprintOptions(const SceneInputOptions& opt, FootprintOptions* out
         out->base = FootprintOptions::Base::Constant;
         char* end = nullptr;
         out->base_constant_m = std::strtod(b.c_str() + 9, &end);
-        if (*end || end == b.c_str() + 9) return Status::Fail(fmt::format("--base {}: expected constant:METRES", b));
+        if (*end || end == b.c_str() + 9) return Status::Usage(fmt::format("--base {}: expected constant:METRES", b));
     } else if (b.rfind("terrain:", 0) == 0) {
         out->base = FootprintOptions::Base::Terrain;
         std::string dem = b.substr(8);
@@ -75,9 +75,9 @@ Status parseFootprintOptions(const SceneInputOptions& opt, FootprintOptions* out
             }
         out->terrain_dem = dem;
         std::error_code ec;
-        if (!fs::is_regular_file(dem, ec)) return Status::Fail(fmt::format("--base {}: no such file {}", b, dem));
+        if (!fs::is_regular_file(dem, ec)) return Status::Io(fmt::format("--base {}: no such file {}", b, dem));
     } else {
-        return Status::Fail(fmt::format("--base {}: expected auto, field, constant:METRES or terrain:DEM.tif[:min|:mean]", b));
+        return Status::Usage(fmt::format("--base {}: expected auto, field, constant:METRES or terrain:DEM.tif[:min|:mean]", b));
     }
     return Status::Ok();
 }
@@ -96,9 +96,9 @@ Status expandInputs(const std::vector<std::string>& args, std::vector<fs::path>*
                  it.increment(ec))
                 if (it->is_regular_file() && (isCityGmlName(it->path()) || isFootprintName(it->path())))
                     found.push_back(it->path());
-            if (ec) return Status::Fail(fmt::format("io_error: {}: {}", arg, ec.message()));
+            if (ec) return Status::Io(fmt::format("io_error: {}: {}", arg, ec.message()));
             if (found.empty())
-                return Status::Fail(fmt::format("io_error: {}: no CityGML (.gml/.xml/.citygml) or footprint "
+                return Status::Io(fmt::format("io_error: {}: no CityGML (.gml/.xml/.citygml) or footprint "
                                                 "(.shp/.gpkg/.geojson/.fgb) files in this folder", arg));
             std::sort(found.begin(), found.end());
             files->insert(files->end(), found.begin(), found.end());
@@ -108,12 +108,12 @@ Status expandInputs(const std::vector<std::string>& args, std::vector<fs::path>*
             glob_t g{};
             if (glob(arg.c_str(), 0, nullptr, &g) != 0 || g.gl_pathc == 0) {
                 globfree(&g);
-                return Status::Fail(fmt::format("io_error: {}: no file matches this pattern", arg));
+                return Status::Io(fmt::format("io_error: {}: no file matches this pattern", arg));
             }
             for (size_t i = 0; i < g.gl_pathc; ++i) files->push_back(g.gl_pathv[i]);
             globfree(&g);
         } else {
-            return Status::Fail(fmt::format("io_error: {}: no such file or folder", arg));
+            return Status::Io(fmt::format("io_error: {}: no such file or folder", arg));
         }
     }
     return Status::Ok();
@@ -155,14 +155,9 @@ void addSceneInputOptions(CLI::App* cmd, SceneInputOptions* opt) {
         ->group(fp);
 }
 
-Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState& state, std::vector<fs::path>* files,
-                  bool* usage) {
-    *usage = false;
+Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState& state, std::vector<fs::path>* files) {
     FootprintOptions footprint_options;
-    if (Status s = parseFootprintOptions(opt, &footprint_options); !s.ok()) {
-        *usage = true;
-        return s;
-    }
+    if (Status s = parseFootprintOptions(opt, &footprint_options); !s.ok()) return s;
     if (Status s = expandInputs(opt.inputs, files); !s.ok()) return s;
     state.options.lod = opt.lod == "best" ? 0 : std::stoi(opt.lod);
     state.options.theme = opt.theme;
@@ -182,10 +177,6 @@ Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState&
         overlap.beginFile(f.string());
         Status s = isCityGmlName(f) ? readCityGml(f, state) : readFootprints(f, footprint_options, state);
         if (!s.ok()) {
-            if (s.error.rfind("usage: ", 0) == 0) {
-                *usage = true;
-                s.error.erase(0, 7);
-            }
             state.progress = nullptr;
             state.sink = sink;
             return s;
@@ -220,12 +211,12 @@ Status writeTextAtomically(const fs::path& path, const std::string& text) {
         if (!os) {
             std::error_code ec;
             fs::remove(tmp, ec);
-            return Status::Fail(fmt::format("io_error: {}: cannot write", path.string()));
+            return Status::Io(fmt::format("io_error: {}: cannot write", path.string()));
         }
     }
     std::error_code ec;
     fs::rename(tmp, path, ec);
-    if (ec) return Status::Fail(fmt::format("io_error: {}: {}", path.string(), ec.message()));
+    if (ec) return Status::Io(fmt::format("io_error: {}: {}", path.string(), ec.message()));
     return Status::Ok();
 }
 
@@ -238,13 +229,13 @@ Status replaceFolder(const fs::path& finished, const fs::path& target) {
     const bool had_old = fs::exists(target, ec);
     if (had_old) {
         fs::rename(target, old, ec);
-        if (ec) return Status::Fail(fmt::format("{}: cannot move the previous output aside: {}", target.string(), ec.message()));
+        if (ec) return Status::Io(fmt::format("{}: cannot move the previous output aside: {}", target.string(), ec.message()));
     }
     fs::rename(finished, target, ec);
     if (ec) {
         std::error_code ignored;
         if (had_old) fs::rename(old, target, ignored);
-        return Status::Fail(fmt::format("{}: cannot move into place: {}", target.string(), ec.message()));
+        return Status::Io(fmt::format("{}: cannot move into place: {}", target.string(), ec.message()));
     }
     if (had_old) fs::remove_all(old, ec);
     return Status::Ok();
@@ -257,7 +248,7 @@ Status startWorkingFolder(const std::filesystem::path& target, const std::filesy
     std::error_code ec;
     fs::remove_all(*working, ec);
     fs::create_directories(subfolder.empty() ? *working : *working / subfolder, ec);
-    if (ec) return Status::Fail(fmt::format("{}: cannot create the working folder: {}", working->string(), ec.message()));
+    if (ec) return Status::Io(fmt::format("{}: cannot create the working folder: {}", working->string(), ec.message()));
     return Status::Ok();
 }
 

@@ -37,10 +37,10 @@ Status expandInputs(const std::vector<std::string>& args, std::vector<std::files
 void addSceneInputOptions(CLI::App* cmd, SceneInputOptions* opt);
 
 /// Reads every input into `state.sink` (set by the caller), all in the frame
-/// the first one defines. On failure `*usage` tells a usage error (exit 2)
-/// from a failed read (exit 1).
+/// the first one defines; warns (inputs_overlap) about inputs that hold the
+/// same buildings. A bad option value fails with StatusCode::kUsage.
 Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState& state,
-                  std::vector<std::filesystem::path>* files, bool* usage);
+                  std::vector<std::filesystem::path>* files);
 
 /// Computes the link to the Earth for a scene with these local bounds and
 /// hands it to `state.sink` (starting from `current`); a local CRS, or a CRS

@@ -12,7 +12,10 @@
 
 #include <pthread.h>
 
+#include <fmt/format.h>
+
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/static_server.h"
 
 namespace cityatlas::cli {
@@ -35,12 +38,10 @@ std::string url(const std::string& host, int port) {
 int runServe(const ServeCliOptions& opt) {
     std::error_code ec;
     if (!fs::exists(opt.folder, ec)) {
-        std::fprintf(stderr, "cityatlas serve: %s: no such folder\n", opt.folder.c_str());
-        return kExitFailure;
+        return fail("serve", Status::Io(fmt::format("{}: no such folder", opt.folder)));
     }
     if (!fs::is_directory(opt.folder, ec) || !fs::is_regular_file(fs::path(opt.folder) / "tileset.json", ec)) {
-        std::fprintf(stderr, "cityatlas serve: %s: not a tile folder (no tileset.json)\n", opt.folder.c_str());
-        return kExitFailure;
+        return fail("serve", Status::Invalid(fmt::format("{}: not a tile folder (no tileset.json)", opt.folder)));
     }
     // SIGINT/SIGTERM are taken synchronously below (sigtimedwait), so block
     // them before the server's threads start: those inherit the mask.
@@ -58,8 +59,7 @@ int runServe(const ServeCliOptions& opt) {
     Status status;
     std::unique_ptr<StaticServer> server = StaticServer::start(options, &status);
     if (!server) {
-        std::fprintf(stderr, "cityatlas serve: %s\n", status.error.c_str());
-        return kExitFailure;
+        return fail("serve", status);
     }
     // The one line on stdout; scripts read the port from it.
     std::printf("serving %s at %s (Ctrl-C stops)\n", opt.folder.c_str(), url(opt.host, server->port()).c_str());
@@ -71,8 +71,7 @@ int runServe(const ServeCliOptions& opt) {
         if (sig == SIGINT || sig == SIGTERM) break;
         if (sig < 0 && errno != EAGAIN && errno != EINTR) break;
         if (!server->running()) {
-            std::fprintf(stderr, "cityatlas serve: %s: the listener stopped unexpectedly\n", opt.folder.c_str());
-            return kExitFailure;
+            return fail("serve", Status::Io(fmt::format("{}: the listener stopped unexpectedly", opt.folder)));
         }
     }
     server->stop();  // finishes the requests in flight

@@ -273,7 +273,7 @@ std::unique_ptr<StaticServer> StaticServer::start(const StaticServerOptions& opt
     std::error_code ec;
     const fs::path root = fs::canonical(options.root, ec);
     if (ec || !fs::is_directory(root, ec)) {
-        *status = Status::Fail(fmt::format("{}: no such folder", options.root.string()));
+        *status = Status::Io(fmt::format("{}: no such folder", options.root.string()));
         return nullptr;
     }
     auto impl = std::make_unique<Impl>();
@@ -310,7 +310,7 @@ std::unique_ptr<StaticServer> StaticServer::start(const StaticServerOptions& opt
     impl->port = options.port == 0 ? server.bind_to_any_port(options.host)
                                    : (server.bind_to_port(options.host, options.port) ? options.port : -1);
     if (impl->port <= 0) {
-        *status = Status::Fail(fmt::format("cannot listen on {}: {}", hostPort(options.host, options.port),
+        *status = Status::Io(fmt::format("cannot listen on {}: {}", hostPort(options.host, options.port),
                                            whyBindFails(options.host, options.port)));
         return nullptr;
     }
@@ -329,7 +329,7 @@ std::unique_ptr<StaticServer> StaticServer::start(const StaticServerOptions& opt
     while (!raw->server.is_running() && !raw->finished) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     if (raw->finished) {
         raw->thread.join();
-        *status = Status::Fail(fmt::format("cannot listen on {}: the listener stopped at once",
+        *status = Status::Io(fmt::format("cannot listen on {}: the listener stopped at once",
                                            hostPort(options.host, raw->port)));
         return nullptr;
     }

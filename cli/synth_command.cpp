@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/progress.h"
 #include "ingest/crs.h"
 #include "ingest/synth/town.h"
@@ -46,11 +47,11 @@ constexpr double kExtremeOrigin[3] = {833000, 9900000, 0};
 // metres (so the town's exact coordinates stay exact).
 Status areaOfUseCentre(int epsg, Vec3d* centre) {
     OGRSpatialReference srs;
-    if (srs.importFromEPSG(epsg) != OGRERR_NONE) return Status::Fail(fmt::format("EPSG:{} is unknown", epsg));
+    if (srs.importFromEPSG(epsg) != OGRERR_NONE) return Status::Usage(fmt::format("EPSG:{} is unknown", epsg));
     double west = 0, south = 0, east = 0, north = 0;
     const char* area_name = nullptr;
     if (!srs.GetAreaOfUse(&west, &south, &east, &north, &area_name))
-        return Status::Fail(fmt::format("EPSG:{} has no area of use; give --origin", epsg));
+        return Status::Usage(fmt::format("EPSG:{} has no area of use; give --origin", epsg));
     if (east < west) east += 360;  // crosses the antimeridian
     double lon = (west + east) / 2, lat = (south + north) / 2;
     if (lon > 180) lon -= 360;
@@ -60,7 +61,7 @@ Status areaOfUseCentre(int epsg, Vec3d* centre) {
     srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&wgs84, &srs));
     if (!ct || !ct->Transform(1, &lon, &lat))
-        return Status::Fail(fmt::format("cannot transform the centre of EPSG:{}'s area of use; give --origin", epsg));
+        return Status::Usage(fmt::format("cannot transform the centre of EPSG:{}'s area of use; give --origin", epsg));
     *centre = {std::round(lon), std::round(lat), 0};
     return Status::Ok();
 }
@@ -69,27 +70,22 @@ int runSynth(const SynthOptions& opt_in) {
     SynthOptions opt = opt_in;
     const auto t0 = std::chrono::steady_clock::now();
     if (opt.extreme && !opt.origin.empty()) {
-        std::fprintf(stderr, "cityatlas synth: --extreme and --origin both place the town; give one\n");
-        return kExitUsage;
+        return fail("synth", Status::Usage("--extreme and --origin both place the town; give one"));
     }
     CrsInfo crs;
     if (Status s = requireProjectedMetricCrs(opt.town.crs_epsg, &crs); !s.ok()) {
-        std::fprintf(stderr, "cityatlas synth: --crs: %s\n", s.error.c_str());
-        return kExitUsage;
+        return fail("synth", Status::Usage("--crs: " + s.error));
     }
     if (!opt.origin.empty()) {
         if (opt.origin.size() < 2 || opt.origin.size() > 3) {
-            std::fprintf(stderr, "cityatlas synth: --origin takes E,N or E,N,H\n");
-            return kExitUsage;
+            return fail("synth", Status::Usage("--origin takes E,N or E,N,H"));
         }
         for (double& v : opt.origin) {
             if (!std::isfinite(v) || std::abs(v) > 6.7e7) {  // 2^26 m keeps every coordinate exact
-                std::fprintf(stderr, "cityatlas synth: --origin: coordinates must be finite and within 6.7e7 m\n");
-                return kExitUsage;
+                return fail("synth", Status::Usage("--origin: coordinates must be finite and within 6.7e7 m"));
             }
             if (v != std::round(v)) {
-                std::fprintf(stderr, "cityatlas synth: --origin: rounding %s to whole metres\n",
-                             synth::exactDecimal(v).c_str());
+                note("synth", "--origin: rounding " + synth::exactDecimal(v) + " to whole metres");
                 v = std::round(v);
             }
         }
@@ -99,8 +95,7 @@ int runSynth(const SynthOptions& opt_in) {
     } else if (opt.town.crs_epsg == kDefaultCrs) {
         opt.town.origin_source = {kDefaultOrigin[0], kDefaultOrigin[1], kDefaultOrigin[2]};
     } else if (Status s = areaOfUseCentre(opt.town.crs_epsg, &opt.town.origin_source); !s.ok()) {
-        std::fprintf(stderr, "cityatlas synth: %s\n", s.error.c_str());
-        return kExitUsage;
+        return fail("synth", Status::Usage(s.error));
     }
 
     Progress progress(!opt.quiet);
@@ -110,11 +105,7 @@ int runSynth(const SynthOptions& opt_in) {
                                             [&](const char* step, uint64_t done, uint64_t total) {
                                                 progress.update(step, done, total);
                                             });
-    if (!written.ok()) {
-        progress.finish();
-        std::fprintf(stderr, "cityatlas synth: error: %s\n", written.error.c_str());
-        return kExitFailure;
-    }
+    if (!written.ok()) return fail("synth", written, &progress);
     const double write_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
     // "Ingest" the town: the Scene every later stage consumes.

@@ -14,6 +14,7 @@
 #include <imgui.h>
 
 #include "cli/commands.h"
+#include "cli/outcome.h"
 #include "cli/progress.h"
 #include "render/client/streaming_client.h"
 #include "render/core/camera_path.h"
@@ -63,10 +64,7 @@ struct Navigation {
 };
 
 int runView(const ViewCliOptions& opt) {
-    auto fail = [](const std::string& message) {
-        std::fprintf(stderr, "cityatlas view: %s\n", message.c_str());
-        return kExitFailure;
-    };
+    auto fail = [](const Status& s) { return cli::fail("view", s); };
     render::ClientOptions co;
     co.budget_bytes = static_cast<uint64_t>(opt.budget_mb * 1024 * 1024);
     co.selection.tau = opt.tau;
@@ -79,10 +77,10 @@ int runView(const ViewCliOptions& opt) {
     render::Window::Options wo;
     wo.vsync = !opt.no_vsync;
     auto window = render::Window::create(opt.width, opt.height, "cityatlas view: " + opt.source, wo, &st);
-    if (!window) return fail(st.error);
+    if (!window) return fail(st);
     auto client = render::StreamingClient::open(opt.source, co, &st);
-    if (!client) return fail(st.error);
-    if (Status gs = client->initGl(); !gs.ok()) return fail(gs.error);
+    if (!client) return fail(st);
+    if (Status gs = client->initGl(); !gs.ok()) return fail(gs);
 
     const Box3d& bounds = client->index().nodes[0].bounds;
     Navigation nav;
@@ -98,7 +96,7 @@ int runView(const ViewCliOptions& opt) {
         nav.camera.position = nav.camera.position + (dy > 0 ? 0.15 : -0.15) * to;
     };
     auto overlay = render::Overlay::create(*window, &st);
-    if (!overlay) return fail(st.error);
+    if (!overlay) return fail(st);
 
     // An sRGB-incapable default framebuffer: draw offscreen and blit.
     std::unique_ptr<render::OffscreenTarget> target;
@@ -184,7 +182,7 @@ int runView(const ViewCliOptions& opt) {
         nav.camera.height_px = fh;
         if (!window->srgbFramebuffer() && (!target || target->width() != fw || target->height() != fh)) {
             target = render::OffscreenTarget::create(fw, fh, &st);
-            if (!target) return fail(st.error);
+            if (!target) return fail(st);
         }
         if (target) target->bind();
         else render::bindDefaultFramebuffer(fw, fh);

@@ -14,7 +14,7 @@ Status lookupCrs(int epsg, CrsInfo* info) {
     CPLPushErrorHandler(CPLQuietErrorHandler);
     const OGRErr err = srs.importFromEPSG(epsg);
     CPLPopErrorHandler();
-    if (err != OGRERR_NONE) return Status::Fail(fmt::format("EPSG:{} is not a CRS known to PROJ's database", epsg));
+    if (err != OGRERR_NONE) return Status::Unsupported(fmt::format("EPSG:{} is not a CRS known to PROJ's database", epsg));
     info->epsg = epsg;
     info->name = srs.GetName() ? srs.GetName() : "";
     info->projected = srs.IsProjected();
@@ -26,10 +26,10 @@ Status requireProjectedMetricCrs(int epsg, CrsInfo* info) {
     Status s = lookupCrs(epsg, info);
     if (!s.ok()) return s;
     if (!info->projected)
-        return Status::Fail(fmt::format("EPSG:{} ({}) is not a projected CRS; a projected CRS in metres is needed",
+        return Status::Unsupported(fmt::format("EPSG:{} ({}) is not a projected CRS; a projected CRS in metres is needed",
                                         epsg, info->name));
     if (info->linear_unit_m != 1.0)
-        return Status::Fail(fmt::format("EPSG:{} ({}) has axes in units of {} m, not metres", epsg, info->name,
+        return Status::Unsupported(fmt::format("EPSG:{} ({}) has axes in units of {} m, not metres", epsg, info->name,
                                         info->linear_unit_m));
     return Status::Ok();
 }

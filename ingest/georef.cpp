@@ -61,7 +61,7 @@ double axisUnit_m(PJ_CONTEXT* ctx, const PJ* cs, int index) {
 // its height axis (1 when it has none).
 Status sourceCrs(PJ_CONTEXT* ctx, const std::string& definition, PjPtr* out, double* height_unit_m) {
     PjPtr crs(proj_create(ctx, definition.c_str()));
-    if (!crs) return Status::Fail(fmt::format("PROJ does not know {}: {}", definition, projError(ctx)));
+    if (!crs) return Status::Unsupported(fmt::format("PROJ does not know {}: {}", definition, projError(ctx)));
     *height_unit_m = 1;
     if (proj_get_type(crs.get()) == PJ_TYPE_COMPOUND_CRS) {
         PjPtr vertical(proj_crs_get_sub_crs(ctx, crs.get(), 1));
@@ -71,7 +71,7 @@ Status sourceCrs(PJ_CONTEXT* ctx, const std::string& definition, PjPtr* out, dou
         return Status::Ok();
     }
     PjPtr cs(proj_crs_get_coordinate_system(ctx, crs.get()));
-    if (!cs) return Status::Fail(fmt::format("PROJ gives no coordinate system for {}", definition));
+    if (!cs) return Status::Unsupported(fmt::format("PROJ gives no coordinate system for {}", definition));
     if (proj_cs_get_axis_count(ctx, cs.get()) == 2) {
         // So that a datum shift with a 3D Helmert moves points as 3D points.
         PjPtr promoted(proj_crs_promote_to_3D(ctx, nullptr, crs.get()));
@@ -91,20 +91,20 @@ Status makeWorker(const std::string& definition, const char* target, std::unique
                   double* height_unit_m) {
     auto w = std::make_unique<Worker>();
     w->ctx = proj_context_create();
-    if (!w->ctx) return Status::Fail("cannot create a PROJ context");
+    if (!w->ctx) return Status::Io("cannot create a PROJ context");
     proj_log_level(w->ctx, PJ_LOG_NONE);         // errors come back as Status
     proj_context_set_enable_network(w->ctx, 0);  // offline and reproducible: only installed grids
     PjPtr src;
     if (Status s = sourceCrs(w->ctx, definition, &src, height_unit_m); !s.ok()) return s;
     PjPtr dst(proj_create(w->ctx, target));
-    if (!dst) return Status::Fail(fmt::format("PROJ does not know {}: {}", target, projError(w->ctx)));
+    if (!dst) return Status::Unsupported(fmt::format("PROJ does not know {}: {}", target, projError(w->ctx)));
     PjPtr op(proj_create_crs_to_crs_from_pj(w->ctx, src.get(), dst.get(), nullptr, nullptr));
     if (!op)
-        return Status::Fail(
+        return Status::Unsupported(
             fmt::format("PROJ has no transformation from {} to {}: {}", definition, target, projError(w->ctx)));
     w->op = proj_normalize_for_visualization(w->ctx, op.get());
     if (!w->op)
-        return Status::Fail(fmt::format("PROJ cannot normalise the axis order of {} -> {}", definition, target));
+        return Status::Unsupported(fmt::format("PROJ cannot normalise the axis order of {} -> {}", definition, target));
     *out = std::move(w);
     return Status::Ok();
 }
@@ -190,7 +190,7 @@ const EarthFrame& LocalToEcef::earth() const { return impl_->earth; }
 Status LocalToEcef::create(const LocalFrame& frame, std::unique_ptr<LocalToEcef>* out) {
     const SourceCrs& crs = frame.crs();
     if (crs.kind == SourceCrs::Kind::LocalEngineering)
-        return Status::Fail(fmt::format("{} has no link to the Earth: the scene cannot be georeferenced", crs.name));
+        return Status::Unsupported(fmt::format("{} has no link to the Earth: the scene cannot be georeferenced", crs.name));
     std::unique_ptr<LocalToEcef> self(new LocalToEcef);
     Impl& m = *self->impl_;
     m.crs = crs;
@@ -211,14 +211,14 @@ Status LocalToEcef::create(const LocalFrame& frame, std::unique_ptr<LocalToEcef>
     m.sourceOf({0, 0, 0}, &c);
     const PJ_COORD llh = proj_trans(geographic->op, PJ_FWD, c);
     if (!std::isfinite(llh.lpz.lam) || !std::isfinite(llh.lpz.phi) || !std::isfinite(llh.lpz.z))
-        return Status::Fail(fmt::format("PROJ cannot transform the scene origin ({}, {}, {}) from {} to WGS 84: {}",
+        return Status::Unsupported(fmt::format("PROJ cannot transform the scene origin ({}, {}, {}) from {} to WGS 84: {}",
                                         m.origin.x, m.origin.y, m.origin.z, crs.name, projError(geographic->ctx)));
     m.earth.origin_lon_deg = llh.lpz.lam;
     m.earth.origin_lat_deg = llh.lpz.phi;
     m.earth.origin_h_m = llh.lpz.z;
 
     if (!m.transform(*ecef, {0, 0, 0}, &m.earth.origin_ecef))
-        return Status::Fail(fmt::format("PROJ cannot transform the scene origin ({}, {}, {}) from {} to ECEF: {}",
+        return Status::Unsupported(fmt::format("PROJ cannot transform the scene origin ({}, {}, {}) from {} to ECEF: {}",
                                         m.origin.x, m.origin.y, m.origin.z, crs.name, projError(ecef->ctx)));
     if (PjPtr used{proj_trans_get_last_used_operation(ecef->op)}) {
         const char* name = proj_get_name(used.get());
@@ -242,7 +242,7 @@ Status LocalToEcef::create(const LocalFrame& frame, std::unique_ptr<LocalToEcef>
         (axis == 0 ? step.x : axis == 1 ? step.y : step.z) = kJacobianStep_m;
         Vec3d plus, minus;
         if (!m.transform(*ecef, step, &plus) || !m.transform(*ecef, -1.0 * step, &minus))
-            return Status::Fail(fmt::format("PROJ cannot transform points {} m from the scene origin in {}",
+            return Status::Unsupported(fmt::format("PROJ cannot transform points {} m from the scene origin in {}",
                                             kJacobianStep_m, crs.name));
         const Vec3d column = (1.0 / (2 * kJacobianStep_m)) * (plus - minus);
         m.tangent_linear[4 * axis + 0] = column.x;

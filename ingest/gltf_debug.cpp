@@ -210,14 +210,14 @@ std::string jsonNumber(double v) { return std::isfinite(v) ? fmt::format("{}", v
 Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) {
     const std::string where = glb_path.string();
     if (glb_path.empty() || !glb_path.has_filename())
-        return Status::Fail(fmt::format("{}: not a file name for the debug glb", where));
+        return Status::Io(fmt::format("{}: not a file name for the debug glb", where));
 
     // --- Classify: group of every triangle (texture, then material, then grey). ---
     const size_t n_tex = scene.textures.size();
     const size_t n_mat = scene.materials.size();
     const size_t n_groups = n_tex + n_mat + 1;
     const size_t grey = n_tex + n_mat;
-    if (n_groups >= kDropped) return Status::Fail(fmt::format("{}: too many textures and materials", where));
+    if (n_groups >= kDropped) return Status::Io(fmt::format("{}: too many textures and materials", where));
     std::vector<bool> texture_usable(n_tex);
     for (size_t i = 0; i < n_tex; ++i) texture_usable[i] = !scene.textures[i].path.empty();
 
@@ -266,7 +266,7 @@ Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) 
     const uint64_t bin_bytes = pos_bytes + uv_bytes + feat_bytes;  // multiple of 4
     // Leaves room for the JSON (bounded below, once it is known).
     if (bin_bytes > std::numeric_limits<uint32_t>::max() - (uint64_t{64} << 20))
-        return Status::Fail(fmt::format("{}: {} triangles are too many for one GLB (4 GiB limit)", where, written));
+        return Status::Io(fmt::format("{}: {} triangles are too many for one GLB (4 GiB limit)", where, written));
 
     // --- JSON, emitted as text (an nlohmann DOM cost ~27 us per texture, this ~3). ---
     std::string json_text;
@@ -394,13 +394,13 @@ Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) 
     json_text.append((4 - json_text.size() % 4) % 4, ' ');
     const uint64_t total = 12 + 8 + json_text.size() + (bin_bytes > 0 ? 8 + bin_bytes : 0);
     if (total > std::numeric_limits<uint32_t>::max())
-        return Status::Fail(fmt::format("{}: {} triangles are too many for one GLB (4 GiB limit)", where, written));
+        return Status::Io(fmt::format("{}: {} triangles are too many for one GLB (4 GiB limit)", where, written));
 
     // --- Counting sort of the written triangles by group. ---
     std::vector<uint32_t> order;
     if (written > 0) {
         if (n_tri > std::numeric_limits<uint32_t>::max())
-            return Status::Fail(fmt::format("{}: more than 2^32 triangles", where));
+            return Status::Io(fmt::format("{}: more than 2^32 triangles", where));
         order.resize(written);
         std::vector<uint64_t> cursor(n_groups);
         for (size_t g = 0; g < n_groups; ++g) cursor[g] = groups[g].first;
@@ -414,11 +414,11 @@ Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) 
     errno = 0;
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
     if (f == nullptr)
-        return Status::Fail(fmt::format("{}: cannot create {}: {}", where, tmp.string(), std::strerror(errno)));
+        return Status::Io(fmt::format("{}: cannot create {}: {}", where, tmp.string(), std::strerror(errno)));
     auto fail = [&](const std::string& why) {
         std::error_code ignored;
         fs::remove(tmp, ignored);
-        return Status::Fail(fmt::format("{}: {}", where, why));
+        return Status::Io(fmt::format("{}: {}", where, why));
     };
 
     Sink out(f);

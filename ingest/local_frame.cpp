@@ -84,7 +84,7 @@ Status parseSrsName(const std::string& srs_name, SourceCrs* crs) {
         return Status::Ok();
     }
     const std::vector<int> codes = epsgCodes(srs_name);
-    if (codes.empty()) return Status::Fail(fmt::format("srsName \"{}\" names no CRS that PROJ knows", srs_name));
+    if (codes.empty()) return Status::Unsupported(fmt::format("srsName \"{}\" names no CRS that PROJ knows", srs_name));
     std::string definition = fmt::format("EPSG:{}", codes[0]);
     if (codes.size() > 1) definition += fmt::format("+{}", codes[1]);
     crs->vertical_ignored.clear();
@@ -93,7 +93,7 @@ Status parseSrsName(const std::string& srs_name, SourceCrs* crs) {
         crs->vertical_ignored = fmt::format("EPSG:{}", codes[1]);
         s = sourceCrsFromDefinition(fmt::format("EPSG:{}", codes[0]), crs);
     }
-    if (!s.ok()) return Status::Fail(fmt::format("srsName \"{}\": {}", srs_name, s.error));
+    if (!s.ok()) return Status::Unsupported(fmt::format("srsName \"{}\": {}", srs_name, s.error));
     return Status::Ok();
 }
 
@@ -104,7 +104,7 @@ Status sourceCrsFromDefinition(const std::string& definition, SourceCrs* crs) {
     const OGRErr err = srs.SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS);
     CPLPopErrorHandler();
     const std::string shown = definition.size() <= 64 ? definition : definition.substr(0, 61) + "...";
-    if (err != OGRERR_NONE) return Status::Fail(fmt::format("{} is not a CRS known to PROJ's database", shown));
+    if (err != OGRERR_NONE) return Status::Unsupported(fmt::format("{} is not a CRS known to PROJ's database", shown));
     crs->definition = definition;
     crs->name = srs.GetName() ? srs.GetName() : shown;
     if (srs.IsProjected()) {
@@ -115,7 +115,7 @@ Status sourceCrsFromDefinition(const std::string& definition, SourceCrs* crs) {
         crs->semi_major_m = srs.GetSemiMajor();
         crs->inverse_flattening = srs.GetInvFlattening();
     } else {
-        return Status::Fail(fmt::format("{} ({}) is neither projected nor geographic", shown, crs->name));
+        return Status::Unsupported(fmt::format("{} ({}) is neither projected nor geographic", shown, crs->name));
     }
     return Status::Ok();
 }
@@ -134,12 +134,12 @@ LocalFrame::Mapper::~Mapper() = default;
 
 Status LocalFrame::create(const SourceCrs& crs, const Vec3d& origin_source, std::unique_ptr<LocalFrame>* frame) {
     if (!std::isfinite(origin_source.x) || !std::isfinite(origin_source.y) || !std::isfinite(origin_source.z))
-        return Status::Fail("the scene origin is not finite");
+        return Status::Invalid("the scene origin is not finite");
     std::unique_ptr<LocalFrame> f(new LocalFrame);
     f->crs_ = crs;
     f->origin_ = origin_source;
     if (crs.kind == SourceCrs::Kind::Geographic) {
-        if (std::abs(origin_source.y) > 90) return Status::Fail("the scene origin's latitude is beyond +-90 degrees");
+        if (std::abs(origin_source.y) > 90) return Status::Invalid("the scene origin's latitude is beyond +-90 degrees");
         const double flattening = crs.inverse_flattening > 0 ? 1.0 / crs.inverse_flattening : 0.0;
         f->tangent_ = std::make_unique<Tangent>(Tangent{GeographicLib::LocalCartesian(
             origin_source.y, origin_source.x, origin_source.z, GeographicLib::Geocentric(crs.semi_major_m, flattening))});
@@ -170,7 +170,7 @@ Status LocalFrame::mapperFor(const SourceCrs& source, std::unique_ptr<Mapper>* m
     const bool same = source.kind == crs_.kind && source.definition == crs_.definition;
     if (!same) {
         if (source.kind == SourceCrs::Kind::LocalEngineering || crs_.kind == SourceCrs::Kind::LocalEngineering)
-            return Status::Fail(fmt::format("cannot combine {} with {}: a local engineering CRS has no link to Earth",
+            return Status::Unsupported(fmt::format("cannot combine {} with {}: a local engineering CRS has no link to Earth",
                                             source.name, crs_.name));
         OGRSpatialReference from, to;
         from.SetFromUserInput(source.definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS);
@@ -180,7 +180,7 @@ Status LocalFrame::mapperFor(const SourceCrs& source, std::unique_ptr<Mapper>* m
         CPLPushErrorHandler(CPLQuietErrorHandler);
         std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&from, &to));
         CPLPopErrorHandler();
-        if (!ct) return Status::Fail(fmt::format("PROJ has no transformation from {} to {}", source.name, crs_.name));
+        if (!ct) return Status::Unsupported(fmt::format("PROJ has no transformation from {} to {}", source.name, crs_.name));
         m->transform_ = std::make_unique<Mapper::Transform>(Mapper::Transform{std::move(ct), 1.0});
     }
     *mapper = std::move(m);

@@ -94,53 +94,53 @@ std::string dracoMessage(const draco::Status& s) {
 
 Status checkInput(const TileMesh& m, const Vec3d& centre, const DracoSettings& s) {
     if (s.position_bits < 1 || s.position_bits > 30)
-        return Status::Fail(fmt::format("tile glb: position_bits {} is outside 1..30", s.position_bits));
+        return Status::Internal(fmt::format("tile glb: position_bits {} is outside 1..30", s.position_bits));
     if (s.uv_bits < 1 || s.uv_bits > 30)
-        return Status::Fail(fmt::format("tile glb: uv_bits {} is outside 1..30", s.uv_bits));
+        return Status::Internal(fmt::format("tile glb: uv_bits {} is outside 1..30", s.uv_bits));
     if (s.uv_original_bits < 0 || s.uv_original_bits > 30)
-        return Status::Fail(fmt::format("tile glb: uv_original_bits {} is outside 0..30", s.uv_original_bits));
-    if (s.speed < 0 || s.speed > 10) return Status::Fail(fmt::format("tile glb: speed {} is outside 0..10", s.speed));
+        return Status::Internal(fmt::format("tile glb: uv_original_bits {} is outside 0..30", s.uv_original_bits));
+    if (s.speed < 0 || s.speed > 10) return Status::Internal(fmt::format("tile glb: speed {} is outside 0..10", s.speed));
     if (!std::isfinite(centre.x) || !std::isfinite(centre.y) || !std::isfinite(centre.z))
-        return Status::Fail("tile glb: the centre is not finite");
+        return Status::Internal("tile glb: the centre is not finite");
     const size_t n = m.positions.size();
     // Draco counts points and faces in uint32 (and the glTF indices at most UNSIGNED_INT).
     if (n >= std::numeric_limits<uint32_t>::max() || m.indices.size() / 3 >= std::numeric_limits<uint32_t>::max())
-        return Status::Fail(fmt::format("tile glb: {} vertices / {} indices are too many", n, m.indices.size()));
+        return Status::Internal(fmt::format("tile glb: {} vertices / {} indices are too many", n, m.indices.size()));
     auto sized = [n](size_t k, const char* what) {
         return k == 0 || k == n ? Status::Ok()
-                                : Status::Fail(fmt::format("tile glb: {} has {} entries for {} positions", what, k, n));
+                                : Status::Internal(fmt::format("tile glb: {} has {} entries for {} positions", what, k, n));
     };
     for (const Status& st : {sized(m.uv_original.size(), "uv_original"), sized(m.uv_atlas.size(), "uv_atlas"),
                              sized(m.feature_id.size(), "feature_id"), sized(m.texture_id.size(), "texture_id"),
                              sized(m.material_id.size(), "material_id")})
         if (!st.ok()) return st;
     if (m.indices.size() % 3 != 0)
-        return Status::Fail(fmt::format("tile glb: {} indices is not a multiple of 3", m.indices.size()));
+        return Status::Internal(fmt::format("tile glb: {} indices is not a multiple of 3", m.indices.size()));
     for (size_t i = 0; i < m.indices.size(); ++i)
         if (m.indices[i] >= n)
-            return Status::Fail(fmt::format("tile glb: index {} (at {}) is out of range ({} positions)", m.indices[i], i, n));
+            return Status::Internal(fmt::format("tile glb: index {} (at {}) is out of range ({} positions)", m.indices[i], i, n));
     for (size_t i = 0; i < n; ++i) {
         const Vec3d r = m.positions[i] - centre;
         if (!fitsFloat(r.x) || !fitsFloat(r.y) || !fitsFloat(r.z))
-            return Status::Fail(fmt::format("tile glb: position {} ({}, {}, {}) is not finite or does not fit float32 "
+            return Status::Internal(fmt::format("tile glb: position {} ({}, {}, {}) is not finite or does not fit float32 "
                                             "relative to the centre",
                                             i, m.positions[i].x, m.positions[i].y, m.positions[i].z));
     }
     for (const auto* uv : {&m.uv_original, &m.uv_atlas})
         for (size_t i = 0; i < uv->size(); ++i)
             if (!fitsFloat((*uv)[i].x) || !fitsFloat(1.0 - (*uv)[i].y))
-                return Status::Fail(fmt::format("tile glb: texture coordinate {} ({}, {}) is not finite or does not fit "
+                return Status::Internal(fmt::format("tile glb: texture coordinate {} ({}, {}) is not finite or does not fit "
                                                 "float32",
                                                 i, (*uv)[i].x, (*uv)[i].y));
     for (size_t i = 0; i < m.feature_id.size(); ++i)
         if (m.feature_id[i] > kMaxTileFeatureId)
-            return Status::Fail(fmt::format("tile glb: feature id {} (vertex {}) exceeds 2^24, the largest integer a "
+            return Status::Internal(fmt::format("tile glb: feature id {} (vertex {}) exceeds 2^24, the largest integer a "
                                             "float32 attribute holds exactly",
                                             m.feature_id[i], i));
     for (const auto* ids : {&m.texture_id, &m.material_id})
         for (size_t i = 0; i < ids->size(); ++i)
             if ((*ids)[i] < -1 || (*ids)[i] > static_cast<int32_t>(kMaxTileFeatureId))
-                return Status::Fail(fmt::format("tile glb: texture or material id {} (vertex {}) is outside -1..2^24",
+                return Status::Internal(fmt::format("tile glb: texture or material id {} (vertex {}) is outside -1..2^24",
                                                 (*ids)[i], i));
     return Status::Ok();
 }
@@ -327,7 +327,7 @@ Status encodeDraco(const draco::Mesh& mesh, const DracoSettings& s, bool sequent
     encoder.SetSpeedOptions(s.speed, s.speed);
     if (sequential) encoder.SetEncodingMethod(draco::MESH_SEQUENTIAL_ENCODING);
     const draco::Status st = encoder.EncodeToBuffer(out);
-    if (!st.ok()) return Status::Fail(fmt::format("tile glb: Draco cannot encode the mesh: {}", dracoMessage(st)));
+    if (!st.ok()) return Status::Internal(fmt::format("tile glb: Draco cannot encode the mesh: {}", dracoMessage(st)));
     return Status::Ok();
 }
 
@@ -390,12 +390,17 @@ uint32_t getU32(const uint8_t* p) {
 
 }  // namespace
 
+size_t drawableTriangles(const TileMesh& mesh, const Vec3d& centre) {
+    if (!checkInput(mesh, centre, DracoSettings{}).ok()) return std::max<size_t>(1, mesh.indices.size() / 3);
+    return compact(mesh, centre).faces.size();
+}
+
 Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSettings& settings, GlbResult* out,
                      const nlohmann::json& extras) {
     if (Status st = checkInput(mesh, centre, settings); !st.ok()) return st;
     const Compact c = compact(mesh, centre);
     if (c.faces.empty())
-        return Status::Fail(fmt::format("tile glb: no triangles to encode ({} given, {} degenerate)",
+        return Status::Internal(fmt::format("tile glb: no triangles to encode ({} given, {} degenerate)",
                                         mesh.indices.size() / 3, c.dropped));
     const std::unique_ptr<draco::Mesh> dm = dracoMesh(c);
 
@@ -407,7 +412,7 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
     for (size_t s = 0; s < kSlots; ++s) wanted[s] = c.present[s] ? static_cast<int64_t>(s) : -1;
     Decoded file;
     if (auto why = decodeDraco(reinterpret_cast<const uint8_t*>(blob.data()), blob.size(), wanted, &file))
-        return Status::Fail("tile glb: decoding our own Draco blob failed: " + *why);
+        return Status::Internal("tile glb: decoding our own Draco blob failed: " + *why);
 
     // The measurement needs each decoded vertex's input vertex. Edgebreaker
     // renumbers vertices (and may split some); the sequential codec keeps them
@@ -424,17 +429,17 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
         draco::EncoderBuffer seq;
         if (Status st = encodeDraco(*dm, settings, true, &seq); !st.ok()) return st;
         if (auto why = decodeDraco(reinterpret_cast<const uint8_t*>(seq.data()), seq.size(), wanted, &ordered))
-            return Status::Fail("tile glb: decoding the sequential reference failed: " + *why);
+            return Status::Internal("tile glb: decoding the sequential reference failed: " + *why);
     }
     const size_t n = c.input_vertex.size();
     // The correspondence rests on the sequential codec keeping both orders;
     // equal faces prove it for this mesh.
     if (ordered.points != n || ordered.faces != c.faces)
-        return Status::Fail(fmt::format("tile glb: Draco's sequential codec did not keep the vertex and triangle order "
+        return Status::Internal(fmt::format("tile glb: Draco's sequential codec did not keep the vertex and triangle order "
                                         "({} -> {} vertices, {} -> {} triangles)",
                                         n, ordered.points, c.faces.size(), ordered.faces.size()));
     if (file.faces.size() != c.faces.size())
-        return Status::Fail(fmt::format("tile glb: Draco wrote {} of {} triangles", file.faces.size(), c.faces.size()));
+        return Status::Internal(fmt::format("tile glb: Draco wrote {} of {} triangles", file.faces.size(), c.faces.size()));
 
     GlbResult r;
     r.centre = centre;
@@ -453,12 +458,12 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
         uvError(kUv0, mesh.uv_original, &r.max_uv_original_error);
         uvError(kUv1, mesh.uv_atlas, &r.max_uv_atlas_error);
         if (c.present[kFid] && ordered.values[kFid][i] != static_cast<float>(mesh.feature_id[in]))
-            return Status::Fail(fmt::format("tile glb: Draco changed feature id {} of vertex {} to {}", mesh.feature_id[in],
+            return Status::Internal(fmt::format("tile glb: Draco changed feature id {} of vertex {} to {}", mesh.feature_id[in],
                                             in, ordered.values[kFid][i]));
         for (Slot s : kSignedIdSlots) {
             const auto& ids = s == kTex ? mesh.texture_id : mesh.material_id;
             if (c.present[s] && ordered.values[s][i] != static_cast<float>(ids[in]))
-                return Status::Fail(fmt::format("tile glb: Draco changed {} {} of vertex {} to {}", kAttributes[s].label,
+                return Status::Internal(fmt::format("tile glb: Draco changed {} {} of vertex {} to {}", kAttributes[s].label,
                                                 ids[in], in, ordered.values[s][i]));
         }
     }
@@ -468,7 +473,7 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
         for (size_t i = 0; i < n; ++i) known.insert(keyOf(&ordered.values[kPos][3 * i]));
         for (uint32_t i = 0; i < file.points; ++i)
             if (!known.contains(keyOf(&file.values[kPos][3 * i])))
-                return Status::Fail(fmt::format("tile glb: the file's vertex {} was quantized differently from the "
+                return Status::Internal(fmt::format("tile glb: the file's vertex {} was quantized differently from the "
                                                 "measured reference; the reported error would not describe it",
                                                 i));
     }
@@ -546,7 +551,7 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
     const size_t bin = (blob.size() + 3) / 4 * 4;
     const uint64_t total = kGlbHeader + kChunkHeader + text.size() + kChunkHeader + bin;
     if (total > std::numeric_limits<uint32_t>::max())
-        return Status::Fail(fmt::format("tile glb: {} bytes exceed the 4 GiB a GLB can hold", total));
+        return Status::Internal(fmt::format("tile glb: {} bytes exceed the 4 GiB a GLB can hold", total));
 
     r.bytes.reserve(total);
     putU32(r.bytes, kGlbMagic);
@@ -594,26 +599,26 @@ struct Chunks {
 Status readChunks(const std::vector<uint8_t>& bytes, Chunks* out) {
     const size_t size = bytes.size();
     if (size < kGlbHeader)
-        return Status::Fail(fmt::format("tile glb: truncated: {} bytes, the GLB header alone has 12", size));
-    if (getU32(bytes.data()) != kGlbMagic) return Status::Fail("tile glb: bad magic: not a binary glTF file");
+        return Status::Invalid(fmt::format("tile glb: truncated: {} bytes, the GLB header alone has 12", size));
+    if (getU32(bytes.data()) != kGlbMagic) return Status::Invalid("tile glb: bad magic: not a binary glTF file");
     if (const uint32_t v = getU32(bytes.data() + 4); v != 2)
-        return Status::Fail(fmt::format("tile glb: GLB version {}, expected 2", v));
+        return Status::Invalid(fmt::format("tile glb: GLB version {}, expected 2", v));
     const uint64_t length = getU32(bytes.data() + 8);
     if (length > size)
-        return Status::Fail(fmt::format("tile glb: truncated: the header says {} bytes, {} present", length, size));
+        return Status::Invalid(fmt::format("tile glb: truncated: the header says {} bytes, {} present", length, size));
     if (length < size)
-        return Status::Fail(fmt::format("tile glb: {} bytes after the {} the header declares", size - length, length));
+        return Status::Invalid(fmt::format("tile glb: {} bytes after the {} the header declares", size - length, length));
     uint64_t at = kGlbHeader;
     for (int chunk = 0; at < length; ++chunk) {
         if (length - at < kChunkHeader)
-            return Status::Fail(fmt::format("tile glb: truncated chunk header at byte {}", at));
+            return Status::Invalid(fmt::format("tile glb: truncated chunk header at byte {}", at));
         const uint64_t n = getU32(bytes.data() + at);
         const uint32_t type = getU32(bytes.data() + at + 4);
         at += kChunkHeader;
         if (n > length - at)
-            return Status::Fail(fmt::format("tile glb: truncated: chunk {} at byte {} needs {} bytes, {} left", chunk,
+            return Status::Invalid(fmt::format("tile glb: truncated: chunk {} at byte {} needs {} bytes, {} left", chunk,
                                             at - kChunkHeader, n, length - at));
-        if (chunk == 0 && type != kChunkJson) return Status::Fail("tile glb: the first chunk is not JSON");
+        if (chunk == 0 && type != kChunkJson) return Status::Invalid("tile glb: the first chunk is not JSON");
         if (chunk == 0) {
             out->json = bytes.data() + at;
             out->json_size = n;
@@ -624,7 +629,7 @@ Status readChunks(const std::vector<uint8_t>& bytes, Chunks* out) {
         }  // other chunks: ignored, as the spec says
         at += n;
     }
-    if (out->json == nullptr) return Status::Fail("tile glb: no JSON chunk");
+    if (out->json == nullptr) return Status::Invalid("tile glb: no JSON chunk");
     return Status::Ok();
 }
 
@@ -649,8 +654,8 @@ Status decodeTileGlb(const std::vector<uint8_t>& bytes, const Vec3d& centre, Til
     Chunks chunks;
     if (Status st = readChunks(bytes, &chunks); !st.ok()) return st;
     const json gltf = json::parse(chunks.json, chunks.json + chunks.json_size, nullptr, false);
-    if (gltf.is_discarded() || !gltf.is_object()) return Status::Fail("tile glb: the JSON chunk is not a JSON object");
-    auto fail = [](const std::string& why) { return Status::Fail("tile glb: " + why); };
+    if (gltf.is_discarded() || !gltf.is_object()) return Status::Invalid("tile glb: the JSON chunk is not a JSON object");
+    auto fail = [](const std::string& why) { return Status::Invalid("tile glb: " + why); };
 
     const json* version = member(gltf, "asset") != nullptr ? member(*member(gltf, "asset"), "version") : nullptr;
     if (version == nullptr || !version->is_string() || version->get_ref<const std::string&>() != "2.0")

@@ -124,6 +124,12 @@ struct GlbResult {
 /// positions.size(), a non-finite coordinate or centre, a position that does
 /// not fit float32 relative to the centre, a feature id above 2^24, settings
 /// out of range, a file over 4 GiB, or a Draco error.
+/// Triangles encodeTileGlb() would keep: those not degenerate once in float32
+/// relative to `centre` (0: there is nothing to encode for this mesh). A mesh
+/// encodeTileGlb() refuses for another reason counts as drawable, so that its
+/// error is reported.
+size_t drawableTriangles(const TileMesh& mesh, const Vec3d& centre);
+
 Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSettings& settings, GlbResult* out,
                      const nlohmann::json& extras = {});
 

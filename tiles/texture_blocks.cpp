@@ -125,7 +125,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
                           const std::function<void(uint64_t, uint64_t)>& progress, TextureBlocks* blocks) {
     std::error_code ec;
     fs::create_directories(out_dir / "textures", ec);
-    if (ec) return Status::Fail(fmt::format("{}: cannot create: {}", (out_dir / "textures").string(), ec.message()));
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "textures").string(), ec.message()));
     const size_t nblocks = blocks->block_bytes.size();
     std::vector<std::vector<size_t>> members(nblocks);
     for (size_t t = 0; t < blocks->textures.size(); ++t)
@@ -193,7 +193,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         if (progress) progress(done, blocks->textures.size() - exact);
         if (!any_readable) continue;
         f.close();
-        if (!f) return Status::Fail(fmt::format("{}: cannot write", path.string()));
+        if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
         written_bytes.push_back(offset);
     }
     blocks->block_bytes = std::move(written_bytes);

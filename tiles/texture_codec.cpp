@@ -270,29 +270,29 @@ std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality qualit
 
 Status parseDdsHeader(const uint8_t* data, size_t size, DdsInfo* out) {
     if (data == nullptr || size < 128)
-        return Status::Fail(fmt::format("{} bytes: shorter than a DDS header (128)", size));
+        return Status::Invalid(fmt::format("{} bytes: shorter than a DDS header (128)", size));
     auto at = [&](size_t off) {
         return uint32_t(data[off]) | uint32_t(data[off + 1]) << 8 | uint32_t(data[off + 2]) << 16 |
                uint32_t(data[off + 3]) << 24;
     };
-    if (at(0) != fourCC("DDS ")) return Status::Fail("no DDS magic");
-    if (at(4) != 124) return Status::Fail(fmt::format("DDS header size {} (expected 124)", at(4)));
-    if (at(76) != 32) return Status::Fail(fmt::format("DDS pixel format size {} (expected 32)", at(76)));
-    if ((at(80) & kDdpfFourCC) == 0) return Status::Fail("DDS pixel format is not a FourCC format");
+    if (at(0) != fourCC("DDS ")) return Status::Invalid("no DDS magic");
+    if (at(4) != 124) return Status::Invalid(fmt::format("DDS header size {} (expected 124)", at(4)));
+    if (at(76) != 32) return Status::Invalid(fmt::format("DDS pixel format size {} (expected 32)", at(76)));
+    if ((at(80) & kDdpfFourCC) == 0) return Status::Invalid("DDS pixel format is not a FourCC format");
     DdsInfo d;
     if (at(84) == fourCC("DXT1")) d.channels = 3;
     else if (at(84) == fourCC("DXT5")) d.channels = 4;
-    else return Status::Fail("DDS FourCC is neither DXT1 nor DXT5");
+    else return Status::Invalid("DDS FourCC is neither DXT1 nor DXT5");
     const uint32_t h = at(12), w = at(16), mips = std::max<uint32_t>(1, at(28));
     // 2^16 is far above any texture this project writes and keeps every size below in range.
     if (w < 1 || h < 1 || w > 65536 || h > 65536)
-        return Status::Fail(fmt::format("DDS size {}x{} is out of range", w, h));
+        return Status::Invalid(fmt::format("DDS size {}x{} is out of range", w, h));
     d.width = int(w);
     d.height = int(h);
     uint32_t full = 1;
     for (uint32_t x = w, y = h; x > 1 || y > 1; x = std::max(1u, x / 2), y = std::max(1u, y / 2)) ++full;
     if (mips > full)
-        return Status::Fail(fmt::format("DDS claims {} mip levels, a {}x{} image has at most {}", mips, w, h, full));
+        return Status::Invalid(fmt::format("DDS claims {} mip levels, a {}x{} image has at most {}", mips, w, h, full));
     d.mips = int(mips);
     d.expected_bytes = 128;
     for (int l = 0, x = d.width, y = d.height; l < d.mips; ++l, x = std::max(1, x / 2), y = std::max(1, y / 2))
@@ -309,7 +309,7 @@ Status writeDds(const std::filesystem::path& path, const std::vector<Image8>& mi
     tmp += fmt::format(".{}.{}.tmp", long(::getpid()), counter++);
 
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) return Status::Fail(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
+    if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
     const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
     const int write_errno = errno;
     // fclose flushes: a full disk can first show up here.
@@ -318,14 +318,14 @@ Status writeDds(const std::filesystem::path& path, const std::vector<Image8>& mi
     std::error_code ec;
     if (!written || !closed) {
         std::filesystem::remove(tmp, ec);
-        return Status::Fail(fmt::format("{}: cannot write: {}", path.string(),
+        return Status::Io(fmt::format("{}: cannot write: {}", path.string(),
                                         std::strerror(!written ? write_errno : close_errno)));
     }
     std::filesystem::rename(tmp, path, ec);
     if (ec) {
         std::error_code ignored;
         std::filesystem::remove(tmp, ignored);
-        return Status::Fail(fmt::format("{}: cannot rename into place: {}", path.string(), ec.message()));
+        return Status::Invalid(fmt::format("{}: cannot rename into place: {}", path.string(), ec.message()));
     }
     return Status::Ok();
 }

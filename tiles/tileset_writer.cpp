@@ -39,7 +39,7 @@ Status writeBytes(const fs::path& path, const void* data, size_t size) {
     std::ofstream f(path, std::ios::binary);
     f.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
     f.close();
-    if (!f) return Status::Fail(fmt::format("{}: cannot write", path.string()));
+    if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
     return Status::Ok();
 }
 
@@ -160,7 +160,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                     const TilesProgressFn& progress, TilesStats* stats_out) {
     TilesStats stats;
     const size_t n_nodes = tree.nodes.size();
-    if (n_nodes == 0) return Status::Fail("tiles: the atlas tree has no nodes");
+    if (n_nodes == 0) return Status::Io("tiles: the atlas tree has no nodes");
     const double focal = tree.projection.focal_px;
     const double ppm = tree.projection.pixelsPerMetreAt1m();
     const int A = tree.params.atlas_size_px;
@@ -179,7 +179,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     std::error_code ec;
     for (const char* dir : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha", "features"}) {
         fs::create_directories(out_dir / dir, ec);
-        if (ec) return Status::Fail(fmt::format("{}: cannot create: {}", (out_dir / dir).string(), ec.message()));
+        if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / dir).string(), ec.message()));
     }
 
     TextureBlocks blocks = planTextureBlocks(scene, tree, params.all_originals);
@@ -233,6 +233,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                     double texels = 0;  // of the leaf's largest texture
                     if (node.leaf() && !mesh.uv_original.empty())
                         draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
+                    if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
                     Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
                     // The predictions leave room for float32 rounding; should they not
                     // suffice, the measurements decide.
@@ -246,7 +247,6 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                         st = encodeTileGlb(mesh, centre, draco, &glb, extras);
                     }
                     if (!st.ok()) {
-                        if (glb.bytes.empty() && st.error.find("no triangles") != std::string::npos) continue;
                         rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
                         continue;
                     }
@@ -281,7 +281,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     }
     geometry.clear();
     for (const NodeRecord& r : records)
-        if (!r.error.empty()) return Status::Fail("tiles: " + r.error);
+        if (!r.error.empty()) return Status::Io("tiles: " + r.error);
 
     // Subtree features (both layers), for the dropped lists: bottom-up unions.
     {
@@ -347,7 +347,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         });
     });
     for (const std::string& e : atlas_errors)
-        if (!e.empty()) return Status::Fail("tiles: " + e);
+        if (!e.empty()) return Status::Io("tiles: " + e);
     endStep("atlases");
 
     // --- Original textures for leaves.

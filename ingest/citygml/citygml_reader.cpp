@@ -191,7 +191,7 @@ private:
         const bool city_model = name == "CityModel" && (ns.empty() || isCityGmlNamespace(ns));
         const bool collection = name == "FeatureCollection" && isFeatureCollectionNamespace(ns);
         if (!city_model && !collection)
-            return Status::Fail(fmt::format("{}: {}: the root element is <{}>{}, not a CityGML CityModel",
+            return Status::Invalid(fmt::format("{}: {}: the root element is <{}>{}, not a CityGML CityModel",
                                             fatal::kNotCityGml, file_.string(), name,
                                             ns.empty() ? "" : " in namespace " + ns));
         if (report && city_model && ns.empty())
@@ -324,10 +324,10 @@ private:
     Status setUpFrame() {
         if (srs_name_.empty()) srs_name_ = state_.options.fallback_crs;
         if (srs_name_.empty())
-            return Status::Fail(fmt::format("{}: {}: no srsName on the envelope or any geometry; give --crs",
+            return Status::Invalid(fmt::format("{}: {}: no srsName on the envelope or any geometry; give --crs",
                                             fatal::kCrsMissing, file_.string()));
         if (Status s = parseSrsName(srs_name_, &crs_); !s.ok())
-            return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
+            return Status::Invalid(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
         summary_.srs_name = srs_name_;
         summary_.crs = crs_.name;
         if (!crs_.vertical_ignored.empty())
@@ -356,14 +356,14 @@ private:
                 origin = {std::round(origin.x), std::round(origin.y), std::round(origin.z)};
             }
             if (Status s = LocalFrame::create(crs_, origin, &state_.frame); !s.ok())
-                return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
+                return Status::Invalid(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
             Georeference g;
             g.source_crs = crs_.definition.empty() ? crs_.declared : crs_.definition;
             g.origin_source = origin;
             state_.sink->setGeoreference(g);
         }
         if (Status s = state_.frame->mapperFor(crs_, &mapper_); !s.ok())
-            return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
+            return Status::Invalid(fmt::format("{}: {}: {}", fatal::kCrsUnknown, file_.string(), s.error));
         return Status::Ok();
     }
 
@@ -378,7 +378,7 @@ private:
             if (!theme_catalogue_.order.empty() && !theme_catalogue_.textured.count(theme_)) {
                 std::string all;
                 for (const auto& t : theme_catalogue_.order) all += (all.empty() ? "" : ", ") + ("\"" + t + "\"");
-                return Status::Fail(fmt::format("{}: {}: theme \"{}\" not found; the file has {}", fatal::kThemeUnknown,
+                return Status::Invalid(fmt::format("{}: {}: theme \"{}\" not found; the file has {}", fatal::kThemeUnknown,
                                                 file_.string(), theme_, all));
             }
         } else {

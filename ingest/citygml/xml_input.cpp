@@ -49,8 +49,9 @@ XmlInput::~XmlInput() {
 
 void XmlInput::fail(const char* code, int64_t line, const std::string& message) {
     if (!status_.ok()) return;
-    status_ = Status::Fail(line > 0 ? fmt::format("{}: {}:{}: {}", code, file_.string(), line, message)
-                                    : fmt::format("{}: {}: {}", code, file_.string(), message));
+    const StatusCode kind = std::strcmp(code, fatal::kIoError) == 0 ? StatusCode::kIo : StatusCode::kInvalidInput;
+    status_ = Status::Fail(kind, line > 0 ? fmt::format("{}: {}:{}: {}", code, file_.string(), line, message)
+                                          : fmt::format("{}: {}: {}", code, file_.string(), message));
 }
 
 // libxml2's structured errors carry the line where the parser stood (for a

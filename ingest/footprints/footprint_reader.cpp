@@ -103,9 +103,9 @@ public:
         t->ds_.reset(static_cast<GDALDataset*>(GDALOpen(path.c_str(), GA_ReadOnly)));
         CPLPopErrorHandler();
         if (!t->ds_ || t->ds_->GetRasterCount() < 1)
-            return Status::Fail(fmt::format("io_error: {}: not a raster GDAL can read", path));
+            return Status::Io(fmt::format("io_error: {}: not a raster GDAL can read", path));
         if (t->ds_->GetGeoTransform(t->gt_) != CE_None)
-            return Status::Fail(fmt::format("io_error: {}: the raster has no geotransform", path));
+            return Status::Io(fmt::format("io_error: {}: the raster has no geotransform", path));
         t->band_ = t->ds_->GetRasterBand(1);
         int has_nodata = 0;
         t->nodata_ = t->band_->GetNoDataValue(&has_nodata);
@@ -116,7 +116,7 @@ public:
             from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
             to.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
             t->ct_.reset(OGRCreateCoordinateTransformation(&from, &to));
-            if (!t->ct_) return Status::Fail(fmt::format("crs_unknown: {}: no transformation from {}", path, frame.crs().name));
+            if (!t->ct_) return Status::Invalid(fmt::format("crs_unknown: {}: no transformation from {}", path, frame.crs().name));
         }
         *out = std::move(t);
         return Status::Ok();
@@ -201,12 +201,12 @@ private:
         const OGRSpatialReference* srs = layer_->GetSpatialRef();
         if (srs) {
             if (Status s = crsFromOgr(*srs, &crs_); !s.ok())
-                return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
+                return Status::Invalid(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
         } else if (!state_.options.fallback_crs.empty()) {
             if (Status s = parseSrsName(state_.options.fallback_crs, &crs_); !s.ok())
-                return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
+                return Status::Invalid(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
         } else {
-            return Status::Fail(fmt::format("{}: {}: the layer has no CRS (.prj); give --crs", fatal::kCrsMissing, where()));
+            return Status::Invalid(fmt::format("{}: {}: the layer has no CRS (.prj); give --crs", fatal::kCrsMissing, where()));
         }
         InputFileSummary summary;
         summary.path = dataset_.string();
@@ -224,14 +224,14 @@ private:
             Vec3d origin = summary.has_envelope ? 0.5 * (summary.envelope_min + summary.envelope_max) : Vec3d{};
             if (crs_.kind != SourceCrs::Kind::Geographic) origin = {std::round(origin.x), std::round(origin.y), 0};
             if (Status s = LocalFrame::create(crs_, origin, &state_.frame); !s.ok())
-                return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
+                return Status::Invalid(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
             Georeference g;
             g.source_crs = crs_.definition.size() < 64 ? crs_.definition : crs_.name;
             g.origin_source = origin;
             state_.sink->setGeoreference(g);
         }
         if (Status s = state_.frame->mapperFor(crs_, &mapper_); !s.ok())
-            return Status::Fail(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
+            return Status::Invalid(fmt::format("{}: {}: {}", fatal::kCrsUnknown, where(), s.error));
         summary_index_ = state_.files.size();
         state_.files.push_back(summary);
         return Status::Ok();
@@ -579,15 +579,15 @@ Status readFootprints(const fs::path& dataset, const FootprintOptions& options, 
     GDALAllRegister();
     for (const auto& [role, field] : options.fields)
         if (!kDefaultFieldNames.count(role))
-            return Status::Fail(fmt::format("usage: unknown footprint role \"{}\"", role));
+            return Status::Usage(fmt::format("unknown footprint role \"{}\"", role));
     CPLPushErrorHandler(CPLQuietErrorHandler);
     std::unique_ptr<GDALDataset, DatasetCloser> ds(static_cast<GDALDataset*>(
         GDALOpenEx(dataset.string().c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
     CPLPopErrorHandler();
     if (!ds) {
         std::error_code ec;
-        if (!fs::exists(dataset, ec)) return Status::Fail(fmt::format("{}: {}: no such file", fatal::kIoError, dataset.string()));
-        return Status::Fail(fmt::format("{}: {}: not a vector dataset GDAL/OGR can open", fatal::kNotFootprints, dataset.string()));
+        if (!fs::exists(dataset, ec)) return Status::Io(fmt::format("{}: {}: no such file", fatal::kIoError, dataset.string()));
+        return Status::Invalid(fmt::format("{}: {}: not a vector dataset GDAL/OGR can open", fatal::kNotFootprints, dataset.string()));
     }
     int polygon_layers = 0;
     for (OGRLayer* layer : ds->GetLayers()) {
@@ -595,14 +595,14 @@ Status readFootprints(const fs::path& dataset, const FootprintOptions& options, 
         if (type != wkbPolygon && type != wkbMultiPolygon && type != wkbUnknown) continue;
         for (const auto& [role, field] : options.fields)
             if (layer->GetLayerDefn()->GetFieldIndex(field.c_str()) < 0)
-                return Status::Fail(fmt::format("usage: {}: layer {} has no field \"{}\" (for {})", dataset.string(),
+                return Status::Usage(fmt::format("{}: layer {} has no field \"{}\" (for {})", dataset.string(),
                                                 layer->GetName(), field, role));
         ++polygon_layers;
         LayerReader reader(dataset, layer, options, state);
         if (Status s = reader.run(); !s.ok()) return s;
     }
     if (polygon_layers == 0)
-        return Status::Fail(fmt::format("{}: {}: no polygon layer", fatal::kNotFootprints, dataset.string()));
+        return Status::Invalid(fmt::format("{}: {}: no polygon layer", fatal::kNotFootprints, dataset.string()));
     return Status::Ok();
 }
 

@@ -211,7 +211,7 @@ struct GmlWriter {
 
 Status writeCityGml(const Town& town, const std::filesystem::path& file) {
     std::ofstream os(file, std::ios::binary);
-    if (!os) return Status::Fail(fmt::format("{}: cannot create file", file.string()));
+    if (!os) return Status::Io(fmt::format("{}: cannot create file", file.string()));
 
     GmlWriter w(town);
     const TownSettings& s = town.settings;
@@ -284,7 +284,7 @@ Status writeCityGml(const Town& town, const std::filesystem::path& file) {
     w.out += "</core:CityModel>\n";
     os.write(w.out.data(), static_cast<std::streamsize>(w.out.size()));
     os.close();
-    if (!os) return Status::Fail(fmt::format("{}: write failed (disk full?)", file.string()));
+    if (!os) return Status::Io(fmt::format("{}: write failed (disk full?)", file.string()));
     return Status::Ok();
 }
 

@@ -44,30 +44,30 @@ constexpr FieldSpec kFields[] = {
 Status writeFootprintShapefile(const Town& town, const std::filesystem::path& shp_file) {
     GDALAllRegister();
     GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("ESRI Shapefile");
-    if (!driver) return Status::Fail("GDAL has no ESRI Shapefile driver");
+    if (!driver) return Status::Io("GDAL has no ESRI Shapefile driver");
 
     CPLPushErrorHandler(CPLQuietErrorHandler);
     std::unique_ptr<GDALDataset, DatasetCloser> ds(
         driver->Create(shp_file.string().c_str(), 0, 0, 0, GDT_Unknown, nullptr));
     CPLPopErrorHandler();
-    if (!ds) return Status::Fail(fmt::format("{}: cannot create shapefile: {}", shp_file.string(), CPLGetLastErrorMsg()));
+    if (!ds) return Status::Io(fmt::format("{}: cannot create shapefile: {}", shp_file.string(), CPLGetLastErrorMsg()));
 
     OGRSpatialReference srs;
     if (srs.importFromEPSG(town.settings.crs_epsg) != OGRERR_NONE)
-        return Status::Fail(fmt::format("EPSG:{} is not a CRS known to PROJ's database", town.settings.crs_epsg));
+        return Status::Io(fmt::format("EPSG:{} is not a CRS known to PROJ's database", town.settings.crs_epsg));
     srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
 
     // A fixed DBF date keeps repeated runs byte-identical (GDAL writes today's
     // date otherwise).
     const char* options[] = {"ENCODING=UTF-8", "DBF_DATE_LAST_UPDATE=2000-01-01", nullptr};
     OGRLayer* layer = ds->CreateLayer("footprints", &srs, wkbPolygon, const_cast<char**>(options));
-    if (!layer) return Status::Fail(fmt::format("{}: cannot create layer: {}", shp_file.string(), CPLGetLastErrorMsg()));
+    if (!layer) return Status::Io(fmt::format("{}: cannot create layer: {}", shp_file.string(), CPLGetLastErrorMsg()));
     for (const FieldSpec& f : kFields) {
         OGRFieldDefn defn(f.name, f.type);
         defn.SetWidth(f.width);
         defn.SetPrecision(f.precision);
         if (layer->CreateField(&defn) != OGRERR_NONE)
-            return Status::Fail(fmt::format("{}: cannot create field {}", shp_file.string(), f.name));
+            return Status::Io(fmt::format("{}: cannot create field {}", shp_file.string(), f.name));
     }
 
     const Vec3d origin = town.settings.origin_source;
@@ -97,14 +97,14 @@ Status writeFootprintShapefile(const Town& town, const std::filesystem::path& sh
         for (const auto& hole : b.holes) addRing(hole);
         feature.SetGeometry(&polygon);
         if (layer->CreateFeature(&feature) != OGRERR_NONE)
-            return Status::Fail(fmt::format("{}: cannot write feature {}: {}", shp_file.string(), b.gml_id,
+            return Status::Io(fmt::format("{}: cannot write feature {}: {}", shp_file.string(), b.gml_id,
                                             CPLGetLastErrorMsg()));
     }
     // GDAL 3.6's FlushCache returns nothing; errors surface through CPLGetLastErrorType.
     CPLErrorReset();
     ds.reset();  // closes and flushes all five files
     if (CPLGetLastErrorType() >= CE_Failure)
-        return Status::Fail(fmt::format("{}: write failed: {}", shp_file.string(), CPLGetLastErrorMsg()));
+        return Status::Io(fmt::format("{}: write failed: {}", shp_file.string(), CPLGetLastErrorMsg()));
     return Status::Ok();
 }
 

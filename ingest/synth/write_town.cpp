@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 Status writeTextures(const Town& town, const fs::path& dir, const ProgressFn& progress) {
     std::error_code ec;
     fs::create_directories(dir / "textures", ec);
-    if (ec) return Status::Fail(fmt::format("{}: cannot create folder: {}", (dir / "textures").string(), ec.message()));
+    if (ec) return Status::Io(fmt::format("{}: cannot create folder: {}", (dir / "textures").string(), ec.message()));
 
     std::atomic<uint64_t> done{0};
     std::mutex error_mutex, progress_mutex;
@@ -58,14 +58,14 @@ Status writeTextures(const Town& town, const fs::path& dir, const ProgressFn& pr
         }
     });
     if (progress) progress("textures", total, total);
-    if (!first_error.empty()) return Status::Fail(first_error);
+    if (!first_error.empty()) return Status::Io(first_error);
     if (town.orthophoto_texture >= 0 && town.settings.orthophoto == OrthophotoMode::WorldFile) {
         const fs::path png = dir / town.textures[town.orthophoto_texture].relative_path;
         const fs::path world = fs::path(png).replace_extension(".pgw");
         std::ofstream os(world, std::ios::binary);
         os << worldFileText(town.orthophoto);
         os.close();
-        if (!os) return Status::Fail(fmt::format("{}: write failed (disk full?)", world.string()));
+        if (!os) return Status::Io(fmt::format("{}: write failed (disk full?)", world.string()));
     }
     return Status::Ok();
 }
@@ -201,19 +201,19 @@ Status writeTown(const Town& town, const fs::path& out_dir, bool overwrite, cons
     std::error_code ec;
     const fs::path target = out_dir.lexically_normal();
     if (target.empty() || target == "." || target == "/")
-        return Status::Fail(fmt::format("{}: refusing to use this as the output folder", out_dir.string()));
+        return Status::Io(fmt::format("{}: refusing to use this as the output folder", out_dir.string()));
     if (fs::exists(target, ec) && !overwrite)
-        return Status::Fail(fmt::format("{}: already exists (use --overwrite to replace it)", target.string()));
+        return Status::Io(fmt::format("{}: already exists (use --overwrite to replace it)", target.string()));
     if (target.has_parent_path()) {
         fs::create_directories(target.parent_path(), ec);
-        if (ec) return Status::Fail(fmt::format("{}: cannot create folder: {}", target.parent_path().string(), ec.message()));
+        if (ec) return Status::Io(fmt::format("{}: cannot create folder: {}", target.parent_path().string(), ec.message()));
     }
     // Work in a sibling folder (same file system, so the final rename is atomic).
     const fs::path tmp = target.parent_path() / (target.filename().string() + ".partial");
     fs::remove_all(tmp, ec);
     fs::create_directory(tmp, ec);
     if (ec)
-        return Status::Fail(fmt::format("{}: cannot create the working folder {}: {}", target.string(), tmp.string(),
+        return Status::Io(fmt::format("{}: cannot create the working folder {}: {}", target.string(), tmp.string(),
                                         ec.message()));
 
     auto fail = [&](Status s) {
@@ -229,14 +229,14 @@ Status writeTown(const Town& town, const fs::path& out_dir, bool overwrite, cons
     {
         std::ofstream os(tmp / kTruthName, std::ios::binary);
         os << makeTruth(town).dump(2) << '\n';
-        if (!os) return fail(Status::Fail(fmt::format("{}: write failed", (tmp / kTruthName).string())));
+        if (!os) return fail(Status::Io(fmt::format("{}: write failed", (tmp / kTruthName).string())));
     }
     if (fs::exists(target, ec)) {
         fs::remove_all(target, ec);
-        if (ec) return fail(Status::Fail(fmt::format("{}: cannot replace: {}", target.string(), ec.message())));
+        if (ec) return fail(Status::Io(fmt::format("{}: cannot replace: {}", target.string(), ec.message())));
     }
     fs::rename(tmp, target, ec);
-    if (ec) return fail(Status::Fail(fmt::format("{}: cannot move into place: {}", target.string(), ec.message())));
+    if (ec) return fail(Status::Io(fmt::format("{}: cannot move into place: {}", target.string(), ec.message())));
     return Status::Ok();
 }
 

@@ -54,7 +54,7 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
         return nullptr;
     }
     if (Status st = BlockManager::checkBudget(c->index_, options.budget_bytes); !st.ok()) {
-        *status = Status::Fail(fmt::format("{}: {}", base, st.error));
+        *status = Status::Io(fmt::format("{}: {}", base, st.error));
         return nullptr;
     }
     c->manager_ = std::make_unique<BlockManager>(c->index_, BudgetParams{options.budget_bytes, options.max_requests});
@@ -371,9 +371,9 @@ PickHit StreamingClient::pick(const Camera& camera, double px, double py) const 
 
 Status StreamingClient::featureRecord(uint32_t feature, std::string* json_text) {
     if (feature >= index_.feature_count || index_.feature_block_size <= 0)
-        return Status::Fail(fmt::format("feature {} is not in the tileset", feature));
+        return Status::Io(fmt::format("feature {} is not in the tileset", feature));
     const size_t table = feature / static_cast<uint32_t>(index_.feature_block_size);
-    if (table >= index_.feature_tables.size()) return Status::Fail(fmt::format("feature {}: no feature table", feature));
+    if (table >= index_.feature_tables.size()) return Status::Io(fmt::format("feature {}: no feature table", feature));
     auto it = feature_tables_.find(table);
     if (it == feature_tables_.end()) {
         std::string text;
@@ -388,9 +388,9 @@ Status StreamingClient::featureRecord(uint32_t feature, std::string* json_text) 
                 return Status::Ok();
             }
     } catch (const nlohmann::json::exception& e) {
-        return Status::Fail(fmt::format("{}: {}", index_.feature_tables[table].uri, e.what()));
+        return Status::Io(fmt::format("{}: {}", index_.feature_tables[table].uri, e.what()));
     }
-    return Status::Fail(fmt::format("{}: feature {} not listed", index_.feature_tables[table].uri, feature));
+    return Status::Io(fmt::format("{}: feature {} not listed", index_.feature_tables[table].uri, feature));
 }
 
 }  // namespace cityatlas::render

@@ -19,7 +19,7 @@ Status BlockManager::checkBudget(const TilesetIndex& index, uint64_t budget_byte
             if (l.atlas != kNoBlock) root += index.blocks[l.atlas].bytes;
         }
     if (root > budget_bytes)
-        return Status::Fail(fmt::format("memory budget {} bytes is smaller than the root's blocks ({} bytes), which are "
+        return Status::Invalid(fmt::format("memory budget {} bytes is smaller than the root's blocks ({} bytes), which are "
                                         "always resident; give at least {} bytes",
                                         budget_bytes, root, root));
     return Status::Ok();

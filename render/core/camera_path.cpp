@@ -42,61 +42,61 @@ Status parseCameraPath(const std::string& text, const std::string& where, Camera
     try {
         doc = json::parse(text);
     } catch (const json::parse_error& e) {
-        return Status::Fail(fmt::format("{}: not JSON (byte {})", where, e.byte));
+        return Status::Invalid(fmt::format("{}: not JSON (byte {})", where, e.byte));
     }
-    if (!doc.is_object()) return Status::Fail(where + ": not a JSON object");
+    if (!doc.is_object()) return Status::Invalid(where + ": not a JSON object");
     CameraPath p;
     if (const auto it = doc.find("interpolation"); it != doc.end()) {
         if (*it == "linear") p.interpolation = Interpolation::Linear;
         else if (*it == "catmull-rom") p.interpolation = Interpolation::CatmullRom;
-        else return Status::Fail(where + ": interpolation must be \"linear\" or \"catmull-rom\"");
+        else return Status::Invalid(where + ": interpolation must be \"linear\" or \"catmull-rom\"");
     }
     if (const auto it = doc.find("frame_rate"); it != doc.end()) {
         if (!it->is_number() || !(it->get<double>() > 0 && it->get<double>() <= 1000))
-            return Status::Fail(where + ": frame_rate must be a number in (0, 1000]");
+            return Status::Invalid(where + ": frame_rate must be a number in (0, 1000]");
         p.frame_rate = it->get<double>();
     }
     const auto keys = doc.find("keyframes");
     if (keys == doc.end() || !keys->is_array() || keys->empty())
-        return Status::Fail(where + ": \"keyframes\" must be a non-empty array");
+        return Status::Invalid(where + ": \"keyframes\" must be a non-empty array");
     for (size_t i = 0; i < keys->size(); ++i) {
         const json& k = (*keys)[i];
         const std::string kw = fmt::format("{}: keyframes[{}]", where, i);
-        if (!k.is_object()) return Status::Fail(kw + ": not an object");
+        if (!k.is_object()) return Status::Invalid(kw + ": not an object");
         CameraKey key;
         const auto t = k.find("time_s");
         if (t == k.end() || !t->is_number() || !std::isfinite(t->get<double>()))
-            return Status::Fail(kw + ": \"time_s\" must be a number");
+            return Status::Invalid(kw + ": \"time_s\" must be a number");
         key.time_s = t->get<double>();
         if (!p.keys.empty() && key.time_s <= p.keys.back().time_s)
-            return Status::Fail(fmt::format("{}: time_s {} is not after the previous keyframe's {}", kw, key.time_s,
+            return Status::Invalid(fmt::format("{}: time_s {} is not after the previous keyframe's {}", kw, key.time_s,
                                             p.keys.back().time_s));
         const auto pos = k.find("position");
-        if (pos == k.end() || !vec3(*pos, &key.position)) return Status::Fail(kw + ": \"position\" must be [x, y, z]");
+        if (pos == k.end() || !vec3(*pos, &key.position)) return Status::Invalid(kw + ": \"position\" must be [x, y, z]");
         const auto dir = k.find("direction");
         const auto at = k.find("look_at");
-        if ((dir != k.end()) == (at != k.end())) return Status::Fail(kw + ": give exactly one of \"direction\" and \"look_at\"");
+        if ((dir != k.end()) == (at != k.end())) return Status::Invalid(kw + ": give exactly one of \"direction\" and \"look_at\"");
         Vec3d d;
         if (dir != k.end()) {
-            if (!vec3(*dir, &d)) return Status::Fail(kw + ": \"direction\" must be [x, y, z]");
+            if (!vec3(*dir, &d)) return Status::Invalid(kw + ": \"direction\" must be [x, y, z]");
         } else {
             Vec3d target;
-            if (!vec3(*at, &target)) return Status::Fail(kw + ": \"look_at\" must be [x, y, z]");
+            if (!vec3(*at, &target)) return Status::Invalid(kw + ": \"look_at\" must be [x, y, z]");
             d = target - key.position;
         }
-        if (length(d) < 1e-12) return Status::Fail(kw + ": the view direction has zero length");
+        if (length(d) < 1e-12) return Status::Invalid(kw + ": the view direction has zero length");
         key.direction = normalized(d);
         if (const auto f = k.find("fov_deg"); f != k.end()) {
             if (!f->is_number() || !(f->get<double>() > 1 && f->get<double>() < 170))
-                return Status::Fail(kw + ": \"fov_deg\" must be in (1, 170)");
+                return Status::Invalid(kw + ": \"fov_deg\" must be in (1, 170)");
             key.fov_deg = f->get<double>();
         }
         if (const auto c = k.find("cut"); c != k.end()) {
-            if (!c->is_boolean()) return Status::Fail(kw + ": \"cut\" must be true or false");
+            if (!c->is_boolean()) return Status::Invalid(kw + ": \"cut\" must be true or false");
             key.cut = c->get<bool>();
         }
         if (const auto l = k.find("label"); l != k.end()) {
-            if (!l->is_string()) return Status::Fail(kw + ": \"label\" must be a string");
+            if (!l->is_string()) return Status::Invalid(kw + ": \"label\" must be a string");
             key.label = l->get<std::string>();
         }
         p.keys.push_back(key);

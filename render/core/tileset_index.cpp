@@ -181,7 +181,7 @@ Status parseTilesetIndex(const std::string& text, const std::string& where, Tile
     try {
         doc = json::parse(text);
     } catch (const json::parse_error& e) {
-        return Status::Fail(fmt::format("{}: not JSON (byte {}): {}", where, e.byte, e.what()));
+        return Status::Invalid(fmt::format("{}: not JSON (byte {}): {}", where, e.byte, e.what()));
     }
     try {
         TilesetIndex& index = *out;
@@ -258,10 +258,10 @@ Status parseTilesetIndex(const std::string& text, const std::string& where, Tile
             fail("node 0: the root has no geometry");
     } catch (const ParseError& e) {
         *out = TilesetIndex{};
-        return Status::Fail(fmt::format("{}: {}", where, e.message));
+        return Status::Invalid(fmt::format("{}: {}", where, e.message));
     } catch (const json::exception& e) {
         *out = TilesetIndex{};
-        return Status::Fail(fmt::format("{}: unexpected value: {}", where, e.what()));
+        return Status::Invalid(fmt::format("{}: unexpected value: {}", where, e.what()));
     }
     return Status::Ok();
 }

@@ -99,14 +99,14 @@ std::unique_ptr<HeadlessContext> HeadlessContext::create(Status* status) {
     std::string platform, error;
     EGLDisplay display = openDisplay(&platform, &error);
     if (display == EGL_NO_DISPLAY) {
-        *status = Status::Fail(error);
+        *status = Status::Unsupported(error);
         return nullptr;
     }
     EGLint egl_major = 0, egl_minor = 0;
     {
         const std::lock_guard<std::mutex> lock(g_display_mutex);
         if (!eglInitialize(display, &egl_major, &egl_minor)) {
-            *status = Status::Fail(fmt::format("EGL: eglInitialize on the {} platform failed ({})", platform,
+            *status = Status::Unsupported(fmt::format("EGL: eglInitialize on the {} platform failed ({})", platform,
                                                eglErrorName(eglGetError())));
             return nullptr;
         }
@@ -116,7 +116,7 @@ std::unique_ptr<HeadlessContext> HeadlessContext::create(Status* status) {
     ctx->display_ = display;
     ctx->platform_ = platform;
     auto fail = [&](const std::string& what) {
-        *status = Status::Fail(fmt::format("EGL: {} ({})", what, eglErrorName(eglGetError())));
+        *status = Status::Unsupported(fmt::format("EGL: {} ({})", what, eglErrorName(eglGetError())));
         return nullptr;
     };
 
@@ -216,16 +216,16 @@ std::unique_ptr<Window> Window::create(int width, int height, const std::string&
     const char* x11 = std::getenv("DISPLAY");
     const char* wayland = std::getenv("WAYLAND_DISPLAY");
     if ((x11 == nullptr || *x11 == '\0') && (wayland == nullptr || *wayland == '\0')) {
-        *status = Status::Fail("no display: use `cityatlas render` for headless rendering, or run under xvfb-run");
+        *status = Status::Unsupported("no display: use `cityatlas render` for headless rendering, or run under xvfb-run");
         return nullptr;
     }
     if (width <= 0 || height <= 0) {
-        *status = Status::Fail(fmt::format("window: size {}x{} is not positive", width, height));
+        *status = Status::Usage(fmt::format("window: size {}x{} is not positive", width, height));
         return nullptr;
     }
     glfwSetErrorCallback(onGlfwError);
     if (g_glfw_windows == 0 && glfwInit() != GLFW_TRUE) {
-        *status = Status::Fail(fmt::format("no display: {} (use `cityatlas render` for headless rendering, or run "
+        *status = Status::Unsupported(fmt::format("no display: {} (use `cityatlas render` for headless rendering, or run "
                                            "under xvfb-run)", g_glfw_error));
         return nullptr;
     }
@@ -240,7 +240,7 @@ std::unique_ptr<Window> Window::create(int width, int height, const std::string&
     glfwWindowHint(GLFW_VISIBLE, options.visible ? GLFW_TRUE : GLFW_FALSE);
     GLFWwindow* handle = glfwCreateWindow(width, height, title.c_str(), nullptr, nullptr);
     if (handle == nullptr) {
-        *status = Status::Fail(fmt::format("window: no OpenGL 3.3 core window ({})", g_glfw_error));
+        *status = Status::Unsupported(fmt::format("window: no OpenGL 3.3 core window ({})", g_glfw_error));
         if (g_glfw_windows == 0) glfwTerminate();
         return nullptr;
     }

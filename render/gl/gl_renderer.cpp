@@ -142,23 +142,23 @@ std::array<float, 16> multiply(const std::array<float, 16>& a, const std::array<
 
 Status checkTexture(const CompressedTexture& t, GLint max_size) {
     if (t.channels != 3 && t.channels != 4)
-        return Status::Fail(fmt::format("texture: {} channels (3: BC1 or 4: BC3 expected)", t.channels));
+        return Status::Invalid(fmt::format("texture: {} channels (3: BC1 or 4: BC3 expected)", t.channels));
     if (t.width < 1 || t.height < 1 || t.width > max_size || t.height > max_size)
-        return Status::Fail(fmt::format("texture: size {}x{} outside 1..{}", t.width, t.height, max_size));
-    if (t.levels.empty()) return Status::Fail("texture: no mip levels");
+        return Status::Invalid(fmt::format("texture: size {}x{} outside 1..{}", t.width, t.height, max_size));
+    if (t.levels.empty()) return Status::Invalid("texture: no mip levels");
     int w = t.width, h = t.height;
     for (size_t i = 0; i < t.levels.size(); ++i) {
         const CompressedTexture::Level& level = t.levels[i];
         if (level.width != w || level.height != h)
-            return Status::Fail(fmt::format("texture: level {} is {}x{}, expected {}x{}", i, level.width,
+            return Status::Invalid(fmt::format("texture: level {} is {}x{}, expected {}x{}", i, level.width,
                                             level.height, w, h));
         if (level.bytes != tiles::bcBlockBytes(w, h, t.channels))
-            return Status::Fail(fmt::format("texture: level {} has {} bytes, {}x{} BC{} needs {}", i, level.bytes, w,
+            return Status::Invalid(fmt::format("texture: level {} has {} bytes, {}x{} BC{} needs {}", i, level.bytes, w,
                                             h, t.channels == 3 ? 1 : 3, tiles::bcBlockBytes(w, h, t.channels)));
         if (level.offset > t.data.size() || level.bytes > t.data.size() - level.offset)
-            return Status::Fail(fmt::format("texture: level {} lies outside the {} data bytes", i, t.data.size()));
+            return Status::Invalid(fmt::format("texture: level {} lies outside the {} data bytes", i, t.data.size()));
         if (w == 1 && h == 1 && i + 1 < t.levels.size())
-            return Status::Fail("texture: levels continue past 1x1");
+            return Status::Invalid("texture: levels continue past 1x1");
         w = std::max(1, w / 2);
         h = std::max(1, h / 2);
     }
@@ -166,24 +166,24 @@ Status checkTexture(const CompressedTexture& t, GLint max_size) {
 }
 
 Status checkMesh(const MeshData& m) {
-    if (m.positions.size() % 3 != 0) return Status::Fail("mesh: positions are not xyz triples");
+    if (m.positions.size() % 3 != 0) return Status::Invalid("mesh: positions are not xyz triples");
     const size_t n = m.positions.size() / 3;
-    if (n > std::numeric_limits<uint32_t>::max()) return Status::Fail("mesh: more than 2^32 - 1 vertices");
+    if (n > std::numeric_limits<uint32_t>::max()) return Status::Invalid("mesh: more than 2^32 - 1 vertices");
     if (!m.uv_atlas.empty() && m.uv_atlas.size() != 2 * n)
-        return Status::Fail(fmt::format("mesh: {} uv_atlas values for {} vertices", m.uv_atlas.size(), n));
+        return Status::Invalid(fmt::format("mesh: {} uv_atlas values for {} vertices", m.uv_atlas.size(), n));
     if (!m.uv_original.empty() && m.uv_original.size() != 2 * n)
-        return Status::Fail(fmt::format("mesh: {} uv_original values for {} vertices", m.uv_original.size(), n));
+        return Status::Invalid(fmt::format("mesh: {} uv_original values for {} vertices", m.uv_original.size(), n));
     if (!m.material_id.empty() && m.material_id.size() != n)
-        return Status::Fail(fmt::format("mesh: {} material ids for {} vertices", m.material_id.size(), n));
-    if (m.indices.size() % 3 != 0) return Status::Fail("mesh: index count is not a multiple of 3");
-    if (m.indices.size() > std::numeric_limits<uint32_t>::max()) return Status::Fail("mesh: too many indices");
+        return Status::Invalid(fmt::format("mesh: {} material ids for {} vertices", m.material_id.size(), n));
+    if (m.indices.size() % 3 != 0) return Status::Invalid("mesh: index count is not a multiple of 3");
+    if (m.indices.size() > std::numeric_limits<uint32_t>::max()) return Status::Invalid("mesh: too many indices");
     for (size_t i = 0; i < m.indices.size(); ++i) {
         if (m.indices[i] >= n)
-            return Status::Fail(fmt::format("mesh: index {} is {}, only {} vertices", i, m.indices[i], n));
+            return Status::Invalid(fmt::format("mesh: index {} is {}, only {} vertices", i, m.indices[i], n));
     }
     for (const MeshData::TextureRange& r : m.texture_ranges) {
         if (r.first_index > m.indices.size() || r.index_count > m.indices.size() - r.first_index)
-            return Status::Fail(fmt::format("mesh: texture {} range [{}, +{}) outside the {} indices", r.texture,
+            return Status::Invalid(fmt::format("mesh: texture {} range [{}, +{}) outside the {} indices", r.texture,
                                             r.first_index, r.index_count, m.indices.size()));
     }
     return Status::Ok();
@@ -209,7 +209,7 @@ std::unique_ptr<OffscreenTarget> OffscreenTarget::create(int width, int height, 
     GLint max_size = 0;
     glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
     if (width < 1 || height < 1 || width > max_size || height > max_size) {
-        *status = Status::Fail(fmt::format("offscreen target: size {}x{} outside 1..{}", width, height, max_size));
+        *status = Status::Unsupported(fmt::format("offscreen target: size {}x{} outside 1..{}", width, height, max_size));
         return nullptr;
     }
     std::unique_ptr<OffscreenTarget> t(new OffscreenTarget());
@@ -228,7 +228,7 @@ std::unique_ptr<OffscreenTarget> OffscreenTarget::create(int width, int height, 
     glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t->depth_);
     const GLenum complete = glCheckFramebufferStatus(GL_FRAMEBUFFER);
     if (complete != GL_FRAMEBUFFER_COMPLETE) {
-        *status = Status::Fail(fmt::format("offscreen target: {}x{} sRGB8_ALPHA8 + depth24 framebuffer is "
+        *status = Status::Unsupported(fmt::format("offscreen target: {}x{} sRGB8_ALPHA8 + depth24 framebuffer is "
                                            "incomplete (0x{:x})", width, height, complete));
         return nullptr;
     }
@@ -281,7 +281,7 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
                                                const RendererOptions& options, Status* status) {
     const GlInfo info = queryGlInfo();
     if (info.major * 10 + info.minor < 33) {
-        *status = Status::Fail(fmt::format("GL renderer: OpenGL {} is below 3.3 ({})", info.version, info.renderer));
+        *status = Status::Unsupported(fmt::format("GL renderer: OpenGL {} is below 3.3 ({})", info.version, info.renderer));
         return nullptr;
     }
     std::unique_ptr<GlRenderer> r(new GlRenderer());
@@ -295,7 +295,7 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
     std::string error;
     r->program_ = linkProgram(&error);
     if (r->program_ == 0) {
-        *status = Status::Fail(error);
+        *status = Status::Unsupported(error);
         return nullptr;
     }
     const GLuint p = r->program_;
@@ -347,7 +347,7 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
     r->dummy_.gpu_bytes = dummy.size();
 
     if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
-        *status = Status::Fail(fmt::format("GL renderer: setup failed with GL error 0x{:x}", e));
+        *status = Status::Unsupported(fmt::format("GL renderer: setup failed with GL error 0x{:x}", e));
         return nullptr;
     }
     *status = Status::Ok();
@@ -481,7 +481,7 @@ GpuTexture GlRenderer::upload(const CompressedTexture& t, bool wrap, Status* sta
     glBindTexture(GL_TEXTURE_2D, 0);
     if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
         glDeleteTextures(1, &g.id);
-        setStatus(status, Status::Fail(fmt::format("texture: {}x{} BC{} upload failed with GL error 0x{:x}", t.width,
+        setStatus(status, Status::Unsupported(fmt::format("texture: {}x{} BC{} upload failed with GL error 0x{:x}", t.width,
                                                    t.height, t.channels == 3 ? 1 : 3, e)));
         return GpuTexture{};
     }

@@ -15,7 +15,7 @@ bool g_overlay_alive = false;  // ImGui's backends are process-global
 
 std::unique_ptr<Overlay> Overlay::create(Window& window, Status* status) {
     if (g_overlay_alive) {
-        *status = Status::Fail("overlay: one ImGui overlay exists already");
+        *status = Status::Internal("overlay: one ImGui overlay exists already");
         return nullptr;
     }
     IMGUI_CHECKVERSION();
@@ -24,13 +24,13 @@ std::unique_ptr<Overlay> Overlay::create(Window& window, Status* status) {
     ImGui::StyleColorsDark();
     if (!ImGui_ImplGlfw_InitForOpenGL(window.handle(), true)) {
         ImGui::DestroyContext();
-        *status = Status::Fail("overlay: ImGui's GLFW backend did not start");
+        *status = Status::Unsupported("overlay: ImGui's GLFW backend did not start");
         return nullptr;
     }
     if (!ImGui_ImplOpenGL3_Init("#version 330 core")) {
         ImGui_ImplGlfw_Shutdown();
         ImGui::DestroyContext();
-        *status = Status::Fail("overlay: ImGui's OpenGL 3 backend did not start");
+        *status = Status::Unsupported("overlay: ImGui's OpenGL 3 backend did not start");
         return nullptr;
     }
     g_overlay_alive = true;

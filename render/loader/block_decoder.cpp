@@ -14,21 +14,21 @@ namespace cityatlas::render {
 Status decodeGeometryBlock(const TilesetIndex& index, BlockId id, const std::vector<uint8_t>& bytes, MeshData* out) {
     const BlockInfo& info = index.blocks[id];
     tiles::TileMesh mesh;
-    if (Status st = tiles::decodeTileGlb(bytes, {0, 0, 0}, &mesh); !st.ok()) return Status::Fail(info.uri + ": " + st.error);
+    if (Status st = tiles::decodeTileGlb(bytes, {0, 0, 0}, &mesh); !st.ok()) return Status::Invalid(info.uri + ": " + st.error);
     const NodeLayer& layer = index.nodes[static_cast<size_t>(info.node)].layers[static_cast<size_t>(info.layer)];
     const size_t triangles = mesh.indices.size() / 3;
     if (triangles != layer.triangles)
-        return Status::Fail(fmt::format("{}: {} triangles, tileset.json says {}", info.uri, triangles, layer.triangles));
+        return Status::Invalid(fmt::format("{}: {} triangles, tileset.json says {}", info.uri, triangles, layer.triangles));
     const size_t n = mesh.positions.size();
     for (const uint32_t f : mesh.feature_id)
         if (f >= index.feature_count)
-            return Status::Fail(fmt::format("{}: feature id {} out of range ({} features)", info.uri, f, index.feature_count));
+            return Status::Invalid(fmt::format("{}: feature id {} out of range ({} features)", info.uri, f, index.feature_count));
     for (const int32_t t : mesh.texture_id)
         if (t < -1 || t >= static_cast<int32_t>(index.textures.size()))
-            return Status::Fail(fmt::format("{}: texture id {} out of range ({} textures)", info.uri, t, index.textures.size()));
+            return Status::Invalid(fmt::format("{}: texture id {} out of range ({} textures)", info.uri, t, index.textures.size()));
     for (const int32_t m : mesh.material_id)
         if (m < -1 || m >= static_cast<int32_t>(index.materials.size()))
-            return Status::Fail(fmt::format("{}: material id {} out of range ({} materials)", info.uri, m, index.materials.size()));
+            return Status::Invalid(fmt::format("{}: material id {} out of range ({} materials)", info.uri, m, index.materials.size()));
 
     MeshData& d = *out;
     d = MeshData{};
@@ -75,9 +75,9 @@ Status decodeDds(const uint8_t* data, size_t size, int expect_channels, Compress
     tiles::DdsInfo info;
     if (Status st = tiles::parseDdsHeader(data, size, &info); !st.ok()) return st;
     if (info.expected_bytes != size)
-        return Status::Fail(fmt::format("{} bytes, the DDS header needs {}", size, info.expected_bytes));
+        return Status::Invalid(fmt::format("{} bytes, the DDS header needs {}", size, info.expected_bytes));
     if (expect_channels && info.channels != expect_channels)
-        return Status::Fail(fmt::format("{} in the header, tileset.json says {}", info.channels == 4 ? "DXT5" : "DXT1",
+        return Status::Invalid(fmt::format("{} in the header, tileset.json says {}", info.channels == 4 ? "DXT5" : "DXT1",
                                         expect_channels == 4 ? "BC3" : "BC1"));
     CompressedTexture& t = *out;
     t = CompressedTexture{};
@@ -101,7 +101,7 @@ Status decodeDds(const uint8_t* data, size_t size, int expect_channels, Compress
 Status decodeBlock(const TilesetIndex& index, BlockId id, const std::vector<uint8_t>& bytes, DecodedBlock* out) {
     const BlockInfo& info = index.blocks[id];
     if (bytes.size() != info.bytes)
-        return Status::Fail(fmt::format("{}: {} bytes, tileset.json says {}", info.uri, bytes.size(), info.bytes));
+        return Status::Invalid(fmt::format("{}: {} bytes, tileset.json says {}", info.uri, bytes.size(), info.bytes));
     out->id = id;
     out->kind = info.kind;
     out->bytes_read = bytes.size();
@@ -110,7 +110,7 @@ Status decodeBlock(const TilesetIndex& index, BlockId id, const std::vector<uint
         case BlockKind::Atlas: {
             const NodeLayer& l = index.nodes[static_cast<size_t>(info.node)].layers[static_cast<size_t>(info.layer)];
             if (Status st = decodeDds(bytes.data(), bytes.size(), l.atlas_channels, &out->atlas); !st.ok())
-                return Status::Fail(info.uri + ": " + st.error);
+                return Status::Invalid(info.uri + ": " + st.error);
             return Status::Ok();
         }
         case BlockKind::Textures: {
@@ -120,13 +120,13 @@ Status decodeBlock(const TilesetIndex& index, BlockId id, const std::vector<uint
                 if (ti.block != info.texture_block) continue;
                 CompressedTexture tex;
                 if (Status st = decodeDds(bytes.data() + ti.offset, ti.bytes, ti.channels, &tex); !st.ok())
-                    return Status::Fail(fmt::format("{}: texture {} at byte {}: {}", info.uri, t, ti.offset, st.error));
+                    return Status::Invalid(fmt::format("{}: texture {} at byte {}: {}", info.uri, t, ti.offset, st.error));
                 out->textures.emplace_back(static_cast<int32_t>(t), std::move(tex));
             }
             return Status::Ok();
         }
     }
-    return Status::Fail(info.uri + ": unknown block kind");
+    return Status::Invalid(info.uri + ": unknown block kind");
 }
 
 }  // namespace cityatlas::render

@@ -83,18 +83,18 @@ Status fetchText(const std::string& source, const std::string& uri, std::string*
     if (!isUrl(source)) {
         std::error_code ec;
         const std::string folder = baseOf(source);
-        if (!fs::is_directory(folder, ec)) return Status::Fail(fmt::format("{}: no such folder", source));
+        if (!fs::is_directory(folder, ec)) return Status::Io(fmt::format("{}: no such folder", source));
         std::vector<uint8_t> bytes;
         std::string why;
         if (!readFile(where, &bytes, &why))
-            return Status::Fail(fmt::format("{}: {}{}", where, why,
+            return Status::Io(fmt::format("{}: {}{}", where, why,
                                             why == "missing" && uri == "tileset.json" ? " (not a cityatlas tile folder)" : ""));
         text->assign(bytes.begin(), bytes.end());
         return Status::Ok();
     }
     globalCurlInit();
     CURL* easy = curl_easy_init();
-    if (!easy) return Status::Fail(where + ": cannot start libcurl");
+    if (!easy) return Status::Io(where + ": cannot start libcurl");
     std::vector<uint8_t> body;
     char error[CURL_ERROR_SIZE] = {0};
     curl_easy_setopt(easy, CURLOPT_URL, where.c_str());
@@ -110,8 +110,8 @@ Status fetchText(const std::string& source, const std::string& uri, std::string*
     curl_easy_getinfo(easy, CURLINFO_RESPONSE_CODE, &status);
     curl_easy_cleanup(easy);
     if (rc != CURLE_OK)
-        return Status::Fail(fmt::format("{}: cannot fetch: {}", where, error[0] ? error : curl_easy_strerror(rc)));
-    if (status != 200) return Status::Fail(fmt::format("{}: HTTP {}", where, status));
+        return Status::Io(fmt::format("{}: cannot fetch: {}", where, error[0] ? error : curl_easy_strerror(rc)));
+    if (status != 200) return Status::Io(fmt::format("{}: HTTP {}", where, status));
     text->assign(body.begin(), body.end());
     return Status::Ok();
 }
@@ -350,7 +350,7 @@ std::unique_ptr<Loader> Loader::open(const std::string& source, const TilesetInd
         globalCurlInit();
         m.multi = curl_multi_init();
         if (!m.multi) {
-            *status = Status::Fail(source + ": cannot start libcurl");
+            *status = Status::Io(source + ": cannot start libcurl");
             return nullptr;
         }
         curl_multi_setopt(m.multi, CURLMOPT_MAX_HOST_CONNECTIONS, static_cast<long>(m.options.max_connections));

@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// How every command reports: one prefix for errors and notes
+// ("cityatlas <command>: error: ...", "cityatlas <command>: ..."), one exit
+// code per StatusCode (usage 2, every other failure 1), one summary of the
+// counted warnings.
+
+#include <string>
+
+#include "cli/commands.h"
+#include "cli/progress.h"
+#include "ingest/diagnostics.h"
+#include "ingest/status.h"
+
+namespace cityatlas::cli {
+
+/// The exit code for a failed status: kExitUsage for StatusCode::kUsage, else kExitFailure.
+int exitCodeFor(const Status& status);
+
+/// Ends the progress line (when given), prints
+/// "cityatlas <command>: error: <message>" on stderr and returns exitCodeFor().
+int fail(const char* command, const Status& status, Progress* progress = nullptr);
+
+/// A note on stderr that is not a failure: "cityatlas <command>: <message>".
+void note(const char* command, const std::string& message);
+
+/// "Warnings: N" and, per code, its count and first example (file:line id: detail), on stdout.
+void printWarnings(const Diagnostics& diagnostics);
+
+}  // namespace cityatlas::cli
