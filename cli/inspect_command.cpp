@@ -6,8 +6,13 @@
 #include <memory>
 #include <string>
 
-#include <fmt/format.h>
+#include <algorithm>
+#include <fstream>
 
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/build_hash.h"
 #include "cli/commands.h"
 #include "cli/outcome.h"
 #include "cli/progress.h"
@@ -21,7 +26,59 @@ struct InspectCliOptions {
     std::string folder;
     int threads = 0;
     bool quiet = false;
+    bool json = false;
 };
+
+// Files a build writes whatever its inputs' contents: the build report
+// (times, memory) and the index itself (dumped structurally instead).
+bool isVolatileFile(const std::string& relative) { return relative == "build_report.json" || relative == "tileset.json"; }
+
+// The folder as canonical JSON, for goldens: the verdict, the summary, the
+// index without what changes between equal builds (the generator's version,
+// tilesetVersion: a hash that includes the input paths), and every other
+// file's size and XXH3 in path order. Equal for equal outputs, on any machine
+// and in any folder.
+nlohmann::ordered_json canonicalDump(const fs::path& folder, const tiles::InspectResult& r) {
+    nlohmann::ordered_json j;
+    j["format"] = "cityatlas-inspect-1";
+    j["ok"] = r.ok();
+    j["defects"] = r.defects;
+    j["summary"] = {{"nodes", r.nodes},
+                    {"leaves", r.leaves},
+                    {"levels", r.levels.size()},
+                    {"triangles", r.triangles},
+                    {"bytes", {{"geometry", r.bytes_geometry}, {"atlases", r.bytes_atlases},
+                               {"textures", r.bytes_textures}, {"features", r.bytes_features}}},
+                    {"textures", r.textures},
+                    {"texture_blocks", r.texture_blocks},
+                    {"features", r.features},
+                    {"texture_ratio", r.texture_ratio}};
+    std::ifstream in(folder / "tileset.json");
+    nlohmann::ordered_json tileset = nlohmann::ordered_json::parse(in, nullptr, false);
+    if (tileset.is_object() && tileset.contains("asset") && tileset["asset"].is_object()) {
+        tileset["asset"].erase("generator");
+        tileset["asset"].erase("tilesetVersion");
+    }
+    j["tileset"] = tileset.is_discarded() ? nlohmann::ordered_json() : tileset;
+    std::vector<std::string> files;
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(folder, ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec))
+        if (it->is_regular_file(ec)) files.push_back(fs::relative(it->path(), folder).generic_string());
+    std::sort(files.begin(), files.end());
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const std::string& f : files) {
+        if (isVolatileFile(f)) continue;
+        FileDigest d;
+        if (Status s = digestFile(folder / f, &d); !s.ok()) {
+            list.push_back({{"path", f}, {"error", s.error}});
+            continue;
+        }
+        list.push_back({{"path", f}, {"bytes", d.bytes}, {"xxh3", d.xxh3}});
+    }
+    j["files"] = std::move(list);
+    return j;
+}
 
 void printSummary(const std::string& folder, const tiles::InspectResult& r, double seconds) {
     fmt::print("{}: {} nodes, {} leaves, {} levels, {} triangles (checked in {:.2f} s)\n", folder, r.nodes, r.leaves,
@@ -58,6 +115,10 @@ int runInspect(const InspectCliOptions& opt) {
     const auto t0 = std::chrono::steady_clock::now();
     const tiles::InspectResult r = tiles::inspectTileFolder(opt.folder, opt.threads);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (opt.json) {
+        std::printf("%s\n", canonicalDump(opt.folder, r).dump(1).c_str());
+        return r.ok() ? kExitOk : kExitFailure;
+    }
     if (!opt.quiet && r.nodes > 0) printSummary(opt.folder, r, seconds);
     std::fflush(stdout);
     if (r.ok()) {
@@ -97,6 +158,11 @@ RunFn addInspectCommand(CLI::App& app) {
         ->default_val(0)
         ->check(CLI::Range(0, 4096));
     cmd->add_flag("-q,--quiet", opt->quiet, "No summary: only the verdict (and the defects)");
+    cmd->add_flag("--json", opt->json,
+                  "Print the folder as canonical JSON on stdout instead: verdict and defects, the summary, tileset.json "
+                  "without its volatile fields (asset.generator, asset.tilesetVersion) and every other file's size and "
+                  "XXH3 (build_report.json left out: times). Equal for equal outputs in any folder; what the goldens "
+                  "in tests/golden hold. Exit status as without it.");
     return [opt]() { return runInspect(*opt); };
 }
 
