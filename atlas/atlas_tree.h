@@ -59,7 +59,7 @@
 #include "atlas/packing.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas::atlas {
 

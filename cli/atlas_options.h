@@ -7,7 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "atlas/atlas_tree.h"
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas::cli {
 

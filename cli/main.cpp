@@ -2,6 +2,9 @@
 // The cityatlas command: the only place that parses argv and picks exit codes.
 #include <cstdio>
 #include <exception>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "cityatlas_version.h"
 #include "cli/commands.h"
@@ -17,14 +20,19 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     app.fallthrough(false);
 
-    RunFn run_synth = addSynthCommand(app);
-    RunFn run_ingest = addIngestCommand(app);
-    RunFn run_atlas = addAtlasCommand(app);
-    RunFn run_build = addBuildCommand(app);
-    RunFn run_inspect = addInspectCommand(app);
-    RunFn run_render = addRenderCommand(app);
-    RunFn run_view = addViewCommand(app);
-    RunFn run_serve = addServeCommand(app);
+    // The pipeline's commands exist in the full build only (CITYATLAS_PIPELINE);
+    // cityatlas-client has the client's.
+    std::vector<std::pair<std::string, RunFn>> commands;
+#ifdef CITYATLAS_WITH_PIPELINE
+    commands.emplace_back("synth", addSynthCommand(app));
+    commands.emplace_back("ingest", addIngestCommand(app));
+    commands.emplace_back("atlas", addAtlasCommand(app));
+    commands.emplace_back("build", addBuildCommand(app));
+    commands.emplace_back("inspect", addInspectCommand(app));
+#endif
+    commands.emplace_back("render", addRenderCommand(app));
+    commands.emplace_back("view", addViewCommand(app));
+    commands.emplace_back("serve", addServeCommand(app));
 
     try {
         app.parse(argc, argv);
@@ -33,16 +41,9 @@ int main(int argc, char** argv) {
         return code == 0 ? kExitOk : kExitUsage;
     }
     try {
-        for (CLI::App* sub : app.get_subcommands()) {
-            if (sub->get_name() == "synth") return run_synth();
-            if (sub->get_name() == "ingest") return run_ingest();
-            if (sub->get_name() == "atlas") return run_atlas();
-            if (sub->get_name() == "build") return run_build();
-            if (sub->get_name() == "inspect") return run_inspect();
-            if (sub->get_name() == "render") return run_render();
-            if (sub->get_name() == "view") return run_view();
-            if (sub->get_name() == "serve") return run_serve();
-        }
+        for (CLI::App* sub : app.get_subcommands())
+            for (const auto& [name, run] : commands)
+                if (sub->get_name() == name) return run();
     } catch (const std::exception& e) {
         // Library code reports expected failures as Status; reaching this is
         // a bug or resource exhaustion, but still gets one line, not a crash.

@@ -2,15 +2,14 @@
 #pragma once
 // How every command reports: one prefix for errors and notes
 // ("cityatlas <command>: error: ...", "cityatlas <command>: ..."), one exit
-// code per StatusCode (usage 2, every other failure 1), one summary of the
-// counted warnings.
+// code per StatusCode (usage 2, every other failure 1). The summary of the
+// readers' counted warnings is printWarnings() (cli/scene_input.h).
 
 #include <string>
 
 #include "cli/commands.h"
 #include "cli/progress.h"
-#include "ingest/diagnostics.h"
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas::cli {
 
@@ -23,8 +22,5 @@ int fail(const char* command, const Status& status, Progress* progress = nullptr
 
 /// A note on stderr that is not a failure: "cityatlas <command>: <message>".
 void note(const char* command, const std::string& message);
-
-/// "Warnings: N" and, per code, its count and first example (file:line id: detail), on stdout.
-void printWarnings(const Diagnostics& diagnostics);
 
 }  // namespace cityatlas::cli

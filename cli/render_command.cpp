@@ -15,7 +15,7 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <OpenImageIO/imageio.h>
+#include <stb_image_write.h>
 
 #include "cityatlas_version.h"
 #include "cli/commands.h"
@@ -87,19 +87,22 @@ bool parseSize(const std::string& text, int* w, int* h) {
     return *w >= 16 && *h >= 16 && *w <= 16384 && *h <= 16384;
 }
 
+// stb_image_write (Debian's libstb): the client links no image library's
+// writer side beyond it.
 bool writePng(const fs::path& path, int w, int h, const std::vector<uint8_t>& rgba, std::string* why) {
-    auto out = OIIO::ImageOutput::create(path.string());
-    if (!out) {
-        *why = OIIO::geterror();
-        return false;
-    }
     // RGB only: the alpha of the frame buffer is not part of the picture.
     std::vector<uint8_t> rgb(static_cast<size_t>(w) * h * 3);
     for (size_t i = 0, n = static_cast<size_t>(w) * h; i < n; ++i)
         for (int c = 0; c < 3; ++c) rgb[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)];
-    const OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
-    if (!out->open(path.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close()) {
-        *why = out->geterror();
+    const fs::path tmp = fs::path(path).concat(".partial");
+    if (stbi_write_png(tmp.string().c_str(), w, h, 3, rgb.data(), w * 3) == 0) {
+        *why = "the PNG writer failed (disk full or not writable?)";
+        return false;
+    }
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    if (ec) {
+        *why = ec.message();
         return false;
     }
     return true;

@@ -252,4 +252,15 @@ Status startWorkingFolder(const std::filesystem::path& target, const std::filesy
     return Status::Ok();
 }
 
+void printWarnings(const Diagnostics& diagnostics) {
+    if (!diagnostics.total()) return;
+    std::printf("Warnings: %llu\n", static_cast<unsigned long long>(diagnostics.total()));
+    for (const auto& [code, e] : diagnostics.entries()) {
+        const DiagnosticExample& ex = e.examples.front();
+        std::printf("  %-24s %6llu  e.g. %s%s%s%s: %s\n", code.c_str(), static_cast<unsigned long long>(e.count),
+                    ex.file.c_str(), ex.line ? fmt::format(":{}", ex.line).c_str() : "", ex.gml_id.empty() ? "" : " ",
+                    ex.gml_id.c_str(), ex.detail.c_str());
+    }
+}
+
 }  // namespace cityatlas::cli

@@ -48,6 +48,9 @@ Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState&
 std::optional<GeorefSummary> attachGeoreference(IngestState& state, const Box3d& bounds_local,
                                                 Georeference current, const std::filesystem::path& first_file);
 
+/// "Warnings: N" and, per code, its count and first example (file:line id: detail), on stdout.
+void printWarnings(const Diagnostics& diagnostics);
+
 /// Writes `text` to `path` through a sibling temporary file and a rename.
 Status writeTextAtomically(const std::filesystem::path& path, const std::string& text);
 

@@ -11,7 +11,7 @@
 #include <memory>
 #include <string>
 
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas::cli {
 

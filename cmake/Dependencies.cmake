@@ -1,9 +1,12 @@
 # Third-party dependencies, found the way ../shared/STACK.md verified on Debian 12.
-# Only what the stages built so far need is looked up here; later stages add theirs.
+# Only what the stages built need is looked up here.
 
 find_package(PkgConfig REQUIRED)
 find_package(Threads REQUIRED)
 
+# The client and the format library need only what follows the pipeline's
+# block; CITYATLAS_PIPELINE=OFF skips the pipeline's (GDAL, PROJ, CGAL, ...).
+if(CITYATLAS_PIPELINE)
 # OpenImageIO: Debian's config names /usr/include/opencv4, which does not exist
 # unless libopencv-dev happens to be installed; point the target at /usr/include.
 find_package(OpenImageIO CONFIG REQUIRED)
@@ -15,9 +18,6 @@ find_package(GDAL CONFIG REQUIRED)
 find_package(PROJ CONFIG REQUIRED)
 find_package(CGAL CONFIG REQUIRED)
 find_package(TBB CONFIG REQUIRED)
-find_package(nlohmann_json 3 CONFIG REQUIRED)
-find_package(CLI11 CONFIG REQUIRED)
-find_package(fmt CONFIG REQUIRED)
 find_package(LibXml2 REQUIRED)
 # Debian's tinygltf: the tests read our glTF back with it (it has no Draco;
 # keep it out of libraries that link Draco, see ../shared/STACK.md).
@@ -26,8 +26,20 @@ find_package(TinyGLTF CONFIG REQUIRED)
 list(APPEND CMAKE_MODULE_PATH /usr/share/cmake/geographiclib)
 find_package(GeographicLib REQUIRED)
 
-# Tiles: S3TC encoders and Draco geometry (../shared/STACK.md).
-pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)  # stb_dxt, compiled in Debian's libstb
+find_package(meshoptimizer CONFIG REQUIRED)
+# tileset.json validation in `cityatlas inspect` (header-only), content hashes for `build`.
+find_package(valijson CONFIG REQUIRED)
+pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
+endif()
+
+# Both sides: JSON, messages, the command line.
+find_package(nlohmann_json 3 CONFIG REQUIRED)
+find_package(CLI11 CONFIG REQUIRED)
+find_package(fmt CONFIG REQUIRED)
+
+# S3TC (stb_dxt encodes, compiled in Debian's libstb; libsquish encodes and
+# decodes) and Draco geometry (../shared/STACK.md); the client decodes both.
+pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
 # libsquish's .pc file has an empty prefix: find it by hand.
 find_path(SQUISH_INCLUDE_DIR squish.h REQUIRED)
 find_library(SQUISH_LIBRARY squish REQUIRED)
@@ -35,10 +47,6 @@ add_library(squish::squish UNKNOWN IMPORTED)
 set_target_properties(squish::squish PROPERTIES IMPORTED_LOCATION ${SQUISH_LIBRARY}
                       INTERFACE_INCLUDE_DIRECTORIES ${SQUISH_INCLUDE_DIR})
 find_package(draco CONFIG REQUIRED)
-find_package(meshoptimizer CONFIG REQUIRED)
-# tileset.json validation in `cityatlas inspect` (header-only), content hashes for `build`.
-find_package(valijson CONFIG REQUIRED)
-pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
 
 # render: OpenGL 3.3 core through libepoxy; EGL surfaceless for headless
 # rendering (Mesa llvmpipe, no display), GLFW for the window; libcurl fetches
@@ -53,7 +61,7 @@ find_package(CURL REQUIRED)
 pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
 pkg_check_modules(IMGUI REQUIRED IMPORTED_TARGET imgui)
 
-if(CITYATLAS_BUILD_TESTS)
+if(CITYATLAS_BUILD_TESTS AND CITYATLAS_PIPELINE)
   find_package(GTest CONFIG REQUIRED)
   include(GoogleTest)
 endif()

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas {
 

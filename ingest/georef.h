@@ -86,7 +86,7 @@
 
 #include "ingest/local_frame.h"
 #include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas {
 

@@ -9,7 +9,7 @@
 #include <filesystem>
 
 #include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas {
 

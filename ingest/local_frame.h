@@ -21,7 +21,7 @@
 #include <string>
 
 #include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas {
 

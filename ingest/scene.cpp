@@ -6,13 +6,6 @@
 
 namespace cityatlas {
 
-double length(const Vec3d& a) { return std::sqrt(dot(a, a)); }
-
-void Box3d::extend(const Vec3d& p) {
-    min = {std::min(min.x, p.x), std::min(min.y, p.y), std::min(min.z, p.z)};
-    max = {std::max(max.x, p.x), std::max(max.y, p.y), std::max(max.z, p.z)};
-}
-
 std::string_view semanticName(SurfaceSemantic s) {
     switch (s) {
         case SurfaceSemantic::Unclassified: return "unclassified";

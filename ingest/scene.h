@@ -35,34 +35,9 @@
 #include <string_view>
 #include <vector>
 
+#include "core/geometry.h"
+
 namespace cityatlas {
-
-struct Vec2d {
-    double x = 0, y = 0;
-    friend bool operator==(const Vec2d&, const Vec2d&) = default;
-};
-
-struct Vec3d {
-    double x = 0, y = 0, z = 0;
-    friend bool operator==(const Vec3d&, const Vec3d&) = default;
-};
-
-inline Vec3d operator-(const Vec3d& a, const Vec3d& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-inline Vec3d operator+(const Vec3d& a, const Vec3d& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-inline Vec3d operator*(double s, const Vec3d& a) { return {s * a.x, s * a.y, s * a.z}; }
-inline double dot(const Vec3d& a, const Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline Vec3d cross(const Vec3d& a, const Vec3d& b) {
-    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-double length(const Vec3d& a);
-
-/// Axis-aligned box; empty while min > max.
-struct Box3d {
-    Vec3d min{1e300, 1e300, 1e300};
-    Vec3d max{-1e300, -1e300, -1e300};
-    bool empty() const { return min.x > max.x; }
-    void extend(const Vec3d& p);
-};
 
 /// What a surface is, as CityGML's thematic boundary surfaces say it (or as a
 /// reader infers it from the normal for LOD1 solids, which carry no semantics).

@@ -44,30 +44,21 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/geometry.h"
+#include "core/status.h"
+#include "format/glb_reader.h"
+#include "format/tile_mesh.h"
 
 namespace cityatlas::tiles {
 
-/// Name of the per-vertex feature id attribute (as in the debug glb).
-inline constexpr const char* kTileFeatureIdAttribute = "_FEATURE_ID_0";
-/// Per-vertex texture index (into the tileset's texture table; -1 untextured)
-/// and material index (into its material table; -1 none), lossless like feature ids.
-inline constexpr const char* kTileTextureIdAttribute = "_TEXTURE_ID";
-inline constexpr const char* kTileMaterialIdAttribute = "_MATERIAL_ID";
-/// Largest feature id written: float32 holds every integer up to 2^24 exactly.
-inline constexpr uint32_t kMaxTileFeatureId = 1u << 24;
-
-/// An indexed triangle mesh in double precision.
-struct TileMesh {
-    std::vector<Vec3d> positions;      ///< metres; world (or any frame), the centre is subtracted on writing
-    std::vector<Vec2d> uv_original;    ///< optional (empty = absent): TEXCOORD_0, original texture coordinates
-    std::vector<Vec2d> uv_atlas;       ///< optional: TEXCOORD_1 (TEXCOORD_0 without uv_original), atlas coordinates
-    std::vector<uint32_t> feature_id;  ///< optional, per vertex: building index, _FEATURE_ID_0 (float, lossless)
-    std::vector<int32_t> texture_id;   ///< optional, per vertex: _TEXTURE_ID, -1 = untextured (float, lossless)
-    std::vector<int32_t> material_id;  ///< optional, per vertex: _MATERIAL_ID, -1 = none (float, lossless)
-    std::vector<uint32_t> indices;     ///< triangles, counter-clockwise
-};
+// The mesh, its attribute names and the reader live in the format library
+// (format/tile_mesh.h, format/glb_reader.h), which the client links alone.
+using format::kMaxTileFeatureId;
+using format::kTileFeatureIdAttribute;
+using format::kTileMaterialIdAttribute;
+using format::kTileTextureIdAttribute;
+using format::TileMesh;
+using format::decodeTileGlb;
 
 struct DracoSettings {
     int position_bits = 14;  ///< 1..30
@@ -132,17 +123,5 @@ size_t drawableTriangles(const TileMesh& mesh, const Vec3d& centre);
 
 Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSettings& settings, GlbResult* out,
                      const nlohmann::json& extras = {});
-
-/// Reads a GLB written by encodeTileGlb: checks the GLB framing, parses the
-/// JSON chunk, finds the primitive's KHR_draco_mesh_compression blob in the BIN
-/// chunk and decodes it with draco::Decoder. Positions come back as the file's
-/// float32 + `centre` in double, uvs flipped back to v = 0 at the bottom,
-/// feature ids as integers. Decoded counts must match the accessors.
-///
-/// Fails with a one-line reason (truncated file, bad magic or version, no JSON
-/// chunk, JSON not parsable, no Draco primitive, blob outside the BIN chunk,
-/// Draco error, attribute of the wrong shape, ...) and never crashes or throws
-/// on arbitrary bytes; *out is only written on success.
-Status decodeTileGlb(const std::vector<uint8_t>& bytes, const Vec3d& centre, TileMesh* out);
 
 }  // namespace cityatlas::tiles

@@ -156,7 +156,9 @@ void validateSchema(const json& doc, Defects& out) {
         valijson::ValidationResults::Error e;
         while (results.popError(e)) errors.emplace_back(pointerOf(e.context), e.description);
         std::set<std::string> seen;
-        for (const auto& [where, what] : errors) {
+        for (const auto& error : errors) {
+            const std::string& where = error.first;  // not a structured binding: clang < 16 cannot capture one
+            const std::string& what = error.second;
             const std::string below = where == "/" ? "/" : where + "/";
             auto deeper = [&](const auto& o) { return o.first != where && o.first.rfind(below, 0) == 0; };
             if (what.rfind("Failed to validate", 0) == 0 && std::any_of(errors.begin(), errors.end(), deeper)) continue;

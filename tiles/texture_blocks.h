@@ -17,7 +17,7 @@
 #include "atlas/atlas_tree.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/status.h"
 #include "tiles/texture_codec.h"
 
 namespace cityatlas::tiles {

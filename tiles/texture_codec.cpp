@@ -22,6 +22,9 @@
 namespace cityatlas::tiles {
 namespace {
 
+using format::dds_detail::blockSize;
+using format::dds_detail::fourCC;
+
 void checkImage(const Image8& img, const char* what) {
     if (img.channels != 3 && img.channels != 4)
         throw std::invalid_argument(fmt::format("{}: {} channels, expected 3 or 4", what, img.channels));
@@ -111,7 +114,6 @@ Image8 downsample(const Image8& src) {
     return dst;
 }
 
-constexpr size_t blockSize(int channels) { return channels == 3 ? 8 : 16; }
 
 // One 4x4 block as RGBA (the layout both encoders take), edges replicated.
 // Three-channel sources get alpha 255: squish's kDxt1 would otherwise turn
@@ -135,15 +137,11 @@ void put32(std::vector<uint8_t>& out, uint32_t v) {
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(v >> (8 * i)));  // DDS is little-endian
 }
 
-uint32_t fourCC(const char (&s)[5]) {
-    return uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 | uint32_t(uint8_t(s[2])) << 16 |
-           uint32_t(uint8_t(s[3])) << 24;
-}
 
 // DDS_HEADER flags and caps (Microsoft "DDS_HEADER structure").
 constexpr uint32_t kDdsdCaps = 0x1, kDdsdHeight = 0x2, kDdsdWidth = 0x4, kDdsdPixelFormat = 0x1000,
                    kDdsdMipMapCount = 0x20000, kDdsdLinearSize = 0x80000;
-constexpr uint32_t kDdpfFourCC = 0x4;
+using format::dds_detail::kDdpfFourCC;
 constexpr uint32_t kCapsComplex = 0x8, kCapsTexture = 0x1000, kCapsMipMap = 0x400000;
 
 }  // namespace
@@ -167,10 +165,6 @@ std::vector<Image8> mipChain(const Image8& base) {
     std::vector<Image8> chain{base};
     while (chain.back().width > 1 || chain.back().height > 1) chain.push_back(downsample(chain.back()));
     return chain;
-}
-
-size_t bcBlockBytes(int width, int height, int channels) {
-    return size_t((width + 3) / 4) * size_t((height + 3) / 4) * blockSize(channels);
 }
 
 std::vector<uint8_t> encodeBc(const Image8& image, BcQuality quality) {
@@ -198,32 +192,6 @@ std::vector<uint8_t> encodeBc(const Image8& image, BcQuality quality) {
                           }
                       });
     return out;
-}
-
-Image8 decodeBc(const std::vector<uint8_t>& blocks, int width, int height, int channels) {
-    if (channels != 3 && channels != 4)
-        throw std::invalid_argument(fmt::format("decodeBc: {} channels, expected 3 or 4", channels));
-    if (width < 1 || height < 1) throw std::invalid_argument("decodeBc: empty image");
-    if (blocks.size() != bcBlockBytes(width, height, channels))
-        throw std::invalid_argument(fmt::format("decodeBc: {} bytes for {}x{}, expected {}", blocks.size(), width,
-                                                height, bcBlockBytes(width, height, channels)));
-    Image8 img{width, height, channels, std::vector<uint8_t>(size_t(width) * size_t(height) * size_t(channels))};
-    const int bw = (width + 3) / 4, bh = (height + 3) / 4;
-    const size_t bsize = blockSize(channels);
-    const int flags = channels == 3 ? squish::kDxt1 : squish::kDxt5;
-    uint8_t rgba[64];
-    for (int by = 0; by < bh; ++by)
-        for (int bx = 0; bx < bw; ++bx) {
-            squish::Decompress(rgba, &blocks[(size_t(by) * size_t(bw) + size_t(bx)) * bsize], flags);
-            for (int py = 0; py < 4 && by * 4 + py < height; ++py)
-                for (int px = 0; px < 4 && bx * 4 + px < width; ++px) {
-                    const uint8_t* s = &rgba[(py * 4 + px) * 4];
-                    uint8_t* d = &img.pixels[(size_t(by * 4 + py) * size_t(width) + size_t(bx * 4 + px)) *
-                                             size_t(channels)];
-                    std::memcpy(d, s, size_t(channels));
-                }
-        }
-    return img;
 }
 
 std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality quality) {
@@ -266,39 +234,6 @@ std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality qualit
         out.insert(out.end(), blocks.begin(), blocks.end());
     }
     return out;
-}
-
-Status parseDdsHeader(const uint8_t* data, size_t size, DdsInfo* out) {
-    if (data == nullptr || size < 128)
-        return Status::Invalid(fmt::format("{} bytes: shorter than a DDS header (128)", size));
-    auto at = [&](size_t off) {
-        return uint32_t(data[off]) | uint32_t(data[off + 1]) << 8 | uint32_t(data[off + 2]) << 16 |
-               uint32_t(data[off + 3]) << 24;
-    };
-    if (at(0) != fourCC("DDS ")) return Status::Invalid("no DDS magic");
-    if (at(4) != 124) return Status::Invalid(fmt::format("DDS header size {} (expected 124)", at(4)));
-    if (at(76) != 32) return Status::Invalid(fmt::format("DDS pixel format size {} (expected 32)", at(76)));
-    if ((at(80) & kDdpfFourCC) == 0) return Status::Invalid("DDS pixel format is not a FourCC format");
-    DdsInfo d;
-    if (at(84) == fourCC("DXT1")) d.channels = 3;
-    else if (at(84) == fourCC("DXT5")) d.channels = 4;
-    else return Status::Invalid("DDS FourCC is neither DXT1 nor DXT5");
-    const uint32_t h = at(12), w = at(16), mips = std::max<uint32_t>(1, at(28));
-    // 2^16 is far above any texture this project writes and keeps every size below in range.
-    if (w < 1 || h < 1 || w > 65536 || h > 65536)
-        return Status::Invalid(fmt::format("DDS size {}x{} is out of range", w, h));
-    d.width = int(w);
-    d.height = int(h);
-    uint32_t full = 1;
-    for (uint32_t x = w, y = h; x > 1 || y > 1; x = std::max(1u, x / 2), y = std::max(1u, y / 2)) ++full;
-    if (mips > full)
-        return Status::Invalid(fmt::format("DDS claims {} mip levels, a {}x{} image has at most {}", mips, w, h, full));
-    d.mips = int(mips);
-    d.expected_bytes = 128;
-    for (int l = 0, x = d.width, y = d.height; l < d.mips; ++l, x = std::max(1, x / 2), y = std::max(1, y / 2))
-        d.expected_bytes += bcBlockBytes(x, y, d.channels);
-    *out = d;
-    return Status::Ok();
 }
 
 Status writeDds(const std::filesystem::path& path, const std::vector<Image8>& mips, BcQuality quality) {

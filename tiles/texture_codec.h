@@ -14,9 +14,18 @@
 #include <string_view>
 #include <vector>
 
-#include "ingest/status.h"
+#include "core/status.h"
+#include "format/dds.h"
 
 namespace cityatlas::tiles {
+
+// The read side (Image8, block sizes, the BC decoder, the DDS header) lives in
+// the format library, which the client links alone.
+using format::bcBlockBytes;
+using format::DdsInfo;
+using format::decodeBc;
+using format::Image8;
+using format::parseDdsHeader;
 
 /// Fast: stb_dxt with STB_DXT_HIGHQUAL, parallel per block row (TBB).
 /// Best: libsquish kColourClusterFit with uniform channel weights (the same
@@ -25,13 +34,6 @@ enum class BcQuality : uint8_t { Fast, Best };
 
 std::string_view bcQualityName(BcQuality q);  ///< "fast", "best"
 std::optional<BcQuality> bcQualityFromName(std::string_view name);
-
-/// 8-bit image, rows top-down (file order), 3 (RGB) or 4 (RGBA, straight alpha)
-/// channels, sRGB-encoded colour; alpha is linear coverage.
-struct Image8 {
-    int width = 0, height = 0, channels = 0;
-    std::vector<uint8_t> pixels;  ///< width*height*channels bytes
-};
 
 /// The full mip chain, base first, down to 1x1: each level halves each
 /// dimension (floor, at least 1) and is the box mean of the covered texels of
@@ -43,19 +45,11 @@ struct Image8 {
 /// Level 0 is a copy of `base`.
 std::vector<Image8> mipChain(const Image8& base);
 
-/// Block bytes of one level: 8 per 4x4 block for BC1 (3 channels), 16 for BC3.
-size_t bcBlockBytes(int width, int height, int channels);
-
 /// BC1 blocks (3 channels; opaque: alpha is never encoded, so no block uses
 /// BC1's transparent index) or BC3 blocks (4 channels) of one image, row-major
 /// blocks, partial edge blocks padded by replicating the last row/column.
 /// Deterministic for any thread count (each block is encoded on its own).
 std::vector<uint8_t> encodeBc(const Image8& image, BcQuality quality);
-
-/// Decodes BC1/BC3 blocks back to an Image8 of `channels` channels (3: BC1,
-/// 4: BC3) and exactly width x height (the padding is dropped), with
-/// squish::Decompress per block. For tests and PSNR reports.
-Image8 decodeBc(const std::vector<uint8_t>& blocks, int width, int height, int channels);
 
 /// A complete DDS file: "DDS " + 124-byte DDS_HEADER (flags
 /// CAPS|HEIGHT|WIDTH|PIXELFORMAT|MIPMAPCOUNT|LINEARSIZE, pitchOrLinearSize =
@@ -64,22 +58,6 @@ Image8 decodeBc(const std::vector<uint8_t>& blocks, int width, int height, int c
 /// then each level's blocks. `mips` is level 0 first; each further level must
 /// be the halved size of the one before (a chain may stop before 1x1).
 std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality quality);
-
-/// What a DDS header (as encodeDds writes it) says about its file.
-struct DdsInfo {
-    int width = 0, height = 0;
-    int mips = 0;      ///< dwMipMapCount, 0 read as 1
-    int channels = 0;  ///< 3: DXT1 (BC1), 4: DXT5 (BC3)
-    size_t expected_bytes = 0;  ///< 128 + bcBlockBytes of every level: the whole file
-};
-
-/// Parses the first 128 bytes of a DDS file (`size` may be the whole file or
-/// just its header): "DDS " magic, dwSize 124, a 32-byte pixel format with
-/// DDPF_FOURCC, FourCC DXT1 or DXT5, width and height >= 1 (and <= 2^16, so
-/// that expected_bytes cannot overflow), a mip count (0 read as 1) no longer
-/// than the full chain. Fails with a one-line reason; never reads past `size`.
-/// Does not compare expected_bytes with anything: the caller knows the length.
-Status parseDdsHeader(const uint8_t* data, size_t size, DdsInfo* out);
 
 /// encodeDds written to `path` through a sibling temporary file and a rename,
 /// so a reader never sees a partial file; the error names the file.

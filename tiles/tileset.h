@@ -49,7 +49,7 @@
 #include "atlas/atlas_tree.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/status.h"
 #include "tiles/glb_writer.h"
 #include "tiles/texture_codec.h"
 

@@ -27,7 +27,7 @@
 #include "ingest/diagnostics.h"
 #include "ingest/local_frame.h"
 #include "ingest/scene_sink.h"
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas {
 

@@ -16,7 +16,7 @@
 #include <filesystem>
 #include <string>
 
-#include "ingest/status.h"
+#include "core/status.h"
 
 namespace cityatlas::citygml {
 

@@ -16,7 +16,7 @@
 #include <string>
 
 #include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/status.h"
 #include "ingest/synth/facade_texture.h"
 
 namespace cityatlas::synth {

@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/status.h"
+#include "core/status.h"
 #include "ingest/synth/town.h"
 
 namespace cityatlas::synth {

@@ -43,6 +43,8 @@ Status parseCameraPath(const std::string& text, const std::string& where, Camera
         doc = json::parse(text);
     } catch (const json::parse_error& e) {
         return Status::Invalid(fmt::format("{}: not JSON (byte {})", where, e.byte));
+    } catch (const json::exception& e) {  // out_of_range: a number beyond double (1e999)
+        return Status::Invalid(fmt::format("{}: not JSON: {}", where, e.what()));
     }
     if (!doc.is_object()) return Status::Invalid(where + ": not a JSON object");
     CameraPath p;

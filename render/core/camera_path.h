@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/geometry.h"
+#include "core/status.h"
 
 namespace cityatlas::render {
 

@@ -9,7 +9,7 @@
 
 #include <array>
 
-#include "ingest/scene.h"
+#include "core/geometry.h"
 
 namespace cityatlas::render {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <utility>
 
-#include "ingest/status.h"
+#include "core/status.h"
 
 struct GLFWwindow;
 

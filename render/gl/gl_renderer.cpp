@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 
 #include "render/gl/gl_context.h"
-#include "tiles/texture_codec.h"
+#include "format/dds.h"
 
 namespace cityatlas::render {
 namespace {
@@ -152,9 +152,9 @@ Status checkTexture(const CompressedTexture& t, GLint max_size) {
         if (level.width != w || level.height != h)
             return Status::Invalid(fmt::format("texture: level {} is {}x{}, expected {}x{}", i, level.width,
                                             level.height, w, h));
-        if (level.bytes != tiles::bcBlockBytes(w, h, t.channels))
+        if (level.bytes != format::bcBlockBytes(w, h, t.channels))
             return Status::Invalid(fmt::format("texture: level {} has {} bytes, {}x{} BC{} needs {}", i, level.bytes, w,
-                                            h, t.channels == 3 ? 1 : 3, tiles::bcBlockBytes(w, h, t.channels)));
+                                            h, t.channels == 3 ? 1 : 3, format::bcBlockBytes(w, h, t.channels)));
         if (level.offset > t.data.size() || level.bytes > t.data.size() - level.offset)
             return Status::Invalid(fmt::format("texture: level {} lies outside the {} data bytes", i, t.data.size()));
         if (w == 1 && h == 1 && i + 1 < t.levels.size())
@@ -466,8 +466,8 @@ GpuTexture GlRenderer::upload(const CompressedTexture& t, bool wrap, Status* sta
             g.gpu_bytes += level.bytes;
             continue;
         }
-        const tiles::Image8 image =
-            tiles::decodeBc(std::vector<uint8_t>(blocks, blocks + level.bytes), level.width, level.height, t.channels);
+        const format::Image8 image =
+            format::decodeBc(std::vector<uint8_t>(blocks, blocks + level.bytes), level.width, level.height, t.channels);
         std::vector<uint8_t> rgba(static_cast<size_t>(level.width) * level.height * 4, 255);
         const size_t texels = static_cast<size_t>(level.width) * level.height;
         for (size_t p = 0; p < texels; ++p)

@@ -40,8 +40,8 @@
 #include <memory>
 #include <vector>
 
-#include "ingest/scene.h"
-#include "ingest/status.h"
+#include "core/geometry.h"
+#include "core/status.h"
 #include "render/core/decoded.h"
 #include "render/core/tileset_index.h"
 #include "render/core/view.h"

@@ -7,7 +7,7 @@
 
 #include <memory>
 
-#include "ingest/status.h"
+#include "core/status.h"
 #include "render/gl/gl_context.h"
 
 namespace cityatlas::render {

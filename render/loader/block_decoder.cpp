@@ -6,15 +6,15 @@
 
 #include <fmt/format.h>
 
-#include "tiles/glb_writer.h"
-#include "tiles/texture_codec.h"
+#include "format/glb_reader.h"
+#include "format/dds.h"
 
 namespace cityatlas::render {
 
 Status decodeGeometryBlock(const TilesetIndex& index, BlockId id, const std::vector<uint8_t>& bytes, MeshData* out) {
     const BlockInfo& info = index.blocks[id];
-    tiles::TileMesh mesh;
-    if (Status st = tiles::decodeTileGlb(bytes, {0, 0, 0}, &mesh); !st.ok()) return Status::Invalid(info.uri + ": " + st.error);
+    format::TileMesh mesh;
+    if (Status st = format::decodeTileGlb(bytes, {0, 0, 0}, &mesh); !st.ok()) return Status::Invalid(info.uri + ": " + st.error);
     const NodeLayer& layer = index.nodes[static_cast<size_t>(info.node)].layers[static_cast<size_t>(info.layer)];
     const size_t triangles = mesh.indices.size() / 3;
     if (triangles != layer.triangles)
@@ -72,8 +72,8 @@ Status decodeGeometryBlock(const TilesetIndex& index, BlockId id, const std::vec
 }
 
 Status decodeDds(const uint8_t* data, size_t size, int expect_channels, CompressedTexture* out) {
-    tiles::DdsInfo info;
-    if (Status st = tiles::parseDdsHeader(data, size, &info); !st.ok()) return st;
+    format::DdsInfo info;
+    if (Status st = format::parseDdsHeader(data, size, &info); !st.ok()) return st;
     if (info.expected_bytes != size)
         return Status::Invalid(fmt::format("{} bytes, the DDS header needs {}", size, info.expected_bytes));
     if (expect_channels && info.channels != expect_channels)
@@ -88,7 +88,7 @@ Status decodeDds(const uint8_t* data, size_t size, int expect_channels, Compress
     uint64_t offset = 0;
     int w = info.width, h = info.height;
     for (int level = 0; level < info.mips; ++level) {
-        const uint64_t bytes = tiles::bcBlockBytes(w, h, info.channels);
+        const uint64_t bytes = format::bcBlockBytes(w, h, info.channels);
         t.levels.push_back({w, h, offset, bytes});
         offset += bytes;
         w = std::max(1, w / 2);

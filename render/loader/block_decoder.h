@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "ingest/status.h"
+#include "core/status.h"
 #include "render/core/decoded.h"
 #include "render/core/tileset_index.h"
 

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "ingest/status.h"
+#include "core/status.h"
 #include "render/core/decoded.h"
 #include "render/core/tileset_index.h"
 

@@ -90,6 +90,20 @@ TEST(CameraPath, ErrorsNameTheKeyframe) {
     }
 }
 
+// Found by fuzz_camera_path: a number beyond double made json::parse throw
+// out_of_range, which nothing caught (`render --path` aborted).
+TEST(CameraPath, NumberBeyondDoubleIsAnErrorNotAnException) {
+    for (const char* text : {"[1e999]", R"({"keyframes": [{"time_s": 1e400, "position": [0,0,0], "direction": [1,0,0]}]})"}) {
+        CameraPath p;
+        Status st;
+        ASSERT_NO_THROW(st = parseCameraPath(text, "cam.json", &p)) << text;
+        ASSERT_FALSE(st.ok()) << text;
+        EXPECT_EQ(st.error.rfind("cam.json: not JSON", 0), 0u) << st.error;
+        EXPECT_EQ(st.error.find('\n'), std::string::npos) << st.error;
+        EXPECT_TRUE(p.keys.empty());
+    }
+}
+
 TEST(CameraPath, DefaultPathSeesTheTownThenWalksAtEyeHeight) {
     const Box3d town = test::box(-300, -200, 10, 500, 400, 70);
     const CameraPath p = defaultPath(town, 10);

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "render/core/tileset_index.h"
+#include "format/tileset_index.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-namespace cityatlas::render {
+namespace cityatlas::format {
 namespace {
 using nlohmann::json;
 
@@ -266,4 +266,4 @@ Status parseTilesetIndex(const std::string& text, const std::string& where, Tile
     return Status::Ok();
 }
 
-}  // namespace cityatlas::render
+}  // namespace cityatlas::format
