@@ -14,6 +14,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -30,6 +31,7 @@
 #include <valijson/validation_results.hpp>
 #include <valijson/validator.hpp>
 
+#include "format/tileset_index.h"
 #include "tiles/glb_writer.h"
 #include "tiles/texture_codec.h"
 #include "tiles/tileset.h"
@@ -711,6 +713,31 @@ void summarise(const std::vector<Node>& nodes, InspectResult& r) {
 
 }  // namespace
 
+// The folder as the client reads it (format/tileset_index.h) must say what
+// this checker found: a folder inspect passes and the client refuses, or
+// reads differently, is a defect of one of the two readers.
+void checkAgainstClientModel(const fs::path& folder, const InspectResult& r, Defects& d) {
+    std::ifstream f(folder / "tileset.json", std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    format::TilesetIndex index;
+    if (Status st = format::parseTilesetIndex(text, "tileset.json", &index); !st.ok()) {
+        d.push_back(fmt::format("tileset.json: the client's reader refuses it: {}", st.error));
+        return;
+    }
+    auto same = [&](const char* what, uint64_t client, uint64_t here) {
+        if (client != here)
+            d.push_back(fmt::format("tileset.json: the client's reader finds {} {}, inspect {}", client, what, here));
+    };
+    same("nodes", index.nodes.size(), r.nodes);
+    same("texture entries", index.textures.size(), r.textures);
+    same("texture blocks", index.texture_block_ids.size(), r.texture_blocks);
+    same("features", index.feature_count, r.features);
+    same("feature tables", index.feature_tables.size(), r.feature_tables);
+    same("geometry bytes", index.bytes_by_kind[static_cast<int>(format::BlockKind::Geometry)], r.bytes_geometry);
+    same("atlas bytes", index.bytes_by_kind[static_cast<int>(format::BlockKind::Atlas)], r.bytes_atlases);
+    same("texture block bytes", index.bytes_by_kind[static_cast<int>(format::BlockKind::Textures)], r.bytes_textures);
+}
+
 InspectResult inspectTileFolder(const fs::path& folder, int threads) {
     InspectResult r;
     Defects& d = r.defects;
@@ -870,6 +897,7 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
     } catch (const BadEntry& e) {
         d.push_back(fmt::format("tileset.json: /extras/cityatlas/totals: {}", e.what()));
     }
+    if (d.empty()) checkAgainstClientModel(folder, r, d);
     r.files_checked = files.files_checked;
     return r;
 }
