@@ -91,6 +91,7 @@ int runAtlas(const AtlasCliOptions& opt) {
     std::error_code ec;
     if (target.empty() || target == "." || target == "/")
         return cli::fail("atlas", Status::Io(fmt::format("{}: refusing to use this as the output folder", opt.output)));
+    if (Status s = recoverInterruptedOutput(target); !s.ok()) return cli::fail("atlas", s);
     if (fs::exists(target, ec) && !opt.overwrite)
         return cli::fail("atlas", Status::Io(fmt::format("{}: already exists (use --overwrite to replace it)",
                                                             target.string())));

@@ -155,6 +155,8 @@ int runBuild(const BuildCliOptions& opt_in) {
     const std::vector<std::string> param_key = parameterKey(opt, params);
     const std::string inputs_key = inputsKey(param_key, input_digests);
     std::error_code ec;
+    // What a killed run left behind is undone first (ingest/output_folder.h).
+    if (Status s = recoverInterruptedOutput(target); !s.ok()) return fail(progress, s);
     if (fs::exists(target, ec)) {
         const auto previous = previousReport(target);
         std::string why;

@@ -208,10 +208,12 @@ Status writeTextAtomically(const fs::path& path, const std::string& text) {
     {
         std::ofstream os(tmp, std::ios::binary);
         os << text;
+        os.close();  // a full disk may show only here
         if (!os) {
+            const int err = errno;
             std::error_code ec;
             fs::remove(tmp, ec);
-            return Status::Io(fmt::format("io_error: {}: cannot write", path.string()));
+            return Status::Io(fmt::format("io_error: {}: cannot write: {}", path.string(), std::strerror(err)));
         }
     }
     std::error_code ec;
@@ -220,37 +222,7 @@ Status writeTextAtomically(const fs::path& path, const std::string& text) {
     return Status::Ok();
 }
 
-Status replaceFolder(const fs::path& finished, const fs::path& target) {
-    std::error_code ec;
-    // The old folder moves aside first, so a reader sees either the old or the
-    // new one complete, never a mixture; only the rename gap shows neither.
-    const fs::path old = target.parent_path() / (target.filename().string() + ".old");
-    fs::remove_all(old, ec);
-    const bool had_old = fs::exists(target, ec);
-    if (had_old) {
-        fs::rename(target, old, ec);
-        if (ec) return Status::Io(fmt::format("{}: cannot move the previous output aside: {}", target.string(), ec.message()));
-    }
-    fs::rename(finished, target, ec);
-    if (ec) {
-        std::error_code ignored;
-        if (had_old) fs::rename(old, target, ignored);
-        return Status::Io(fmt::format("{}: cannot move into place: {}", target.string(), ec.message()));
-    }
-    if (had_old) fs::remove_all(old, ec);
-    return Status::Ok();
-}
 
-Status startWorkingFolder(const std::filesystem::path& target, const std::filesystem::path& subfolder,
-                          std::filesystem::path* working) {
-    namespace fs = std::filesystem;
-    *working = target.parent_path() / (target.filename().string() + ".partial");
-    std::error_code ec;
-    fs::remove_all(*working, ec);
-    fs::create_directories(subfolder.empty() ? *working : *working / subfolder, ec);
-    if (ec) return Status::Io(fmt::format("{}: cannot create the working folder: {}", working->string(), ec.message()));
-    return Status::Ok();
-}
 
 void printWarnings(const Diagnostics& diagnostics) {
     if (!diagnostics.total()) return;

@@ -13,6 +13,7 @@
 #include "cli/progress.h"
 #include "ingest/citygml/citygml_reader.h"
 #include "ingest/georef.h"
+#include "ingest/output_folder.h"
 #include "ingest/scene_sink.h"
 
 namespace cityatlas::cli {
@@ -54,15 +55,8 @@ void printWarnings(const Diagnostics& diagnostics);
 /// Writes `text` to `path` through a sibling temporary file and a rename.
 Status writeTextAtomically(const std::filesystem::path& path, const std::string& text);
 
-/// Moves the finished folder `finished` to `target`, replacing what is there
-/// (moved aside first and removed after, so no half state stays behind).
-Status replaceFolder(const std::filesystem::path& finished, const std::filesystem::path& target);
-
-/// The sibling working folder `target`.partial, emptied and created (with
-/// `subfolder` inside when given): commands write there and replaceFolder() it
-/// into place at the end, so a failed or interrupted run never leaves a
-/// half-written output. The error names the folder.
-Status startWorkingFolder(const std::filesystem::path& target, const std::filesystem::path& subfolder,
-                          std::filesystem::path* working);
+// Output folders: replaceFolder(), startWorkingFolder() (ingest/output_folder.h).
+using cityatlas::replaceFolder;
+using cityatlas::startWorkingFolder;
 
 }  // namespace cityatlas::cli

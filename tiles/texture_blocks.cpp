@@ -2,6 +2,9 @@
 #include "tiles/texture_blocks.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -193,7 +196,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         if (progress) progress(done, blocks->textures.size() - exact);
         if (!any_readable) continue;
         f.close();
-        if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
+        if (!f) return Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
         written_bytes.push_back(offset);
     }
     blocks->block_bytes = std::move(written_bytes);

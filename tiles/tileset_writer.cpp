@@ -4,6 +4,9 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -35,11 +38,15 @@ double peakRssMb() {
     return static_cast<double>(u.ru_maxrss) / 1024.0;  // KiB on Linux
 }
 
+// C stdio, for the errno of a failure (a full disk often shows only at fclose).
 Status writeBytes(const fs::path& path, const void* data, size_t size) {
-    std::ofstream f(path, std::ios::binary);
-    f.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
-    f.close();
-    if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
+    const bool written = std::fwrite(data, 1, size, f) == size;
+    const int write_errno = errno;
+    const bool closed = std::fclose(f) == 0;
+    if (!written || !closed)
+        return Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(!written ? write_errno : errno)));
     return Status::Ok();
 }
 

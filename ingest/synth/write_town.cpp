@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include "cityatlas_version.h"
+#include "ingest/output_folder.h"
 #include "ingest/synth/facade_texture.h"
 #include "ingest/triangulate.h"
 
@@ -202,19 +203,16 @@ Status writeTown(const Town& town, const fs::path& out_dir, bool overwrite, cons
     const fs::path target = out_dir.lexically_normal();
     if (target.empty() || target == "." || target == "/")
         return Status::Io(fmt::format("{}: refusing to use this as the output folder", out_dir.string()));
+    if (Status st = recoverInterruptedOutput(target); !st.ok()) return st;
     if (fs::exists(target, ec) && !overwrite)
         return Status::Io(fmt::format("{}: already exists (use --overwrite to replace it)", target.string()));
     if (target.has_parent_path()) {
         fs::create_directories(target.parent_path(), ec);
         if (ec) return Status::Io(fmt::format("{}: cannot create folder: {}", target.parent_path().string(), ec.message()));
     }
-    // Work in a sibling folder (same file system, so the final rename is atomic).
-    const fs::path tmp = target.parent_path() / (target.filename().string() + ".partial");
-    fs::remove_all(tmp, ec);
-    fs::create_directory(tmp, ec);
-    if (ec)
-        return Status::Io(fmt::format("{}: cannot create the working folder {}: {}", target.string(), tmp.string(),
-                                        ec.message()));
+    // Work in a sibling folder swapped into place at the end (ingest/output_folder.h).
+    fs::path tmp;
+    if (Status st = startWorkingFolder(target, {}, &tmp); !st.ok()) return st;
 
     auto fail = [&](Status s) {
         std::error_code ignored;
@@ -231,12 +229,7 @@ Status writeTown(const Town& town, const fs::path& out_dir, bool overwrite, cons
         os << makeTruth(town).dump(2) << '\n';
         if (!os) return fail(Status::Io(fmt::format("{}: write failed", (tmp / kTruthName).string())));
     }
-    if (fs::exists(target, ec)) {
-        fs::remove_all(target, ec);
-        if (ec) return fail(Status::Io(fmt::format("{}: cannot replace: {}", target.string(), ec.message())));
-    }
-    fs::rename(tmp, target, ec);
-    if (ec) return fail(Status::Io(fmt::format("{}: cannot move into place: {}", target.string(), ec.message())));
+    if (Status st = replaceFolder(tmp, target); !st.ok()) return fail(st);
     return Status::Ok();
 }
 
