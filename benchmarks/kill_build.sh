@@ -2,18 +2,18 @@
 # SIGKILL trials: `cityatlas build` killed at uniformly random moments over a
 # whole build (read, atlas, tiles, the final swap) must leave the previous
 # complete folder or none, never a partial one, and the next run must clean up
-# and succeed. Usage: benchmarks/kill_build.sh [TRIALS=24] [BUILDINGS=300]
-# Writes benchmarks/results/kill_build.tsv (one row per trial) and prints a summary.
+# and succeed. Usage: benchmarks/kill_build.sh [TRIALS=24] [BUILDINGS=1500]
+# Writes out/benchmarks/kill_build.tsv (one row per trial) and prints a summary.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TRIALS="${1:-24}"
-BUILDINGS="${2:-300}"
+BUILDINGS="${2:-1500}"
 BIN=./build/cli/cityatlas
 [ -x "$BIN" ] || ./scripts/build > /dev/null
 WORK=$(mktemp -d /tmp/cityatlas_kill.XXXXXX)
 trap 'rm -rf "$WORK"' EXIT
-mkdir -p benchmarks/results
-OUT_TSV=benchmarks/results/kill_build.tsv
+mkdir -p out/benchmarks
+OUT_TSV=out/benchmarks/kill_build.tsv
 
 "$BIN" synth -q --buildings "$BUILDINGS" --seed 9 --texture-size 128 -o "$WORK/town" > /dev/null
 t0=$(date +%s.%N)
@@ -31,7 +31,7 @@ for trial in $(seq "$TRIALS"); do
   sleep "$at"
   kill -9 "$pid" 2>/dev/null || true
   wait "$pid" 2>/dev/null || true
-  stage=$(tr '\r' '\n' < "$WORK/progress.txt" | grep -v '^$' | tail -1 | cut -c1-40 | tr '\t' ' ')
+  stage=$( (tr '\r' '\n' < "$WORK/progress.txt" | grep -v '^$' || true) | tail -1 | cut -c1-40 | tr '\t' ' ')
   [ -n "$stage" ] || stage="-"
   found=none inspect=-
   if [ -e "$WORK/out" ]; then
