@@ -136,6 +136,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
                             {"needed_missing", r.needed_missing},
                             {"ideal_cut_by_budget", r.ideal_cut}}},
             {"errors", r.errors},
+            {"failed_blocks", r.failed_blocks},
             {"camera", {{"position", {s.position.x, s.position.y, s.position.z}},
                         {"direction", {s.direction.x, s.direction.y, s.direction.z}},
                         {"fov_deg", s.fov_deg}}},

@@ -18,6 +18,22 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
+// Nesting depth of arrays and objects, without recursion: json::dump recurses
+// once per level, so a record nested 20000 deep would overflow the stack.
+size_t nestingDepth(const nlohmann::json& j) {
+    size_t deepest = 0;
+    std::vector<std::pair<const nlohmann::json*, size_t>> todo{{&j, 1}};
+    while (!todo.empty()) {
+        const auto [v, depth] = todo.back();
+        todo.pop_back();
+        if (!v->is_structured()) continue;
+        deepest = std::max(deepest, depth);
+        for (const nlohmann::json& c : *v) todo.emplace_back(&c, depth + 1);
+    }
+    return deepest;
+}
+constexpr size_t kMaxRecordNesting = 64;
+
 }  // namespace
 
 const char* textureModeName(TextureMode mode) {
@@ -44,14 +60,22 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
     std::unique_ptr<StreamingClient> c(new StreamingClient());
     c->base_ = base;
     c->options_ = options;
-    std::string text;
-    if (Status st = fetchTilesetText(base, &text); !st.ok()) {
-        *status = st;
-        return nullptr;
-    }
-    if (Status st = parseTilesetIndex(text, base, &c->index_); !st.ok()) {
-        *status = st;
-        return nullptr;
+    // The index over HTTP is tried again on a failure that a flaky server or
+    // network explains (a 5xx, a reset, a cut or lying body that does not
+    // parse): five attempts over about 4 s. A folder on disk is read once.
+    const int attempts = isUrl(base) ? 5 : 1;
+    for (int attempt = 1;; ++attempt) {
+        std::string text;
+        Status st = fetchTilesetText(base, &text);
+        const bool permanent = !st.ok() && st.code != StatusCode::kIo;  // e.g. a 404: no tile folder there
+        if (st.ok()) st = parseTilesetIndex(text, base, &c->index_);
+        if (st.ok()) break;
+        if (attempt >= attempts || permanent) {
+            *status = st;
+            return nullptr;
+        }
+        c->errors_.push_back(st.error);
+        std::this_thread::sleep_for(std::chrono::milliseconds(250 << (attempt - 1)));
     }
     if (Status st = BlockManager::checkBudget(c->index_, options.budget_bytes); !st.ok()) {
         *status = Status::Io(fmt::format("{}: {}", base, st.error));
@@ -184,7 +208,10 @@ uint32_t StreamingClient::upload(double budget_ms, double* spent_ms) {
             if (!ok) r.message = fmt::format("{}: {}", index_.blocks[r.id].uri, st.error);
         }
         if (!ok) errors_.push_back(r.message.empty() ? index_.blocks[r.id].uri + ": " + loadErrorName(r.error) : r.message);
-        manager_->finished(r.id, ok);
+        // Only the server's or the network's trouble is worth another try later.
+        const bool transient = r.error == LoadError::Http || r.error == LoadError::Network ||
+                               r.error == LoadError::Timeout || r.error == LoadError::Truncated;
+        manager_->finished(r.id, ok, transient);
         ++done;
     }
     arrived_.erase(arrived_.begin(), arrived_.begin() + static_cast<std::ptrdiff_t>(i));
@@ -353,6 +380,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.needed_missing = b.needed_missing;
     rec.ideal_cut = b.ideal_cut;
     rec.errors = errors_.size();
+    rec.failed_blocks = manager_->stats().failed_blocks;
     rec.evictions = b.evictions;
     rec.cancellations = b.cancellations;
     return rec;
@@ -384,6 +412,9 @@ Status StreamingClient::featureRecord(uint32_t feature, std::string* json_text) 
         const nlohmann::json doc = nlohmann::json::parse(it->second);
         for (const nlohmann::json& f : doc.at("features"))
             if (f.value("id", -1LL) == static_cast<long long>(feature)) {
+                if (nestingDepth(f) > kMaxRecordNesting)
+                    return Status::Invalid(fmt::format("{}: feature {} is nested deeper than {} levels",
+                                                       index_.feature_tables[table].uri, feature, kMaxRecordNesting));
                 *json_text = f.dump(1);
                 return Status::Ok();
             }

@@ -63,6 +63,7 @@ struct FrameRecord {
     uint32_t ideal_blocks = 0, ideal_missing = 0, needed_missing = 0;
     bool ideal_cut = false;
     uint64_t errors = 0;         ///< failed loads so far
+    uint32_t failed_blocks = 0;  ///< blocks failed now (transient ones are tried again after a cool-down)
     uint64_t evictions = 0, cancellations = 0;  ///< so far
 };
 

@@ -8,7 +8,12 @@
 namespace cityatlas::render {
 
 BlockManager::BlockManager(const TilesetIndex& index, const BudgetParams& params)
-    : index_(index), params_(params), state_(index.blocks.size(), BlockState::Absent), in_ideal_(index.blocks.size(), 0) {}
+    : index_(index),
+      params_(params),
+      state_(index.blocks.size(), BlockState::Absent),
+      in_ideal_(index.blocks.size(), 0),
+      retry_from_update_(index.blocks.size(), 0),
+      failures_(index.blocks.size(), 0) {}
 
 Status BlockManager::checkBudget(const TilesetIndex& index, uint64_t budget_bytes) {
     uint64_t root = 0;
@@ -29,6 +34,13 @@ BlockActions BlockManager::update(const Classification& c) {
     BlockActions actions;
     const size_t n = index_.blocks.size();
     auto bytes = [&](BlockId b) { return index_.blocks[b].bytes; };
+    ++updates_;
+    // Transient failures whose cool-down is over become candidates again.
+    for (BlockId b = 0; b < n; ++b)
+        if (state_[b] == BlockState::Failed && retry_from_update_[b] != 0 && updates_ >= retry_from_update_[b]) {
+            state_[b] = BlockState::Absent;
+            retry_from_update_[b] = 0;
+        }
 
     // The ideal block set: the longest prefix of the candidates that fits.
     std::fill(in_ideal_.begin(), in_ideal_.end(), 0);
@@ -127,10 +139,17 @@ BlockActions BlockManager::update(const Classification& c) {
     return actions;
 }
 
-bool BlockManager::finished(BlockId id, bool ok) {
+bool BlockManager::finished(BlockId id, bool ok, bool transient) {
     if (id >= state_.size() || state_[id] != BlockState::Requested) return false;
     const uint64_t b = index_.blocks[id].bytes;
     state_[id] = ok ? BlockState::Resident : BlockState::Failed;
+    if (ok) {
+        failures_[id] = 0;
+    } else if (transient) {
+        const uint32_t shift = std::min<uint32_t>(failures_[id], 6);  // 8 << 6 = 512
+        retry_from_update_[id] = updates_ + std::min(kMaxFailureCooldownUpdates, kFailureCooldownUpdates << shift);
+        if (failures_[id] < UINT16_MAX) ++failures_[id];
+    }
     stats_.requested_bytes -= std::min(stats_.requested_bytes, b);
     if (stats_.requested_blocks) --stats_.requested_blocks;
     if (ok) {

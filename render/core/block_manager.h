@@ -65,8 +65,15 @@ public:
 
     /// A requested block finished: Resident (ok) or Failed. Ignored for a
     /// block that is no longer Requested (cancelled meanwhile); returns false then,
-    /// and the caller drops the data.
-    bool finished(BlockId id, bool ok);
+    /// and the caller drops the data. A `transient` failure (a 5xx, a reset, a
+    /// timeout, a short body: the loader's own retries ran out) is tried again
+    /// after a cool-down of kFailureCooldownUpdates updates, doubling with each
+    /// further failure of the block up to kMaxFailureCooldownUpdates: so the
+    /// ideal set is complete again once a flaky server recovers. A permanent
+    /// one (404, bytes that do not decode) stays Failed.
+    bool finished(BlockId id, bool ok, bool transient = false);
+    static constexpr uint32_t kFailureCooldownUpdates = 8;
+    static constexpr uint32_t kMaxFailureCooldownUpdates = 512;
 
     void setBudget(uint64_t budget_bytes) { params_.budget_bytes = budget_bytes; }
     void setMaxRequests(uint32_t n) { params_.max_requests = n; }
@@ -84,6 +91,11 @@ private:
     BudgetParams params_;
     std::vector<BlockState> state_;
     std::vector<uint8_t> in_ideal_;
+    // Transient failures: the update from which the block may be tried again
+    // (0: never), and its consecutive failures.
+    std::vector<uint64_t> retry_from_update_;
+    std::vector<uint16_t> failures_;
+    uint64_t updates_ = 0;
     std::vector<BlockId> ideal_;
     BudgetStats stats_;
 };

@@ -111,6 +111,8 @@ Status fetchText(const std::string& source, const std::string& uri, std::string*
     curl_easy_cleanup(easy);
     if (rc != CURLE_OK)
         return Status::Io(fmt::format("{}: cannot fetch: {}", where, error[0] ? error : curl_easy_strerror(rc)));
+    if (status == 404 || status == 410)
+        return Status::Invalid(fmt::format("{}: HTTP {} (no cityatlas tile folder there)", where, status));
     if (status != 200) return Status::Io(fmt::format("{}: HTTP {}", where, status));
     text->assign(body.begin(), body.end());
     return Status::Ok();

@@ -252,5 +252,32 @@ TEST(BlockManager, FailedBlocksLeaveTheIdealSetAndAreNotRetried) {
     EXPECT_EQ(m.stats().failed_blocks, 1u);
 }
 
+TEST(BlockManager, TransientFailuresAreTriedAgainAfterACooldownThatDoubles) {
+    World w;
+    BlockManager m(w.index, {w.index.bytes_total, 64});
+    BlockActions a = m.update(classifyBlocks(w.index, w.camera, {}));
+    ASSERT_GE(a.request.size(), 3u);
+    const BlockId flaky = a.request[1];
+    // Fails transiently twice, then the server is back.
+    for (int failure = 0; failure < 2; ++failure) {
+        for (const BlockId b : a.request) m.finished(b, b != flaky, /*transient=*/true);
+        ASSERT_EQ(m.state(flaky), BlockState::Failed);
+        const uint32_t cooldown = BlockManager::kFailureCooldownUpdates << failure;  // 8, then 16
+        uint32_t updates = 0;
+        do {
+            a = m.update(classifyBlocks(w.index, w.camera, {}));
+            ++updates;
+            ASSERT_LE(updates, cooldown) << "not tried again within its cool-down";
+            if (std::find(a.request.begin(), a.request.end(), flaky) != a.request.end()) break;
+            for (const BlockId b : a.request) m.finished(b, true);  // everything else loads
+        } while (true);
+        EXPECT_EQ(updates, cooldown) << "tried again before its cool-down was over";
+    }
+    for (const BlockId b : a.request) m.finished(b, true);
+    a = m.update(classifyBlocks(w.index, w.camera, {}));
+    EXPECT_EQ(m.state(flaky), BlockState::Resident);
+    EXPECT_TRUE(m.idealComplete());
+}
+
 }  // namespace
 }  // namespace cityatlas::render
