@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 /// The atlas images of a finished tree structure: leaves resampled from the
-/// original textures, inner nodes as their children halved and tiled 2 x 2.
+/// original textures, inner nodes as their children's atlases halved and
+/// packed at the offsets placement.h gives.
 /// Internal to the atlas stage (buildAtlasTree calls it); exposed for tests.
 
 #include <filesystem>

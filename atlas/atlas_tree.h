@@ -4,12 +4,14 @@
 /// The atlas stage: Scene -> AtlasTree, the multiresolution texture-atlas tree
 /// of papers/001 §3-5 and papers/000 §4.5.
 ///
-/// Every node owns one A x A atlas per layer that textures all triangles of its
-/// subtree well enough for any camera at least `min_distance_m` from the
-/// node's bounds: no atlas texel covers more than one screen pixel (tau = 1) at
-/// the screen size and field of view the tree was built for. Leaves are filled
-/// from the original textures; an inner node's atlas is its children's atlases
-/// halved and tiled 2 x 2, so it serves from twice the largest child distance.
+/// Every node owns one atlas per layer, at most A x A and only as large as its
+/// content, that textures all triangles of its subtree well enough for any
+/// camera at least `min_distance_m` from the node's bounds: no atlas texel
+/// covers more than one screen pixel (tau = 1) at the screen size and field of
+/// view the tree was built for. Leaves are filled from the original textures;
+/// an inner node's atlas packs its children's atlases halved (placement.h:
+/// per-layer texel offsets), so it serves from twice its children's largest
+/// `sharp_from_m`.
 ///
 /// Layers. Triangles whose texture has an alpha channel (or whose material is
 /// transparent) are drawn in a second, blended pass; they get their own layer:
@@ -74,8 +76,9 @@ std::string_view filterName(ResampleFilter f);  ///< "box", "triangle", "mitchel
 std::optional<ResampleFilter> filterFromName(std::string_view name);
 
 struct AtlasParams {
-    /// Minimum camera distance for leaf atlases, metres. Unset: the scene's
-    /// bounding-box diagonal times `d_min_diagonal_fraction` (the papers' D/72).
+    /// Minimum camera distance for leaf atlases, metres. Unset: chosen from the
+    /// data (`d_min_from_data`, the default), or the scene's bounding-box
+    /// diagonal times `d_min_diagonal_fraction` (the papers' D/72).
     std::optional<double> d_min_m;
     double d_min_diagonal_fraction = 1.0 / 72.0;
     int atlas_size_px = 512;        ///< A, a power of two in [64, 4096]

@@ -609,7 +609,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     accountTexels(scene, *tree);
     if (flat.forced) {
         stats.leaves_below_resolution = flat.forced;
-        diagnostics.warn("atlas_resolution_lowered",
+        diagnostics.warn(warn::kAtlasResolutionLowered,
                          {"", 0, "", fmt::format("{} leaf node(s) could not pack at the resolution d_min asks for "
                                                  "(a critical triangle left unsplit, or a tree deeper than 31 levels); "
                                                  "their regions were scaled down, to {:.3g} at worst, and the "

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// `cityatlas ingest`: CityGML files -> Scene, with a debug glTF view and a
+// `cityatlas ingest`: CityGML files and footprint layers -> Scene, with a debug glTF view and a
 // JSON report.
 #include <glob.h>
 

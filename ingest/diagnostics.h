@@ -53,6 +53,8 @@ inline constexpr const char* kAdeIgnored = "ade_ignored";                    // 
 inline constexpr const char* kInputsOverlap = "inputs_overlap";              // two inputs share most buildings
 inline constexpr const char* kCrsNotGeoreferenced = "crs_not_georeferenced";  // local engineering CRS
 inline constexpr const char* kCrsVerticalIgnored = "crs_vertical_ignored";    // unusable height part of a compound CRS
+// Atlas stage:
+inline constexpr const char* kAtlasResolutionLowered = "atlas_resolution_lowered";  // forced leaf: below d_min's texels
 // Footprints:
 inline constexpr const char* kFootprintRepaired = "footprint_repaired";        // invalid polygon fixed by MakeValid
 inline constexpr const char* kFootprintUnrepairable = "footprint_unrepairable";  // MakeValid gave nothing: skipped

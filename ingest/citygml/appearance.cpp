@@ -108,6 +108,13 @@ void AppearanceStore::addParameterizedTexture(xmlNodePtr data, ThemeData& theme)
         rt.uv = std::move(uv);
         if (!theme.ring_texcoords.emplace(ring, std::move(rt)).second) theme.duplicate_ring_targets++;
     };
+    // CityGML 3.0 wraps targets in textureParameterization/TextureAssociation,
+    // which this reader does not follow yet: say so rather than drop silently.
+    if (child(data, "textureParameterization") && !child(data, "target")) {
+        theme.unsupported++;
+        unsupported_seen.emplace_back(lineOf(data), "ParameterizedTexture (CityGML 3.0 textureParameterization)");
+        return;
+    }
     for (xmlNodePtr target = firstChild(data); target; target = nextSibling(target)) {
         if (!isNamed(target, "target")) continue;
         const std::string target_id = stripHash(attribute(target, "uri"));
