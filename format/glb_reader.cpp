@@ -191,7 +191,9 @@ Status decodeTileGlb(const std::vector<uint8_t>& bytes, const Vec3d& centre, Til
         for (const json& e : *req)
             if (!e.is_string() || e.get_ref<const std::string&>() != kDracoExtension)
                 return fail(fmt::format("requires extension {}, which this reader does not know",
-                                        e.dump(-1, ' ', false, json::error_handler_t::replace)));
+                                        // only a string is dumped: dump recurses once per nesting level
+                                        e.is_string() ? e.dump(-1, ' ', false, json::error_handler_t::replace)
+                                                      : std::string("(not a string)")));
     }
     const json* meshes = member(gltf, "meshes");
     if (meshes == nullptr || !meshes->is_array() || meshes->size() != 1) return fail("expected exactly one mesh");

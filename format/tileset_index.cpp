@@ -182,6 +182,8 @@ Status parseTilesetIndex(const std::string& text, const std::string& where, Tile
         doc = json::parse(text);
     } catch (const json::parse_error& e) {
         return Status::Invalid(fmt::format("{}: not JSON (byte {}): {}", where, e.byte, e.what()));
+    } catch (const json::exception& e) {  // out_of_range: a number beyond double (1e999)
+        return Status::Invalid(fmt::format("{}: not JSON: {}", where, e.what()));
     }
     try {
         TilesetIndex& index = *out;

@@ -33,7 +33,10 @@ Vec3d catmullRom(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, const Vec3d&
 
 size_t CameraPath::frameCount() const {
     if (keys.empty()) return 0;
-    return static_cast<size_t>(std::floor(duration() * frame_rate + 1e-9)) + 1;
+    const double frames = std::floor(duration() * frame_rate + 1e-9);
+    // A span of 1e300 s saturates instead of overflowing the cast (undefined behaviour).
+    if (!(frames < 1e18)) return static_cast<size_t>(1e18);
+    return static_cast<size_t>(frames) + 1;
 }
 
 Status parseCameraPath(const std::string& text, const std::string& where, CameraPath* out) {
@@ -87,7 +90,10 @@ Status parseCameraPath(const std::string& text, const std::string& where, Camera
             d = target - key.position;
         }
         if (length(d) < 1e-12) return Status::Invalid(kw + ": the view direction has zero length");
-        key.direction = normalized(d);
+        // Scaled first: a long direction ([1e308, 1e308, 0]) would normalize to 0 (its length overflows).
+        const double m = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        if (!std::isfinite(m)) return Status::Invalid(kw + ": the view direction is not finite (look_at too far away)");
+        key.direction = normalized((1.0 / m) * d);
         if (const auto f = k.find("fov_deg"); f != k.end()) {
             if (!f->is_number() || !(f->get<double>() > 1 && f->get<double>() < 170))
                 return Status::Invalid(kw + ": \"fov_deg\" must be in (1, 170)");

@@ -782,6 +782,31 @@ TEST(TileGlb, ReaderSurvivesTruncationsBitFlipsAndGarbage) {
     EXPECT_NE(reason({}).find("truncated"), std::string::npos);
 }
 
+// Found with fuzz_glb: an extensionsRequired entry nested 20000 deep was
+// dumped into the message, and json::dump recurses once per level (a stack
+// overflow in the client's decoder from 40 kB of JSON).
+TEST(TileGlb, DeeplyNestedRequiredExtensionIsAnErrorNotAStackOverflow) {
+    const size_t depth = 20000;
+    std::string text = R"({"asset":{"version":"2.0"},"extensionsRequired":[)" + std::string(depth, '[') +
+                       std::string(depth, ']') + "]}";
+    text.append((4 - text.size() % 4) % 4, ' ');
+    std::vector<uint8_t> bytes;
+    auto put = [&](uint32_t v) {
+        for (int i = 0; i < 4; ++i) bytes.push_back(uint8_t(v >> (8 * i)));
+    };
+    put(0x46546C67);  // "glTF"
+    put(2);
+    put(uint32_t(12 + 8 + text.size()));
+    put(uint32_t(text.size()));
+    put(0x4E4F534A);  // "JSON"
+    bytes.insert(bytes.end(), text.begin(), text.end());
+    TileMesh out;
+    const Status st = decodeTileGlb(bytes, {}, &out);
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error.find("requires extension (not a string)"), std::string::npos) << st.error;
+    EXPECT_LT(st.error.size(), 200u) << "one short line";
+}
+
 // --- Files for the Khronos validator -------------------------------------------
 
 // Writes sample GLBs into $CITYATLAS_GLB_OUT (tests/cli/tiles_glb_valid.sh runs

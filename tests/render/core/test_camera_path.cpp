@@ -104,6 +104,31 @@ TEST(CameraPath, NumberBeyondDoubleIsAnErrorNotAnException) {
     }
 }
 
+// Found by fuzz_camera_path: a direction of 1e308s normalized to (0, 0, 0)
+// (its length overflows), look_at - position could be infinite, and a time
+// span of 1e300 s overflowed frameCount's cast to size_t (undefined behaviour).
+TEST(CameraPath, LongDirectionsNormalizeAndHugeSpansDoNotOverflow) {
+    CameraPath p;
+    ASSERT_TRUE(parseCameraPath(R"({"keyframes": [{"time_s": 0, "position": [0,0,0], "direction": [1e308,1e308,0]}]})",
+                                "cam.json", &p)
+                    .ok());
+    EXPECT_NEAR(p.keys[0].direction.x, std::sqrt(0.5), 1e-12);
+    EXPECT_NEAR(p.keys[0].direction.y, std::sqrt(0.5), 1e-12);
+    EXPECT_NEAR(length(p.keys[0].direction), 1, 1e-12);
+
+    const Status far = parseCameraPath(
+        R"({"keyframes": [{"time_s": 0, "position": [-1e308,0,10], "look_at": [1e308,0,10]}]})", "cam.json", &p);
+    ASSERT_FALSE(far.ok());
+    EXPECT_NE(far.error.find("keyframes[0]: the view direction is not finite"), std::string::npos) << far.error;
+
+    ASSERT_TRUE(parseCameraPath(R"({"frame_rate": 1000, "keyframes": [
+        {"time_s": -1e300, "position": [0,0,10], "direction": [0,1,0]},
+        {"time_s": 1e300, "position": [10,0,10], "direction": [0,1,0]}]})",
+                                "cam.json", &p)
+                    .ok());
+    EXPECT_EQ(p.frameCount(), static_cast<size_t>(1e18));
+}
+
 TEST(CameraPath, DefaultPathSeesTheTownThenWalksAtEyeHeight) {
     const Box3d town = test::box(-300, -200, 10, 500, 400, 70);
     const CameraPath p = defaultPath(town, 10);

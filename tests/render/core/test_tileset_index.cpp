@@ -137,5 +137,19 @@ TEST(TilesetIndex, RefusesWhatTheClientCannotUse) {
     }
 }
 
+// Found by fuzz_tileset_json: a number beyond double made json::parse throw
+// out_of_range past the parse_error handler (the client aborted on open).
+TEST(TilesetIndex, NumberBeyondDoubleIsOneLineNotAnException) {
+    for (const char* text : {"77.4E555", R"({"asset": {"version": "1.1"}, "geometricError": 1e999})"}) {
+        TilesetIndex ix;
+        Status st;
+        ASSERT_NO_THROW(st = parseTilesetIndex(text, "http://host/tiles/tileset.json", &ix)) << text;
+        ASSERT_FALSE(st.ok()) << text;
+        EXPECT_EQ(st.error.rfind("http://host/tiles/tileset.json: not JSON", 0), 0u) << st.error;
+        EXPECT_EQ(st.error.find('\n'), std::string::npos) << st.error;
+        EXPECT_TRUE(ix.nodes.empty() && ix.blocks.empty());
+    }
+}
+
 }  // namespace
 }  // namespace cityatlas::render

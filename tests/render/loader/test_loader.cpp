@@ -15,6 +15,7 @@
 
 #include <httplib.h>
 
+#include "render/client/streaming_client.h"
 #include "render/loader/block_decoder.h"
 #include "render/loader/loader.h"
 #include "tests/render/town_fixture.h"
@@ -345,6 +346,39 @@ TEST(Loader, ADeadServerIsOneClearLine) {
     EXPECT_EQ(st.error.find('\n'), std::string::npos);
     const Status folder = fetchTilesetText("/no/such/folder", &text);
     EXPECT_NE(folder.error.find("no such folder"), std::string::npos) << folder.error;
+}
+
+// Found with fuzz_feature_table: a feature record nested 20000 deep crashed
+// `view` (json::dump, which shows the record, recurses once per level).
+TEST(StreamingClient, DeeplyNestedFeatureRecordIsOneLineNotAStackOverflow) {
+    const fs::path dir = fs::path(testing::TempDir()) / "cityatlas_deep_feature";
+    fs::remove_all(dir);
+    fs::create_directories(dir / "features");
+    std::string table = R"({"first": 0, "features": [{"id": 0, "x": )" + std::string(20000, '[') +
+                        std::string(20000, ']') + R"(}, {"id": 1, "name": "fine"}]})";
+    std::ofstream(dir / "features" / "0.json", std::ios::binary) << table;
+    std::ofstream(dir / "tileset.json") << R"({"asset": {"version": "1.1"}, "extras": {"cityatlas": {
+      "format_version": 1,
+      "build": {"d_min_m": 300, "atlas_size_px": 256, "screen_width_px": 1920, "screen_height_px": 1080,
+                "vertical_fov_deg": 60, "focal_px": 935.3, "corner_factor": 1.44, "tau": 1},
+      "georeference": {}, "materials": [], "texture_blocks": [], "textures": [],
+      "features": {"count": 2, "block_size": 4096, "tables": [{"uri": "features/0.json", "bytes": 1}]}}},
+      "root": {"boundingVolume": {"box": [0, 0, 5, 10, 0, 0, 0, 10, 0, 0, 0, 5]},
+        "extras": {"cityatlas": {"id": 0, "min_distance_m": 300, "world_texel_m": 0.3, "centre": [0, 0, 5],
+          "layers": {"opaque": {"triangles": 2, "geometric_error_m": 0, "position_error_mm": 1,
+                                "geometry": {"uri": "geometry/opaque/0.glb", "bytes": 1000}, "atlas": null}}}}}})";
+    Status st;
+    ClientOptions options;
+    options.loader.decode_threads = 1;
+    const auto client = StreamingClient::open(dir.string(), options, &st);
+    ASSERT_TRUE(client) << st.error;
+    std::string record;
+    st = client->featureRecord(0, &record);
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error.find("features/0.json: feature 0 is nested deeper than 64 levels"), std::string::npos) << st.error;
+    ASSERT_TRUE(client->featureRecord(1, &record).ok());
+    EXPECT_NE(record.find("fine"), std::string::npos) << record;
+    fs::remove_all(dir);
 }
 
 }  // namespace
