@@ -14,6 +14,8 @@
 
 #include "ingest/citygml/citygml_reader.h"
 #include "ingest/scene_sink.h"
+#include "read_citygml.h"
+#include "test_support.h"
 
 namespace cityatlas {
 namespace {
@@ -24,20 +26,7 @@ fs::path corpus() {
     return fs::path(data ? data : "tests/data") / "citygml_quirks";
 }
 
-struct Read {
-    Status status;
-    Scene scene;
-    IngestState state;
-};
-
-std::unique_ptr<Read> read(const fs::path& file) {
-    auto r = std::make_unique<Read>();
-    SceneCollector collector;
-    r->state.sink = &collector;
-    r->status = readCityGml(file, r->state);
-    r->scene = std::move(collector.scene);
-    return r;
-}
+std::unique_ptr<test::Ingested> read(const fs::path& file) { return test::ingest(file); }
 
 struct Row {
     std::string file;

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "read_citygml.h"
 #include "test_support.h"
 
 #include <cmath>
@@ -23,21 +24,7 @@ namespace fs = std::filesystem;
 
 fs::path scratch(const std::string& name) { return test::scratchPath("cityatlas_test_reader", name); }
 
-struct Ingested {
-    Status status;
-    Scene scene;
-    IngestState state;
-};
-
-std::unique_ptr<Ingested> ingest(const fs::path& file, CityGmlOptions options = {}) {
-    auto r = std::make_unique<Ingested>();
-    SceneCollector collector;
-    r->state.options = options;
-    r->state.sink = &collector;
-    r->status = readCityGml(file, r->state);
-    r->scene = std::move(collector.scene);
-    return r;
-}
+using test::ingest;
 
 fs::path writeTown(const std::string& name, int lod, Vec3d origin, int epsg = 25832, uint32_t buildings = 40) {
     synth::TownSettings s;

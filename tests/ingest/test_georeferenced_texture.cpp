@@ -17,26 +17,19 @@
 #include "ingest/synth/orthophoto.h"
 #include "ingest/synth/town.h"
 #include "ingest/synth/write_town.h"
+#include "read_citygml.h"
 #include "test_support.h"
 
 namespace cityatlas {
 namespace {
 namespace fs = std::filesystem;
 
-struct Read {
-    Status status;
-    Scene scene;
-    IngestState state;
-};
+using Read = test::Ingested;
 
 std::unique_ptr<Read> read(const fs::path& file, const std::string& theme = "") {
-    auto r = std::make_unique<Read>();
-    SceneCollector collector;
-    r->state.sink = &collector;
-    r->state.options.theme = theme;
-    r->status = readCityGml(file, r->state);
-    r->scene = std::move(collector.scene);
-    return r;
+    CityGmlOptions options;
+    options.theme = theme;
+    return test::ingest(file, options);
 }
 
 fs::path writeTown(const std::string& name, synth::OrthophotoMode mode, int lod = 2) {
