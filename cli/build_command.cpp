@@ -283,7 +283,8 @@ int runBuild(const BuildCliOptions& opt_in) {
                         {"uv_atlas_texels_max", ts.max_uv_atlas_error_texels},
                         {"uv_original_texels_max", ts.max_uv_original_error_texels},
                         {"atlas_psnr_db_min", ts.atlas_psnr_min_db},
-                        {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db}};
+                        {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db},
+                        {"atlas_files_exact", ts.atlas_files_exact}};
     report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
     report["encoding"] = {{"bc_quality", tiles::bcQualityName(opt.tiles.bc_quality)},
                           {"atlas_mpix_per_s", ts.atlas_encode_mpix_per_s},

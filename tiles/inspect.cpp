@@ -31,6 +31,7 @@
 #include <valijson/validation_results.hpp>
 #include <valijson/validator.hpp>
 
+#include "format/tileset_document_json.h"
 #include "format/tileset_index.h"
 #include "tiles/glb_writer.h"
 #include "tiles/texture_codec.h"
@@ -297,54 +298,54 @@ struct Node {
     std::string where() const { return fmt::format("tileset.json: {} (node {})", pointer, id); }
 };
 
+// One tile through the format library's reader, the one the client's index
+// is built from (format/tileset_document.h): inspect checks what the client
+// reads, not a second reading of the file.
 void readNode(const json& tile, Node& n) {
-    const json& ca = member(member(tile, "extras"), "cityatlas");
-    n.id = count(ca, "id");
-    n.level = count(ca, "level");
-    n.quadrant = integer(ca, "quadrant");
-    n.bytes = count(ca, "bytes");
-    n.min_distance_m = number(ca, "min_distance_m");
-    n.sharp_from_m = number(ca, "sharp_from_m");
-    n.world_texel_m = number(ca, "world_texel_m");
-    n.geometric_error = number(tile, "geometricError");
-    n.transform = tile.contains("transform");
-    const json& c = arrayOf(ca, "centre");
-    if (c.size() != 3) throw BadEntry("'centre' has not 3 numbers");
-    n.centre = {numberOf(c[0], "centre"), numberOf(c[1], "centre"), numberOf(c[2], "centre")};
-    const json& box = arrayOf(member(tile, "boundingVolume"), "box");
-    if (box.size() != 12) throw BadEntry("'box' has not 12 numbers");
-    for (size_t k = 0; k < 12; ++k) n.box[k] = numberOf(box[k], "box");
-    const json& layers = member(ca, "layers");
-    for (const char* name : {"opaque", "alpha"}) {
-        if (!layers.is_object() || !layers.contains(name)) continue;
-        const json& L = layers[name];
+    format::TileEntry t;
+    if (Status st = format::readTileEntry(tile, n.pointer, &t); !st.ok()) {
+        // The reader's message starts with the pointer ("P: ..." or "P layer opaque: ..."); readTree adds it again.
+        std::string why = st.error;
+        if (why.rfind(n.pointer, 0) == 0) why.erase(0, why.find_first_not_of(".: ", n.pointer.size()));
+        throw BadEntry(why);
+    }
+    n.id = t.id;
+    n.level = t.level;
+    n.quadrant = t.quadrant;
+    n.bytes = static_cast<int64_t>(t.bytes);
+    n.min_distance_m = t.min_distance_m;
+    n.sharp_from_m = t.sharp_from_m;
+    n.world_texel_m = t.world_texel_m;
+    n.geometric_error = t.geometric_error;
+    n.transform = t.transform.has_value();
+    n.centre = t.centre;
+    n.box = t.box;
+    for (int li = 0; li < format::kTileLayers; ++li) {
+        const auto& e = t.layers[static_cast<size_t>(li)];
+        if (!e) continue;
         Layer l;
-        l.name = name;
-        l.geometry_uri = text(member(L, "geometry"), "uri");
-        l.geometry_bytes = count(member(L, "geometry"), "bytes");
-        l.triangles = count(L, "triangles");
-        l.geometric_error_m = number(L, "geometric_error_m");
-        if (const json& a = member(L, "atlas"); !a.is_null()) {
+        l.name = format::layerName(li);
+        l.geometry_uri = e->geometry.uri;
+        l.geometry_bytes = static_cast<int64_t>(e->geometry.bytes);
+        l.triangles = static_cast<int64_t>(e->triangles);
+        l.geometric_error_m = e->geometric_error_m;
+        if (e->atlas) {
             l.has_atlas = true;
-            l.atlas_uri = text(a, "uri");
-            l.atlas_bytes = count(a, "bytes");
-            l.atlas_format = text(a, "format");
-            l.atlas_w = count(a, "width_px");
-            l.atlas_h = count(a, "height_px");
-            const json& offset = arrayOf(a, "offset");
-            if (offset.size() != 2) throw BadEntry("'offset' has not 2 integers");
-            l.atlas_offset = {integerOf(offset[0], "offset"), integerOf(offset[1], "offset")};
-            l.atlas_mips = count(a, "mips");
+            l.atlas_uri = e->atlas->file.uri;
+            l.atlas_bytes = static_cast<int64_t>(e->atlas->file.bytes);
+            l.atlas_format = e->atlas->format;
+            l.atlas_w = e->atlas->width_px;
+            l.atlas_h = e->atlas->height_px;
+            l.atlas_offset = e->atlas->offset;
+            l.atlas_mips = e->atlas->mips;
         }
         n.layers.push_back(std::move(l));
     }
-    if (tile.contains("contents"))
-        for (const json& e : arrayOf(tile, "contents")) n.contents.push_back(text(e, "uri"));
-    for (const json& b : arrayOf(ca, "texture_blocks")) n.texture_blocks.push_back(integerOf(b, "texture_blocks"));
-    const json& f = member(ca, "features");
-    n.feature_count = count(f, "count");
-    for (const json& t : arrayOf(f, "tables")) n.feature_tables.push_back(integerOf(t, "tables"));
-    for (const json& t : arrayOf(f, "dropped")) n.dropped.push_back(integerOf(t, "dropped"));
+    n.contents = t.contents;
+    n.texture_blocks = t.texture_blocks;
+    n.feature_count = static_cast<int64_t>(t.feature_count);
+    n.feature_tables.assign(t.feature_tables.begin(), t.feature_tables.end());
+    n.dropped.assign(t.features_dropped.begin(), t.features_dropped.end());
     n.usable = true;
 }
 

@@ -105,7 +105,8 @@ struct TilesStats {
     uint64_t textures_written = 0, textures_unreadable = 0;
     uint64_t textures_exact = 0;           ///< held exactly by the atlases: no original written
     uint64_t bytes_originals_bc = 0;       ///< every used texture as BC with mips (written or not): the ratio's base
-    double atlas_psnr_min_db = 0, atlas_psnr_mean_db = 0;  ///< BC level 0 vs the atlas PNG, RGB
+    double atlas_psnr_min_db = 0, atlas_psnr_mean_db = 0;  ///< BC level 0 vs the atlas PNG, RGB, over inexact atlases
+    uint64_t atlas_files_exact = 0;  ///< atlases whose BC level 0 equals the PNG (infinite PSNR, psnr_db null)
     double atlas_encode_mpix_per_s = 0;    ///< BC encoding of atlas mip chains (all levels), per second of encoding
     std::vector<TilesStepStats> steps;
 };

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The tile folder of tiles/tileset.h: geometry bottom-up, atlases, original
-// texture blocks, feature tables, then tileset.json.
+// texture blocks, feature tables, then tileset.json (a format::TilesetDocument,
+// serialized by the format library that the client and `inspect` read it with).
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -20,6 +21,7 @@
 #include <tbb/task_arena.h>
 
 #include "cityatlas_version.h"
+#include "format/tileset_document.h"
 #include "tiles/node_geometry.h"
 #include "tiles/texture_blocks.h"
 #include "tiles/tileset.h"
@@ -144,15 +146,6 @@ int uvOriginalBitsFor(const TileMesh& m, const std::vector<double>& texture_size
     for (int bits = floor; bits < 30; ++bits)
         if (0.5 * (hi - lo) / static_cast<double>((uint64_t{1} << bits) - 1) * texels <= 0.9 * target) return bits;
     return 30;
-}
-
-json box(const Box3d& b) {
-    const Vec3d c = centreOf(b), h = 0.5 * (b.max - b.min);
-    return json::array({c.x, c.y, c.z, h.x, 0.0, 0.0, 0.0, h.y, 0.0, 0.0, 0.0, h.z});
-}
-
-json matrixOrNull(const std::optional<std::array<double, 16>>& m) {
-    return m ? json(*m) : json(nullptr);
 }
 
 }  // namespace
@@ -367,8 +360,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     endStep("textures");
 
     // --- Feature tables.
+    format::TilesetDocument doc;
     const auto bs = static_cast<size_t>(std::max(1, params.feature_block_size));
-    json tables = json::array();
     for (size_t first = 0; first < scene.features.size(); first += bs) {
         json list = json::array();
         for (size_t id = first; id < std::min(scene.features.size(), first + bs); ++id) {
@@ -389,63 +382,81 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
             json({{"first", first}, {"features", list}}).dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
         const std::string uri = fmt::format("features/{}.json", first / bs);
         if (Status w = writeBytes(out_dir / uri, text.data(), text.size()); !w.ok()) return w;
-        tables.push_back({{"uri", uri}, {"bytes", text.size()}});
+        doc.feature_tables.push_back({uri, text.size()});
         stats.bytes_features += text.size();
         ++stats.feature_tables;
     }
+    doc.feature_count = scene.features.size();
+    doc.feature_block_size = static_cast<int64_t>(bs);
 
-    // --- tileset.json
+    // --- tileset.json: the document (format/tileset_document.h), tiles in preorder.
     double psnr_sum = 0;
     uint64_t psnr_n = 0, atlas_texels = 0;
     double atlas_seconds = 0;
     stats.atlas_psnr_min_db = std::numeric_limits<double>::infinity();
-    std::function<json(int32_t, int)> tile = [&](int32_t id, int quadrant) -> json {
+    std::function<void(int32_t, int32_t, int)> tile = [&](int32_t id, int32_t parent, int quadrant) {
         const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
         const NodeRecord& rec = records[static_cast<size_t>(id)];
-        const Vec3d centre = centreOf(node.bounds);
-        json layers = json::object(), contents = json::array();
-        uint64_t node_bytes = 0;
+        const auto index = static_cast<int32_t>(doc.tiles.size());
+        format::TileEntry t;
+        t.parent = parent;
+        t.id = id;
+        t.level = node.level;
+        t.quadrant = quadrant;
+        t.min_distance_m = node.min_distance_m;
+        t.sharp_from_m = node.sharp_from_m;
+        t.world_texel_m = node.min_distance_m / ppm;
+        t.centre = centreOf(node.bounds);
+        const Vec3d h = 0.5 * (node.bounds.max - node.bounds.min);
+        t.box = {t.centre.x, t.centre.y, t.centre.z, h.x, 0.0, 0.0, 0.0, h.y, 0.0, 0.0, 0.0, h.z};
+        t.geometric_error = node.min_distance_m / focal;
         for (int li = 0; li < atlas::kLayerCount; ++li) {
             const LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
             if (!lr.present) continue;
-            json atlas_json = nullptr;
+            format::LayerEntry le;
             const atlas::NodeLayer& nl = node.layers[static_cast<size_t>(li)];
             if (!lr.atlas_uri.empty()) {
-                atlas_json = {{"uri", lr.atlas_uri},
-                              {"bytes", lr.atlas_bytes},
-                              {"format", li == static_cast<int>(Layer::Alpha) ? "BC3" : "BC1"},
-                              {"width_px", nl.width},
-                              {"height_px", nl.height},
-                              {"offset", {nl.offset[0], nl.offset[1]}},
-                              {"mips", lr.atlas_mips},
-                              {"psnr_db", std::round(lr.atlas_psnr_db * 100.0) / 100.0}};
+                format::AtlasEntry ae;
+                ae.file = {lr.atlas_uri, lr.atlas_bytes};
+                ae.format = li == static_cast<int>(Layer::Alpha) ? "BC3" : "BC1";
+                ae.width_px = nl.width;
+                ae.height_px = nl.height;
+                ae.offset = nl.offset;
+                ae.mips = lr.atlas_mips;
+                // Infinite when BC reproduces the atlas exactly (flat colours): null in
+                // the file, and left out of the min and mean.
+                ae.psnr_db = std::isfinite(lr.atlas_psnr_db) ? std::round(lr.atlas_psnr_db * 100.0) / 100.0
+                                                             : lr.atlas_psnr_db;
+                le.atlas = ae;
                 ++stats.atlas_files;
                 stats.bytes_atlases += lr.atlas_bytes;
-                stats.atlas_psnr_min_db = std::min(stats.atlas_psnr_min_db, lr.atlas_psnr_db);
-                psnr_sum += lr.atlas_psnr_db;
-                ++psnr_n;
+                if (std::isfinite(lr.atlas_psnr_db)) {
+                    stats.atlas_psnr_min_db = std::min(stats.atlas_psnr_min_db, lr.atlas_psnr_db);
+                    psnr_sum += lr.atlas_psnr_db;
+                    ++psnr_n;
+                } else {
+                    ++stats.atlas_files_exact;
+                }
                 atlas_texels += lr.atlas_texels;
                 atlas_seconds += lr.atlas_encode_seconds;
             }
-            json& layer_json = layers[std::string(atlas::layerName(static_cast<Layer>(li)))];
-            layer_json = {
-                {"triangles", lr.triangles},
-                {"triangles_source", lr.triangles_source},
-                {"geometry", {{"uri", lr.geometry_uri}, {"bytes", lr.geometry_bytes}}},
-                {"geometric_error_m", lr.geometric_error_m},
-                {"position_error_mm", lr.position_error_m * 1000.0},
-                {"position_bits", lr.position_bits},
-                {"uv_atlas_error_texels", lr.uv_atlas_error_texels},
-                {"simplified", lr.simplified},
-                {"atlas", atlas_json}};
+            le.triangles = lr.triangles;
+            le.triangles_source = lr.triangles_source;
+            le.geometry = {lr.geometry_uri, lr.geometry_bytes};
+            le.geometric_error_m = lr.geometric_error_m;
+            le.position_error_mm = lr.position_error_m * 1000.0;
+            le.position_bits = lr.position_bits;
+            le.uv_atlas_error_texels = lr.uv_atlas_error_texels;
+            le.simplified = lr.simplified;
             if (lr.uv_original_error_texels >= 0) {
-                layer_json["uv_original_error_texels"] = lr.uv_original_error_texels;
-                layer_json["uv_original_bits"] = lr.uv_original_bits;
+                le.uv_original_error_texels = lr.uv_original_error_texels;
+                le.uv_original_bits = lr.uv_original_bits;
                 stats.max_uv_original_error_texels = std::max(stats.max_uv_original_error_texels, lr.uv_original_error_texels);
                 stats.uv_original_bits_max = std::max(stats.uv_original_bits_max, lr.uv_original_bits);
             }
-            contents.push_back({{"uri", lr.geometry_uri}});
-            node_bytes += lr.geometry_bytes + lr.atlas_bytes;
+            t.layers[static_cast<size_t>(li)] = std::move(le);
+            t.contents.push_back(lr.geometry_uri);
+            t.bytes += lr.geometry_bytes + lr.atlas_bytes;
             ++stats.geometry_files;
             stats.bytes_geometry += lr.geometry_bytes;
             stats.triangles_written += lr.triangles;
@@ -461,126 +472,81 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                     std::max(stats.max_geometric_error_fraction, lr.geometric_error_m / texel);
             stats.max_uv_atlas_error_texels = std::max(stats.max_uv_atlas_error_texels, lr.uv_atlas_error_texels);
         }
-        std::vector<uint32_t> feature_tables;
         for (uint32_t f : rec.features) {
-            const auto t = static_cast<uint32_t>(f / bs);
-            if (feature_tables.empty() || feature_tables.back() != t) feature_tables.push_back(t);
+            const auto table = static_cast<uint32_t>(f / bs);
+            if (t.feature_tables.empty() || t.feature_tables.back() != table) t.feature_tables.push_back(table);
         }
-        json ca = {{"id", id},
-                   {"level", node.level},
-                   {"quadrant", quadrant},
-                   {"min_distance_m", node.min_distance_m},
-                   {"sharp_from_m", node.sharp_from_m},
-                   {"world_texel_m", node.min_distance_m / ppm},
-                   {"centre", {centre.x, centre.y, centre.z}},
-                   {"layers", layers},
-                   {"features", {{"count", rec.features.size()}, {"dropped", rec.dropped}, {"tables", feature_tables}}},
-                   {"texture_blocks", blocks.node_blocks[static_cast<size_t>(id)]},
-                   {"bytes", node_bytes}};
-        json t = json::object();
-        t["boundingVolume"] = {{"box", box(node.bounds)}};
-        t["geometricError"] = node.min_distance_m / focal;
-        t["refine"] = "REPLACE";
-        if (!contents.empty()) t["contents"] = contents;
-        json children = json::array();
+        t.feature_count = rec.features.size();
+        t.features_dropped = rec.dropped;
+        for (const uint32_t b : blocks.node_blocks[static_cast<size_t>(id)]) t.texture_blocks.push_back(b);
+        doc.tiles.push_back(std::move(t));
         for (size_t q = 0; q < 4; ++q)
-            if (node.children[q] >= 0) children.push_back(tile(node.children[q], static_cast<int>(q)));
-        if (!children.empty()) t["children"] = children;
-        t["extras"] = {{"cityatlas", ca}};
+            if (node.children[q] >= 0) {
+                doc.tiles[static_cast<size_t>(index)].children.push_back(static_cast<int32_t>(doc.tiles.size()));
+                tile(node.children[q], index, static_cast<int>(q));
+            }
         ++stats.nodes;
         stats.leaves += node.leaf() ? 1 : 0;
         stats.depth = std::max<uint64_t>(stats.depth, static_cast<uint64_t>(node.level));
-        return t;
     };
-    json root = tile(0, -1);
-    if (scene.georef.local_to_ecef) root["transform"] = *scene.georef.local_to_ecef;
+    tile(0, -1, -1);
+    doc.tiles[0].transform = scene.georef.local_to_ecef;
     stats.root_features = records[0].features.size();
     stats.root_features_dropped = records[0].dropped;
     stats.atlas_psnr_mean_db = psnr_n ? psnr_sum / static_cast<double>(psnr_n) : 0;
     if (!psnr_n) stats.atlas_psnr_min_db = 0;
     stats.atlas_encode_mpix_per_s = atlas_seconds > 0 ? static_cast<double>(atlas_texels) / 1e6 / atlas_seconds : 0;
 
-    json materials = json::array();
     for (const Material& m : scene.materials)
-        materials.push_back({{"diffuse", m.diffuse}, {"transparency", m.transparency}});
-    json textures = json::array();
+        doc.materials.push_back({{m.diffuse[0], m.diffuse[1], m.diffuse[2]}, m.transparency});
     for (const TextureEntry& e : blocks.textures) {
-        const char* original = e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable";
-        textures.push_back({{"block", e.block},
-                            {"offset", e.offset},
-                            {"bytes", e.bytes},
-                            {"width", std::max(e.width, 1)},
-                            {"height", std::max(e.height, 1)},
-                            {"format", e.channels == 4 ? "BC3" : "BC1"},
-                            {"mips", std::max(e.mips, 1)},
-                            {"wrap", std::string(wrapModeName(e.wrap))},
-                            {"original", original}});
+        doc.textures.push_back({e.block, e.offset, e.bytes, std::max(e.width, 1), std::max(e.height, 1),
+                                e.channels == 4 ? "BC3" : "BC1", std::max(e.mips, 1), std::string(wrapModeName(e.wrap)),
+                                e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable"});
         if (e.block >= 0) ++stats.textures_written;
         else if (e.exact) ++stats.textures_exact;
         else ++stats.textures_unreadable;
         stats.bytes_originals_bc += atlas::bcBytesWithMips(std::max(e.width, 1), std::max(e.height, 1), e.channels);
     }
-    json texture_blocks = json::array();
     for (size_t b = 0; b < blocks.block_bytes.size(); ++b) {
-        texture_blocks.push_back({{"uri", fmt::format("textures/{}.bin", b)}, {"bytes", blocks.block_bytes[b]}});
+        doc.texture_blocks.push_back({fmt::format("textures/{}.bin", b), blocks.block_bytes[b]});
         stats.bytes_textures += blocks.block_bytes[b];
     }
     stats.texture_blocks = blocks.block_bytes.size();
 
     const Georeference& g = scene.georef;
+    doc.georeference = {g.source_crs, g.origin_source, g.grid_frame, g.local_to_ecef, g.enu_to_ecef};
     const atlas::AtlasParams& ap = tree.params;
-    json build = {{"d_min_m", tree.stats.d_min_used_m},
-                  {"d_min_requested_m", tree.stats.d_min_requested_m},
-                  {"atlas_size_px", A},
-                  {"border_px", ap.border_px},
-                  {"tau", 1.0},
-                  {"screen_width_px", ap.screen_width_px},
-                  {"screen_height_px", ap.screen_height_px},
-                  {"vertical_fov_deg", ap.vertical_fov_deg},
-                  {"focal_px", focal},
-                  {"corner_factor", tree.projection.corner_factor},
-                  {"filter", std::string(atlas::filterName(ap.filter))},
-                  {"packing", std::string(atlas::packingMethodName(ap.packing))},
-                  {"position_bits", params.draco.position_bits},
-                  {"position_error_target_mm", params.position_error_target_m * 1000.0},
-                  {"uv_bits", params.draco.uv_bits},
-                  {"bc_quality", std::string(bcQualityName(params.bc_quality))},
-                  {"originals", params.all_originals ? "all" : "needed"},
-                  {"d_min_chosen_by", tree.stats.d_min_choice.rule},
-                  {"node_triangles", params.node_triangles},
-                  {"geometry_encoder", fmt::format("Draco {} (KHR_draco_mesh_compression, speed {})",
-                                                   draco::kDracoVersion, params.draco.speed)},
-                  {"texture_encoder", params.bc_quality == BcQuality::Fast ? "stb_dxt (STB_DXT_HIGHQUAL)"
-                                                                            : "libsquish (cluster fit)"}};
-    json ca = {{"format_version", 1},
-               {"georeference", {{"source_crs", g.source_crs},
-                                 {"origin_source", {g.origin_source.x, g.origin_source.y, g.origin_source.z}},
-                                 {"grid_frame", g.grid_frame},
-                                 {"local_to_ecef", matrixOrNull(g.local_to_ecef)},
-                                 {"enu_to_ecef", matrixOrNull(g.enu_to_ecef)}}},
-               {"build", build},
-               {"materials", materials},
-               {"textures", textures},
-               {"texture_blocks", texture_blocks},
-               {"features", {{"count", scene.features.size()}, {"block_size", bs}, {"tables", tables}}},
-               {"totals", {{"nodes", stats.nodes},
-                           {"leaves", stats.leaves},
-                           {"depth", stats.depth},
-                           {"bytes", {{"geometry", stats.bytes_geometry},
-                                      {"atlases", stats.bytes_atlases},
-                                      {"textures", stats.bytes_textures},
-                                      {"features", stats.bytes_features},
-                                      {"originals_as_bc", stats.bytes_originals_bc}}},
-                           {"texture_ratio", textureRatio(stats)}}}};
-    json tileset = json::object();
-    tileset["asset"] = {{"version", "1.1"},
-                        {"generator", fmt::format("cityatlas {}", kCityAtlasVersion)},
-                        {"tilesetVersion", build_hash},
-                        {"gltfUpAxis", "Z"}};
-    tileset["geometricError"] = 2.0 * tree.nodes[0].min_distance_m / focal;
-    tileset["root"] = std::move(root);
-    tileset["extras"] = {{"cityatlas", ca}};
-    const std::string text = tileset.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+    format::BuildEntry& b = doc.build;
+    b.d_min_m = tree.stats.d_min_used_m;
+    b.d_min_requested_m = tree.stats.d_min_requested_m;
+    b.atlas_size_px = A;
+    b.border_px = ap.border_px;
+    b.tau = 1.0;
+    b.screen_width_px = ap.screen_width_px;
+    b.screen_height_px = ap.screen_height_px;
+    b.vertical_fov_deg = ap.vertical_fov_deg;
+    b.focal_px = focal;
+    b.corner_factor = tree.projection.corner_factor;
+    b.filter = atlas::filterName(ap.filter);
+    b.packing = atlas::packingMethodName(ap.packing);
+    b.position_bits = params.draco.position_bits;
+    b.position_error_target_mm = params.position_error_target_m * 1000.0;
+    b.uv_bits = params.draco.uv_bits;
+    b.bc_quality = bcQualityName(params.bc_quality);
+    b.originals = params.all_originals ? "all" : "needed";
+    b.d_min_chosen_by = tree.stats.d_min_choice.rule;
+    b.node_triangles = params.node_triangles;
+    b.geometry_encoder =
+        fmt::format("Draco {} (KHR_draco_mesh_compression, speed {})", draco::kDracoVersion, params.draco.speed);
+    b.texture_encoder = params.bc_quality == BcQuality::Fast ? "stb_dxt (STB_DXT_HIGHQUAL)" : "libsquish (cluster fit)";
+    doc.totals = {stats.nodes,          stats.leaves,        stats.depth,
+                  stats.bytes_geometry, stats.bytes_atlases, stats.bytes_textures,
+                  stats.bytes_features, stats.bytes_originals_bc, textureRatio(stats)};
+    doc.generator = fmt::format("cityatlas {}", kCityAtlasVersion);
+    doc.tileset_version = build_hash;
+    doc.geometric_error = 2.0 * tree.nodes[0].min_distance_m / focal;
+    const std::string text = format::writeTilesetDocument(doc);
     if (Status w = writeBytes(out_dir / "tileset.json", text.data(), text.size()); !w.ok()) return w;
     stats.bytes_tileset = text.size();
     endStep("index");

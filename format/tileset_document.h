@@ -1,0 +1,150 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// tileset.json as value types: everything the file says, field for field
+/// (tiles/tileset.h is the contract, schemas/tileset.schema.json its schema).
+/// One model of the folder's index for everyone: the writer fills a
+/// TilesetDocument and serializes it with writeTilesetDocument, `inspect`
+/// reads each tile with readTileEntry and checks it against the files, and
+/// the client's TilesetIndex (format/tileset_index.h) is derived from the
+/// document readTilesetDocument returns. writeTilesetDocument(read(text))
+/// reproduces the writer's text byte for byte (tests/format).
+///
+/// The reader is strict about what the client needs (a missing or
+/// ill-typed uri, byte size, box, centre, distance or build parameter is an
+/// error naming the node or entry) and lenient about what only reports use:
+/// a missing statistic takes its default (the schema check in `inspect`
+/// reports it), an ill-typed one is an error.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/geometry.h"
+#include "core/status.h"
+
+namespace cityatlas::format {
+
+inline constexpr int kTileLayers = 2;  ///< 0: opaque, 1: alpha (as format::kLayerCount)
+
+struct FileEntry {
+    std::string uri;     ///< relative to the folder, never leaving it
+    uint64_t bytes = 0;  ///< the file's size
+};
+
+struct AtlasEntry {
+    FileEntry file;
+    std::string format = "BC1";       ///< "BC1" (opaque) or "BC3" (alpha)
+    int width_px = 0, height_px = 0;
+    std::array<int64_t, 2> offset{};  ///< texels, in the level's virtual atlas (atlas/atlas_tree.h)
+    int mips = 0;
+    double psnr_db = 0;               ///< level 0 against the PNG atlas, 0.01 dB steps; +inf (null in the file): exact
+};
+
+struct LayerEntry {
+    uint64_t triangles = 0, triangles_source = 0;
+    FileEntry geometry;
+    double geometric_error_m = 0, position_error_mm = 0;
+    int position_bits = 0;
+    double uv_atlas_error_texels = 0;
+    bool simplified = false;
+    std::optional<AtlasEntry> atlas;                  ///< absent: the layer draws with material colours
+    std::optional<double> uv_original_error_texels;   ///< leaves with original uvs only
+    int uv_original_bits = 0;                         ///< with uv_original_error_texels
+};
+
+/// One tile (= one atlas-tree node); tiles are stored in depth-first preorder.
+struct TileEntry {
+    // 3D Tiles
+    std::array<double, 12> box{};      ///< boundingVolume.box: centre, then three half axes
+    double geometric_error = 0;        ///< min_distance_m / focal_px
+    std::string refine = "REPLACE";
+    std::optional<std::array<double, 16>> transform;  ///< root only: local_to_ecef
+    std::vector<std::string> contents;  ///< content uris: the present layers' geometry, opaque first
+    int32_t parent = -1;
+    std::vector<int32_t> children;     ///< preorder indices, quadrant order
+    // extras.cityatlas
+    int32_t id = 0;
+    int level = 0, quadrant = -1;      ///< quadrant in the parent; -1 for the root
+    double min_distance_m = 0, sharp_from_m = 0, world_texel_m = 0;
+    Vec3d centre;                      ///< geometry positions are relative to it
+    std::array<std::optional<LayerEntry>, kTileLayers> layers;
+    uint64_t feature_count = 0;
+    std::vector<uint32_t> features_dropped;  ///< features of the subtree this node's geometry lost
+    std::vector<uint32_t> feature_tables;    ///< indices of the tables holding its features
+    std::vector<int64_t> texture_blocks;     ///< leaves: texture block indices
+    uint64_t bytes = 0;                      ///< geometry + atlases of both layers
+    bool leaf() const { return children.empty(); }
+};
+
+struct TextureEntry {
+    int32_t block = -1;  ///< -1: not written (the leaf's atlas stands in)
+    uint64_t offset = 0, bytes = 0;
+    int width = 1, height = 1;
+    std::string format = "BC1";
+    int mips = 1;
+    std::string wrap = "repeat";    ///< "repeat" or "clamp"
+    std::string original;           ///< "written", "exact" or "unreadable"
+};
+
+struct MaterialEntry {
+    std::array<double, 3> diffuse{0.8, 0.8, 0.8};
+    double transparency = 0;
+};
+
+struct GeoreferenceEntry {
+    std::string source_crs;
+    Vec3d origin_source;
+    bool grid_frame = false;
+    std::optional<std::array<double, 16>> local_to_ecef, enu_to_ecef;  ///< column-major; absent: null
+};
+
+struct BuildEntry {
+    double d_min_m = 0, d_min_requested_m = 0;
+    int atlas_size_px = 0, border_px = 0;
+    double tau = 1;
+    int screen_width_px = 0, screen_height_px = 0;
+    double vertical_fov_deg = 60, focal_px = 0, corner_factor = 1;
+    std::string filter, packing;
+    int position_bits = 0;
+    double position_error_target_mm = 0;
+    int uv_bits = 0;
+    std::string bc_quality, originals, d_min_chosen_by;
+    uint64_t node_triangles = 0;
+    std::string geometry_encoder, texture_encoder;
+};
+
+struct TotalsEntry {
+    uint64_t nodes = 0, leaves = 0, depth = 0;
+    uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0, bytes_originals_as_bc = 0;
+    double texture_ratio = 0;
+};
+
+struct TilesetDocument {
+    // asset
+    std::string version = "1.1", generator, tileset_version, gltf_up_axis = "Z";
+    double geometric_error = 0;
+    std::vector<TileEntry> tiles;  ///< preorder; 0 = root
+    // extras.cityatlas
+    int64_t format_version = 1;
+    GeoreferenceEntry georeference;
+    BuildEntry build;
+    std::vector<MaterialEntry> materials;
+    std::vector<TextureEntry> textures;
+    std::vector<FileEntry> texture_blocks;
+    uint64_t feature_count = 0;
+    int64_t feature_block_size = 1;
+    std::vector<FileEntry> feature_tables;
+    TotalsEntry totals;
+};
+
+/// Parses tileset.json text; errors are one line starting with `where`.
+/// Tiles nested deeper than 64 levels are refused (the recursion is bounded).
+Status readTilesetDocument(const std::string& text, const std::string& where, TilesetDocument* out);
+
+/// The text of tileset.json (one space of indent per level, newline at the end).
+std::string writeTilesetDocument(const TilesetDocument& doc);
+
+}  // namespace cityatlas::format
