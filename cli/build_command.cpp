@@ -22,6 +22,7 @@
 #include "cli/progress.h"
 #include "cli/scene_input.h"
 #include "ingest/ingest_report.h"
+#include "tiles/tiles3d_writer.h"
 #include "tiles/tileset.h"
 
 namespace cityatlas::cli {
@@ -38,6 +39,9 @@ struct BuildCliOptions {
     std::string bc_quality = "fast";
     double position_error_mm = 2.0;
     std::string originals = "needed";
+    std::string format = "native";          // native, 3dtiles or both
+    std::string web_textures = "png";
+    tiles::Tiles3dParams tiles3d;
     bool force = false;
     bool overwrite = false;
     bool quiet = false;
@@ -64,6 +68,9 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
     k.push_back(fmt::format("bits={}/{} speed={} bc={} node_triangles={} feature_block={} originals={}",
                             t.draco.position_bits, t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality),
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
+    if (opt.format != "native")
+        k.push_back(fmt::format("format={} web_textures={} quality={}", opt.format, opt.web_textures,
+                                opt.tiles3d.jpeg_quality));
     return k;
 }
 
@@ -100,9 +107,13 @@ bool upToDate(const nlohmann::json& report, const std::string& inputs_key, const
                 return false;
             }
         }
-        if (!fs::exists(target / "tileset.json")) {
-            *why = "tileset.json is missing";
-            return false;
+        const std::string format = report.value("format", std::string("native"));
+        for (const char* index : {"tileset.json", "3dtiles/tileset.json"}) {
+            const bool wanted = index[0] == '3' ? format != "native" : format != "3dtiles";
+            if (wanted && !fs::exists(target / index)) {
+                *why = fmt::format("{} is missing", index);
+                return false;
+            }
         }
         return true;
     } catch (const std::exception&) {
@@ -128,6 +139,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.originals != "needed" && opt.originals != "all")
         return cli::fail("build", Status::Usage(fmt::format("--originals {}: expected needed or all", opt.originals)));
     opt.tiles.all_originals = opt.originals == "all";
+    tiles::parseWebTextures(opt.web_textures, &opt.tiles3d.textures);
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
     opt.tiles.threads = params.threads;
     Progress progress(!opt.quiet);
@@ -223,8 +235,22 @@ int runBuild(const BuildCliOptions& opt_in) {
         scene, tree, work, opt.tiles, tmp, build_hash, diagnostics,
         [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts);
     if (!written.ok()) return abandon(written);
-    fs::remove_all(work, ec);
     endStage("tiles");
+
+    // --- 3D Tiles, from the native folder just written (tiles/tiles3d_writer.h).
+    tiles::Tiles3dStats t3;
+    if (opt.format != "native") {
+        tiles::Tiles3dParams p3 = opt.tiles3d;
+        p3.threads = opt.tiles.threads;
+        const Status exported = tiles::writeTiles3d(
+            scene, tree, work, tmp, p3, tmp / "3dtiles",
+            [&](uint64_t done, uint64_t total) { progress.update("3dtiles", done, total); }, &t3);
+        if (!exported.ok()) return abandon(exported);
+        if (opt.format == "3dtiles")
+            for (const char* native : {"geometry", "atlas", "textures", "features", "tileset.json"}) fs::remove_all(tmp / native, ec);
+        endStage("3dtiles");
+    }
+    fs::remove_all(work, ec);
 
     // --- Report.
     const atlas::AtlasStats& as = tree.stats;
@@ -232,6 +258,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     report["cityatlas_version"] = kCityAtlasVersion;
     report["kind"] = "build_report";
     report["build_hash"] = build_hash;
+    report["format"] = opt.format;
     report["fingerprint"] = {{"inputs_key", inputs_key},
                              {"parameters", param_key},
                              {"inputs", toJson(input_digests)},
@@ -293,6 +320,17 @@ int runBuild(const BuildCliOptions& opt_in) {
                           {"position_error_target_mm", opt.position_error_mm},
                           {"uv_bits", opt.tiles.draco.uv_bits},
                           {"uv_original_bits_max", ts.uv_original_bits_max}};
+    if (opt.format != "native")
+        report["tiles3d"] = {{"tiles", t3.tiles},
+                             {"tiles_with_content", t3.tiles_with_content},
+                             {"triangles", t3.triangles},
+                             {"primitives", t3.primitives},
+                             {"web_textures", opt.web_textures},
+                             {"bytes", {{"glb", t3.bytes_glb}, {"images", t3.bytes_images}, {"tileset", t3.bytes_tileset}}},
+                             {"position_error_mm_max", t3.max_position_error_m * 1000.0},
+                             {"float_rounding_mm_max", t3.max_float_rounding_m * 1000.0},
+                             {"seconds", t3.seconds},
+                             {"image_encode_seconds", t3.image_encode_seconds}};
     report["warnings"] = warningsJson(diagnostics);
     report["warnings_total"] = diagnostics.total();
     for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.peak_rss_mb}});
@@ -326,11 +364,20 @@ int runBuild(const BuildCliOptions& opt_in) {
                     : fmt::format(" ({} dropped below its geometric error; listed in tileset.json)",
                                   ts.root_features_dropped.size())
                           .c_str());
+    if (opt.format != "native")
+        std::printf("  3D Tiles: %llu tiles (%llu with content), %s of GLB (images %s, %s), position <= %.2f mm; "
+                    "open 3dtiles/tileset.json (maximumScreenSpaceError = %.0f keeps the texel guarantee)\n",
+                    static_cast<unsigned long long>(t3.tiles), static_cast<unsigned long long>(t3.tiles_with_content),
+                    humanBytes(t3.bytes_glb).c_str(), humanBytes(t3.bytes_images).c_str(), opt.web_textures.c_str(),
+                    t3.max_position_error_m * 1000.0, 1.0);
     printWarnings(diagnostics);
     for (const auto& [name, t] : stages)
         if (name.find(':') == std::string::npos)
-            std::printf("  %-6s %8.2f s, peak memory %.0f MB\n", name.c_str(), t.first, t.second);
-    std::printf("Output: %s (tileset.json, build_report.json)  Time %.2f s\n", target.string().c_str(), seconds);
+            std::printf("  %-7s %8.2f s, peak memory %.0f MB\n", name.c_str(), t.first, t.second);
+    std::printf("Output: %s (%s, build_report.json)  Time %.2f s\n", target.string().c_str(),
+                opt.format == "native" ? "tileset.json" : opt.format == "both" ? "tileset.json, 3dtiles/tileset.json"
+                                                                                : "3dtiles/tileset.json",
+                seconds);
     return kExitOk;
 }
 
@@ -388,6 +435,26 @@ RunFn addBuildCommand(CLI::App& app) {
         ->default_val(32768)
         ->check(CLI::Range(size_t{64}, size_t{1} << 24))
         ->group(g);
+    auto* w = "3D Tiles";
+    cmd->add_option("--format", opt->format,
+                    "native: the folder above, for cityatlas' own client; 3dtiles: a 3D Tiles 1.1 tileset in "
+                    "OUT/3dtiles/ (one GLB per atlas-tree node with the atlas embedded, y-up, KHR_materials_unlit, "
+                    "EXT_mesh_features + EXT_structural_metadata for picking) for CesiumJS, three.js and other "
+                    "3D Tiles clients; both: the two")
+        ->default_val("native")
+        ->check(CLI::IsMember({"native", "3dtiles", "both"}))
+        ->group(w);
+    cmd->add_option("--web-textures", opt->web_textures,
+                    "Atlas encoding inside the 3D Tiles GLBs: png (the atlas as built, lossless), jpeg (opaque "
+                    "layer; the alpha layer stays PNG) or webp (EXT_texture_webp, required: every current client "
+                    "decodes it)")
+        ->default_val("png")
+        ->check(CLI::IsMember({"png", "jpeg", "webp"}))
+        ->group(w);
+    cmd->add_option("--web-quality", opt->tiles3d.jpeg_quality, "JPEG and WebP quality, 1..100")
+        ->default_val(90)
+        ->check(CLI::Range(1, 100))
+        ->group(w);
     return [opt]() { return runBuild(*opt); };
 }
 

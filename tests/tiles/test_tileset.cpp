@@ -25,61 +25,12 @@
 #include "tiles/inspect.h"
 #include "tiles/texture_blocks.h"
 #include "tiles/tileset.h"
+#include "tests/tiles/built_town.h"
 
 namespace cityatlas::tiles {
 namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-std::vector<uint8_t> readFile(const fs::path& p) {
-    std::ifstream f(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-Vec3d vec3(const json& a) { return {a[0].get<double>(), a[1].get<double>(), a[2].get<double>()}; }
-
-struct Built {
-    Scene scene;
-    atlas::AtlasTree tree;
-    TilesStats stats;
-    fs::path dir, atlas_dir;
-    json tileset;
-};
-
-// A town of `buildings` (textures of 64 px: fast), moved by `offset` in its
-// local frame, built into a tile folder.
-std::unique_ptr<Built> buildTown(const std::string& name, uint32_t buildings, const Vec3d& offset,
-                                 const TilesParams& params, double d_min_m = 150,
-                                 const std::function<void(const Built&)>& before_tiles = {},
-                                 Diagnostics* tiles_diagnostics = nullptr, int texture_px = 64) {
-    auto b = std::make_unique<Built>();
-    b->dir = test::scratchPath("tileset", name);
-    synth::TownSettings settings;
-    settings.buildings = buildings;
-    settings.seed = 11;
-    settings.texture_size_px = texture_px;
-    const synth::Town town = synth::generateTown(settings);
-    EXPECT_TRUE(synth::writeTown(town, b->dir / "town", false, {}).ok());
-    b->scene = synth::townToScene(town, b->dir / "town");
-    for (Triangle& t : b->scene.triangles)
-        for (Vec3d& p : t.position_local) p = p + offset;
-    atlas::AtlasParams ap;
-    ap.d_min_m = d_min_m;
-    ap.atlas_size_px = 256;
-    b->atlas_dir = b->dir / "work";
-    Diagnostics diagnostics;
-    const Status st = atlas::buildAtlasTree(b->scene, ap, b->atlas_dir, diagnostics, {}, &b->tree);
-    EXPECT_TRUE(st.ok()) << st.error;
-    if (before_tiles) before_tiles(*b);
-    fs::create_directories(b->dir / "tiles");
-    Diagnostics& tiles_diag = tiles_diagnostics ? *tiles_diagnostics : diagnostics;
-    const Status w =
-        writeTileset(b->scene, b->tree, b->atlas_dir, params, b->dir / "tiles", "0123456789abcdef", tiles_diag, {}, &b->stats);
-    EXPECT_TRUE(w.ok()) << w.error;
-    std::ifstream f(b->dir / "tiles" / "tileset.json");
-    b->tileset = json::parse(f);
-    return b;
-}
 
 void forEachTile(const json& tile, const std::function<void(const json&)>& fn) {
     fn(tile);

@@ -1,0 +1,250 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The 3D Tiles export of a synthetic town, read back with a GLB parser of this
+// test's own (not the writer's code) and compared with the Scene: every leaf
+// vertex, put back into the local frame through the glTF node translation and
+// the y-up rotation, lies within the reported error of a scene corner, and
+// every scene corner has such a vertex; at the origin, at a grid northing of
+// 9.9e6 m and at ECEF magnitudes. Feature ids index the tile's property table,
+// whose gml:id is the building the vertex belongs to (what picking returns).
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <set>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/tiles/built_town.h"
+#include "tiles/tiles3d_writer.h"
+
+namespace cityatlas::tiles {
+namespace {
+
+// A GLB as this test reads it: the JSON chunk and the binary chunk.
+struct Glb {
+    json doc;
+    std::vector<uint8_t> bin;
+};
+Glb parseGlb(const std::vector<uint8_t>& b) {
+    Glb g;
+    uint32_t json_len = 0, bin_len = 0;
+    EXPECT_GE(b.size(), 28u);
+    std::memcpy(&json_len, b.data() + 12, 4);
+    g.doc = json::parse(b.begin() + 20, b.begin() + 20 + json_len);
+    std::memcpy(&bin_len, b.data() + 20 + json_len, 4);
+    g.bin.assign(b.begin() + 28 + json_len, b.begin() + 28 + json_len + bin_len);
+    return g;
+}
+// The float (or integer) components of accessor `a`, as doubles.
+std::vector<double> values(const Glb& g, int a) {
+    const json& acc = g.doc["accessors"][static_cast<size_t>(a)];
+    const json& view = g.doc["bufferViews"][acc["bufferView"].get<size_t>()];
+    const size_t comps = acc["type"] == "VEC3" ? 3 : acc["type"] == "VEC2" ? 2 : 1;
+    const size_t n = acc["count"].get<size_t>() * comps;
+    const uint8_t* p = g.bin.data() + view["byteOffset"].get<size_t>();
+    std::vector<double> out(n);
+    for (size_t i = 0; i < n; ++i) {
+        const int type = acc["componentType"];
+        if (type == 5126) {
+            float f;
+            std::memcpy(&f, p + 4 * i, 4);
+            out[i] = f;
+        } else if (type == 5123) {
+            uint16_t u;
+            std::memcpy(&u, p + 2 * i, 2);
+            out[i] = u;
+        } else {
+            uint32_t u;
+            std::memcpy(&u, p + 4 * i, 4);
+            out[i] = u;
+        }
+    }
+    return out;
+}
+// Row `row` of a STRING column of the property table.
+std::string stringAt(const Glb& g, const json& column, size_t row) {
+    const json& vv = g.doc["bufferViews"][column["values"].get<size_t>()];
+    const json& ov = g.doc["bufferViews"][column["stringOffsets"].get<size_t>()];
+    uint32_t lo, hi;
+    std::memcpy(&lo, g.bin.data() + ov["byteOffset"].get<size_t>() + 4 * row, 4);
+    std::memcpy(&hi, g.bin.data() + ov["byteOffset"].get<size_t>() + 4 * row + 4, 4);
+    const char* s = reinterpret_cast<const char*>(g.bin.data()) + vv["byteOffset"].get<size_t>();
+    return std::string(s + lo, s + hi);
+}
+
+struct Exported {
+    std::unique_ptr<Built> town;
+    Tiles3dStats stats;
+    fs::path dir;
+    json tileset;
+};
+Exported exportTown(const std::string& name, const Vec3d& offset, WebTextures textures = WebTextures::Png) {
+    Exported e;
+    TilesParams p;
+    p.threads = 2;
+    e.town = buildTown(name, 25, offset, p);
+    e.dir = e.town->dir / "3dtiles";
+    Tiles3dParams t3;
+    t3.textures = textures;
+    t3.threads = 2;
+    const Status st = writeTiles3d(e.town->scene, e.town->tree, e.town->atlas_dir, e.town->dir / "tiles", t3, e.dir, {},
+                                   &e.stats);
+    EXPECT_TRUE(st.ok()) << st.error;
+    std::ifstream f(e.dir / "tileset.json");
+    e.tileset = json::parse(f);
+    return e;
+}
+
+// Scene corners on a 1 cm grid, for nearest-corner lookups.
+struct CornerGrid {
+    std::map<std::array<int64_t, 3>, std::vector<std::pair<Vec3d, uint32_t>>> cells;
+    static std::array<int64_t, 3> key(const Vec3d& p) {
+        return {static_cast<int64_t>(std::floor(p.x * 100)), static_cast<int64_t>(std::floor(p.y * 100)),
+                static_cast<int64_t>(std::floor(p.z * 100))};
+    }
+    void add(const Vec3d& p, uint32_t feature) { cells[key(p)].emplace_back(p, feature); }
+    // The nearest corner within one cell of `p`: distance and feature.
+    std::pair<double, uint32_t> nearest(const Vec3d& p) const {
+        double best = 1e300;
+        uint32_t feature = UINT32_MAX;
+        const auto k = key(p);
+        for (int64_t dx = -1; dx <= 1; ++dx)
+            for (int64_t dy = -1; dy <= 1; ++dy)
+                for (int64_t dz = -1; dz <= 1; ++dz) {
+                    const auto it = cells.find({k[0] + dx, k[1] + dy, k[2] + dz});
+                    if (it == cells.end()) continue;
+                    for (const auto& [q, f] : it->second) {
+                        const Vec3d d = q - p;
+                        const double dist = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+                        if (dist < best) best = dist, feature = f;
+                    }
+                }
+        return {best, feature};
+    }
+};
+
+void checkLeavesAgainstScene(const Exported& e) {
+    const atlas::AtlasTree& tree = e.town->tree;
+    const Scene& scene = e.town->scene;
+    const double bound = e.stats.max_position_error_m + 1e-9;
+    size_t leaves = 0, vertices = 0, picks = 0;
+    for (size_t id = 0; id < tree.nodes.size(); ++id) {
+        const atlas::AtlasNode& node = tree.nodes[id];
+        if (!node.leaf()) continue;
+        const fs::path file = e.dir / "tiles" / fmt::format("{}.glb", id);
+        if (!fs::exists(file)) continue;
+        ++leaves;
+        CornerGrid grid;
+        std::set<std::array<int64_t, 3>> corners;
+        for (const auto& layer : node.layers)
+            for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
+                for (const Vec3d& p : tree.triangles[t].tri.position_local) grid.add(p, tree.triangles[t].tri.feature);
+        const Glb g = parseGlb(readFile(file));
+        const json& tr = g.doc["nodes"][0]["translation"];
+        const json& table = g.doc["extensions"]["EXT_structural_metadata"]["propertyTables"][0];
+        CornerGrid exported;
+        for (const json& prim : g.doc["meshes"][0]["primitives"]) {
+            const std::vector<double> pos = values(g, prim["attributes"]["POSITION"]);
+            const std::vector<double> fid = values(g, prim["attributes"]["_FEATURE_ID_0"]);
+            EXPECT_EQ(prim["extensions"]["EXT_mesh_features"]["featureIds"][0]["featureCount"], table["count"]);
+            for (const double vi : values(g, prim["indices"])) {
+                const auto v = static_cast<size_t>(vi);
+                // glTF y-up (x, y, z) -> local (x, -z, y), plus the node translation (also y-up).
+                const double gx = tr[0].get<double>() + pos[3 * v], gy = tr[1].get<double>() + pos[3 * v + 1],
+                             gz = tr[2].get<double>() + pos[3 * v + 2];
+                const Vec3d local{gx, -gz, gy};
+                const auto [dist, feature] = grid.nearest(local);
+                ASSERT_LE(dist, bound) << "node " << id << " vertex " << v;
+                exported.add(local, 0);
+                ++vertices;
+                // Picking: the row the vertex's feature id names is its building.
+                const auto row = static_cast<size_t>(fid[v]);
+                ASSERT_LT(row, table["count"].get<size_t>());
+                EXPECT_EQ(stringAt(g, table["properties"]["gml_id"], row), scene.features[feature].gml_id)
+                    << "node " << id << " vertex " << v;
+                ++picks;
+            }
+        }
+        // Nothing lost: every scene corner of the leaf has an exported vertex near it.
+        for (const auto& [cell, list] : grid.cells)
+            for (const auto& [p, f] : list) ASSERT_LE(exported.nearest(p).first, bound) << "node " << id;
+    }
+    EXPECT_GT(leaves, 0u);
+    EXPECT_GT(vertices, 100u);
+    EXPECT_EQ(picks, vertices);
+}
+
+TEST(Tiles3d, LeafVerticesWithinTheReportedErrorAndIdsPickTheirBuilding) {
+    const Exported e = exportTown("t3_origin", {});
+    ASSERT_FALSE(HasFailure());
+    EXPECT_LE(e.stats.max_position_error_m, 0.002);
+    EXPECT_LE(e.stats.max_float_rounding_m, 1e-5);
+    checkLeavesAgainstScene(e);
+}
+
+TEST(Tiles3d, PrecisionAtNorthing9p9e6) {
+    const Exported e = exportTown("t3_northing", {833000.0, 9.9e6, 0.0});
+    ASSERT_FALSE(HasFailure());
+    EXPECT_LE(e.stats.max_position_error_m, 0.002);
+    EXPECT_LE(e.stats.max_float_rounding_m, 1e-5) << "positions are relative to the node centre";
+    checkLeavesAgainstScene(e);
+}
+
+TEST(Tiles3d, PrecisionAtEcefMagnitudes) {
+    const Exported e = exportTown("t3_ecef", {3783265.180, 901649.797, 5038246.081});
+    ASSERT_FALSE(HasFailure());
+    EXPECT_LE(e.stats.max_position_error_m, 0.002);
+    EXPECT_LE(e.stats.max_float_rounding_m, 1e-5);
+    checkLeavesAgainstScene(e);
+}
+
+// The tree as the native index has it; one content per tile; unlit materials
+// with the atlas embedded; alpha primitives blend.
+TEST(Tiles3d, TilesetMirrorsTheAtlasTree) {
+    const Exported e = exportTown("t3_tree", {});
+    ASSERT_FALSE(HasFailure());
+    const json& native = e.town->tileset;
+    std::function<void(const json&, const json&)> walk = [&](const json& t, const json& n) {
+        EXPECT_EQ(t["refine"], "REPLACE");
+        EXPECT_FALSE(t.contains("contents"));
+        EXPECT_EQ(t["boundingVolume"], n["boundingVolume"]);
+        EXPECT_DOUBLE_EQ(t["geometricError"].get<double>(),
+                         n["extras"]["cityatlas"]["min_distance_m"].get<double>() /
+                             native["extras"]["cityatlas"]["build"]["focal_px"].get<double>());
+        const size_t id = n["extras"]["cityatlas"]["id"];
+        if (t.contains("content")) {
+            EXPECT_EQ(t["content"]["uri"], fmt::format("tiles/{}.glb", id));
+            const Glb g = parseGlb(readFile(e.dir / t["content"]["uri"].get<std::string>()));
+            EXPECT_EQ(g.doc["meshes"].size(), 1u);
+            for (const json& prim : g.doc["meshes"][0]["primitives"]) {
+                const json& m = g.doc["materials"][prim["material"].get<size_t>()];
+                EXPECT_TRUE(m["extensions"].contains("KHR_materials_unlit"));
+                const bool alpha = m["name"].get<std::string>().rfind("alpha", 0) == 0;
+                EXPECT_EQ(m["alphaMode"], alpha ? "BLEND" : "OPAQUE");
+            }
+            for (const json& image : g.doc.value("images", json::array())) EXPECT_EQ(image["mimeType"], "image/png");
+        }
+        ASSERT_EQ(t.value("children", json::array()).size(), n.value("children", json::array()).size());
+        for (size_t c = 0; c < t.value("children", json::array()).size(); ++c) walk(t["children"][c], n["children"][c]);
+    };
+    walk(e.tileset["root"], native["root"]);
+    EXPECT_EQ(e.stats.tiles, e.town->tree.nodes.size());
+}
+
+TEST(Tiles3d, WebTextureFormats) {
+    for (const auto& [format, mime] : {std::pair{WebTextures::Jpeg, "image/jpeg"}, std::pair{WebTextures::Webp, "image/webp"}}) {
+        const Exported e = exportTown(std::string("t3_") + webTexturesName(format), {}, format);
+        ASSERT_FALSE(HasFailure());
+        const Glb g = parseGlb(readFile(e.dir / "tiles" / "0.glb"));
+        ASSERT_TRUE(g.doc.contains("images"));
+        EXPECT_EQ(g.doc["images"][0]["mimeType"], mime);
+        if (format == WebTextures::Webp) {
+            EXPECT_TRUE(g.doc["textures"][0]["extensions"].contains("EXT_texture_webp"));
+            EXPECT_EQ(g.doc["extensionsRequired"], json::array({"EXT_texture_webp"}));
+        }
+    }
+}
+
+}  // namespace
+}  // namespace cityatlas::tiles

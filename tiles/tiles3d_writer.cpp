@@ -1,0 +1,503 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The 3D Tiles 1.1 export (tiles/tiles3d_writer.h): per node, decode the
+// native layers, regroup them into glTF primitives in the y-up frame, embed
+// the atlas, attach feature ids and the tile's property table; then the
+// tileset.json of the tree.
+#include "tiles/tiles3d_writer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <set>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "cityatlas_version.h"
+#include "format/glb_reader.h"
+#include "format/tileset_document.h"
+#include "tiles/texture_blocks.h"
+
+namespace cityatlas::tiles {
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr int kFloat = 5126, kUnsignedInt = 5125, kUnsignedShort = 5123;
+constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
+constexpr int kClampToEdge = 33071, kLinear = 9729, kLinearMipmapLinear = 9987;
+constexpr float kNeutralGrey = 0.5F;  // a layer without an atlas (the native client's neutral grey)
+
+Status readFile(const fs::path& path, std::vector<uint8_t>* out) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
+    out->assign(std::istreambuf_iterator<char>(f), {});
+    if (f.bad()) return Status::Io(fmt::format("{}: cannot read", path.string()));
+    return Status::Ok();
+}
+
+Status writeFile(const fs::path& path, const void* data, size_t size) {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
+    const bool written = std::fwrite(data, 1, size, f) == size;
+    const int write_errno = errno;
+    const bool closed = std::fclose(f) == 0;
+    if (!written || !closed)
+        return Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(!written ? write_errno : errno)));
+    return Status::Ok();
+}
+
+// The atlas as the GLB embeds it: the PNG bytes the atlas stage wrote, or the
+// image re-encoded by OpenImageIO (through a scratch file: its JPEG and WebP
+// writers have no memory output in 2.4).
+Status atlasImage(const fs::path& png, int channels, const Tiles3dParams& p, const fs::path& scratch,
+                  std::vector<uint8_t>* bytes, std::string* mime) {
+    if (p.textures == WebTextures::Png) {
+        *mime = "image/png";
+        return readFile(png, bytes);
+    }
+    Image8 img;
+    std::string why;
+    if (!readImage8(png.string(), channels, &img, &why))
+        return Status::Io(fmt::format("{}: cannot read the atlas: {}", png.string(), why));
+    const bool jpeg = p.textures == WebTextures::Jpeg;
+    // JPEG has no alpha: the alpha layer stays PNG.
+    if (jpeg && channels == 4) {
+        *mime = "image/png";
+        return readFile(png, bytes);
+    }
+    const fs::path file = scratch.string() + (jpeg ? ".jpg" : ".webp");
+    auto out = OIIO::ImageOutput::create(file.string());
+    if (!out) return Status::Internal(fmt::format("OpenImageIO cannot write {}: {}", file.string(), OIIO::geterror()));
+    OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
+    spec.attribute("Compression", fmt::format("{}:{}", jpeg ? "jpeg" : "webp", std::clamp(p.jpeg_quality, 1, 100)));
+    if (!out->open(file.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()) || !out->close())
+        return Status::Io(fmt::format("{}: cannot encode: {}", file.string(), out->geterror()));
+    *mime = jpeg ? "image/jpeg" : "image/webp";
+    Status st = readFile(file, bytes);
+    std::error_code ec;
+    fs::remove(file, ec);
+    return st;
+}
+
+// glTF JSON and its binary chunk, built side by side.
+struct GltfBuilder {
+    json doc = json::object();
+    std::vector<uint8_t> bin;
+
+    // A bufferView of `bytes` at an 8-byte boundary (EXT_structural_metadata
+    // requires it for FLOAT64 values; it is harmless elsewhere).
+    int view(const void* data, size_t bytes, int target = 0) {
+        while (bin.size() % 8) bin.push_back(0);
+        json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}};
+        if (target) v["target"] = target;
+        const auto* p = static_cast<const uint8_t*>(data);
+        bin.insert(bin.end(), p, p + bytes);
+        doc["bufferViews"].push_back(v);
+        return static_cast<int>(doc["bufferViews"].size() - 1);
+    }
+    int accessor(int view_index, int component, size_t count, const char* type, json min = nullptr, json max = nullptr) {
+        json a = {{"bufferView", view_index}, {"componentType", component}, {"count", count}, {"type", type}};
+        if (!min.is_null()) a["min"] = std::move(min);
+        if (!max.is_null()) a["max"] = std::move(max);
+        doc["accessors"].push_back(a);
+        return static_cast<int>(doc["accessors"].size() - 1);
+    }
+    template <class T>
+    int viewOf(const std::vector<T>& v, int target = 0) { return view(v.data(), v.size() * sizeof(T), target); }
+
+    std::vector<uint8_t> glb() {
+        while (bin.size() % 4) bin.push_back(0);
+        doc["buffers"] = json::array({{{"byteLength", bin.size()}}});
+        std::string text = doc.dump(-1, ' ', false, json::error_handler_t::replace);
+        while (text.size() % 4) text.push_back(' ');
+        const uint32_t total = static_cast<uint32_t>(12 + 8 + text.size() + 8 + bin.size());
+        std::vector<uint8_t> out;
+        out.reserve(total);
+        auto u32 = [&](uint32_t v) {
+            for (int i = 0; i < 4; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
+        };
+        u32(0x46546C67), u32(2), u32(total);
+        u32(static_cast<uint32_t>(text.size())), u32(0x4E4F534A);
+        out.insert(out.end(), text.begin(), text.end());
+        u32(static_cast<uint32_t>(bin.size())), u32(0x004E4942);
+        out.insert(out.end(), bin.begin(), bin.end());
+        return out;
+    }
+};
+
+// Property ids must match ^[a-zA-Z_][a-zA-Z0-9_]*$; the attribute's own name goes into "name".
+std::string propertyId(const std::string& key, std::set<std::string>& taken) {
+    std::string id = "attr_";
+    for (const char c : key) id.push_back(std::isalnum(static_cast<unsigned char>(c)) ? c : '_');
+    std::string unique = id;
+    for (int k = 2; !taken.insert(unique).second; ++k) unique = fmt::format("{}_{}", id, k);
+    return unique;
+}
+
+// The dataset's generic attribute keys, in order, as property ids.
+struct AttributeColumns {
+    static constexpr size_t kMax = 128;  // more keys go into one JSON property, "other_attributes"
+    std::vector<std::pair<std::string, std::string>> columns;  // key, property id
+    bool other = false;
+};
+AttributeColumns attributeColumns(const Scene& scene) {
+    std::map<std::string, size_t> uses;
+    for (const Feature& f : scene.features)
+        for (const auto& [k, v] : f.attributes) ++uses[k];
+    std::vector<std::pair<size_t, std::string>> order;
+    for (const auto& [k, n] : uses) order.emplace_back(n, k);
+    std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    AttributeColumns c;
+    std::set<std::string> taken = {"gml_id", "name", "height_m", "roof_type", "function", "source_file", "lod",
+                                   "other_attributes"};
+    for (size_t i = 0; i < order.size(); ++i) {
+        if (i >= AttributeColumns::kMax) {
+            c.other = true;
+            break;
+        }
+        c.columns.emplace_back(order[i].second, propertyId(order[i].second, taken));
+    }
+    std::sort(c.columns.begin(), c.columns.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    return c;
+}
+
+json metadataSchema(const AttributeColumns& columns) {
+    json props = {
+        {"gml_id", {{"type", "STRING"}, {"name", "gml:id"}}},
+        {"name", {{"type", "STRING"}, {"name", "name"}}},
+        {"height_m", {{"type", "SCALAR"}, {"componentType", "FLOAT64"}, {"name", "measured height (m)"},
+                      {"noData", -1.0}, {"description", "bldg:measuredHeight; -1 (no data) when absent"}}},
+        {"roof_type", {{"type", "STRING"}, {"name", "roof type"}}},
+        {"function", {{"type", "STRING"}, {"name", "function"}}},
+        {"lod", {{"type", "SCALAR"}, {"componentType", "UINT8"}, {"name", "LOD"}}},
+        {"source_file", {{"type", "STRING"}, {"name", "source file"}}}};
+    for (const auto& [key, id] : columns.columns) props[id] = {{"type", "STRING"}, {"name", key}};
+    if (columns.other)
+        props["other_attributes"] = {{"type", "STRING"}, {"name", "other attributes (JSON)"}};
+    return {{"id", "cityatlas"},
+            {"classes", {{"building", {{"name", "Building"}, {"properties", props}}}}}};
+}
+
+// One STRING column: the UTF-8 values back to back and count + 1 UINT32 offsets.
+json stringColumn(GltfBuilder& g, const std::vector<std::string>& values) {
+    std::string all;
+    std::vector<uint32_t> offsets{0};
+    for (const std::string& v : values) {
+        all += v;
+        offsets.push_back(static_cast<uint32_t>(all.size()));
+    }
+    if (all.empty()) all.push_back(' ');  // bufferViews must not be empty; offsets say the strings are ""
+    const int values_view = g.view(all.data(), all.size());
+    return {{"values", values_view}, {"stringOffsets", g.viewOf(offsets)}, {"stringOffsetType", "UINT32"}};
+}
+
+json propertyTable(GltfBuilder& g, const Scene& scene, const AttributeColumns& columns,
+                   const std::vector<uint32_t>& features) {
+    auto strings = [&](auto get) {
+        std::vector<std::string> v;
+        v.reserve(features.size());
+        for (const uint32_t f : features) v.push_back(get(scene.features[f]));
+        return stringColumn(g, v);
+    };
+    json props = json::object();
+    props["gml_id"] = strings([](const Feature& f) { return f.gml_id; });
+    props["name"] = strings([](const Feature& f) { return f.name; });
+    props["roof_type"] = strings([](const Feature& f) { return f.roof_type; });
+    props["function"] = strings([](const Feature& f) { return f.function; });
+    props["source_file"] = strings([](const Feature& f) { return fs::path(f.source_file).filename().string(); });
+    std::vector<double> height;
+    std::vector<uint8_t> lod;
+    for (const uint32_t f : features) {
+        height.push_back(scene.features[f].measured_height_m.value_or(-1.0));
+        lod.push_back(static_cast<uint8_t>(std::max<int>(0, scene.features[f].lod)));
+    }
+    props["height_m"] = {{"values", g.viewOf(height)}};
+    props["lod"] = {{"values", g.viewOf(lod)}};
+    for (const auto& [key, id] : columns.columns)
+        props[id] = strings([&, k = key](const Feature& f) {
+            const auto it = f.attributes.find(k);
+            return it == f.attributes.end() ? std::string() : it->second;
+        });
+    if (columns.other) {
+        std::set<std::string> named;
+        for (const auto& c : columns.columns) named.insert(c.first);
+        props["other_attributes"] = strings([&](const Feature& f) {
+            json o = json::object();
+            for (const auto& [k, v] : f.attributes)
+                if (!named.count(k)) o[k] = v;
+            return o.dump(-1, ' ', false, json::error_handler_t::replace);
+        });
+    }
+    return {{"class", "building"}, {"count", features.size()}, {"properties", props}};
+}
+
+struct TileResult {
+    uint64_t bytes = 0, image_bytes = 0, triangles = 0, primitives = 0;
+    double rounding_m = 0, native_error_m = 0, image_seconds = 0;
+    bool content = false;
+    std::string error;
+};
+
+// One node's GLB; `features` and `columns` describe the property table.
+TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const format::TileEntry& entry,
+                     const fs::path& atlas_dir, const fs::path& native_dir, const Tiles3dParams& params,
+                     const AttributeColumns& columns, const fs::path& out_path) {
+    TileResult r;
+    const atlas::AtlasNode& node = tree.nodes[static_cast<size_t>(entry.id)];
+    const Vec3d c = entry.centre;
+    GltfBuilder g;
+    g.doc["asset"] = {{"version", "2.0"}, {"generator", fmt::format("cityatlas {}", kCityAtlasVersion)}};
+    json primitives = json::array();
+    std::map<uint32_t, uint32_t> local_feature;  // scene feature -> row of the property table
+    std::vector<uint32_t> features;
+    for (int li = 0; li < format::kTileLayers; ++li) {
+        const auto& layer = entry.layers[static_cast<size_t>(li)];
+        if (!layer) continue;
+        std::vector<uint8_t> bytes;
+        if (Status st = readFile(native_dir / layer->geometry.uri, &bytes); !st.ok()) {
+            r.error = st.error;
+            return r;
+        }
+        format::TileMesh m;
+        if (Status st = format::decodeTileGlb(bytes, c, &m); !st.ok()) {
+            r.error = fmt::format("{}: {}", layer->geometry.uri, st.error);
+            return r;
+        }
+        r.native_error_m = std::max(r.native_error_m, layer->position_error_mm / 1000.0);
+        const size_t n = m.positions.size();
+        // Vertices in the y-up frame relative to the centre: (x, y, z)_local -> (x, z, -y)_glTF.
+        std::vector<float> pos(3 * n), uv(2 * n), fid(n);
+        std::array<float, 3> lo{1e30F, 1e30F, 1e30F}, hi{-1e30F, -1e30F, -1e30F};
+        for (size_t v = 0; v < n; ++v) {
+            const Vec3d d = m.positions[v] - c;
+            const std::array<double, 3> yup{d.x, d.z, -d.y};
+            for (size_t k = 0; k < 3; ++k) {
+                const auto f = static_cast<float>(yup[k]);
+                pos[3 * v + k] = f;
+                lo[k] = std::min(lo[k], f), hi[k] = std::max(hi[k], f);
+                r.rounding_m = std::max(r.rounding_m, std::abs(static_cast<double>(f) - yup[k]));
+            }
+            if (!m.uv_atlas.empty()) {
+                uv[2 * v] = static_cast<float>(m.uv_atlas[v].x);
+                uv[2 * v + 1] = static_cast<float>(m.uv_atlas[v].y);
+            }
+            const uint32_t f = m.feature_id.empty() ? 0 : m.feature_id[v];
+            const auto [it, added] = local_feature.emplace(f, static_cast<uint32_t>(features.size()));
+            if (added) features.push_back(f);
+            fid[v] = static_cast<float>(it->second);
+        }
+        json attributes = {
+            {"POSITION", g.accessor(g.viewOf(pos, kArrayBuffer), kFloat, n, "VEC3", json(lo), json(hi))},
+            {"_FEATURE_ID_0", g.accessor(g.viewOf(fid, kArrayBuffer), kFloat, n, "SCALAR")}};
+        const bool textured = layer->atlas.has_value() && !m.uv_atlas.empty();
+        if (textured) attributes["TEXCOORD_0"] = g.accessor(g.viewOf(uv, kArrayBuffer), kFloat, n, "VEC2");
+        int texture = -1;
+        if (textured) {
+            const atlas::NodeLayer& nl = node.layers[static_cast<size_t>(li)];
+            std::vector<uint8_t> image;
+            std::string mime;
+            const auto t0 = std::chrono::steady_clock::now();
+            const Status st = atlasImage(atlas_dir / nl.atlas_path, li == 1 ? 4 : 3, params,
+                                         out_path.parent_path() / fmt::format(".{}-{}", entry.id, li), &image, &mime);
+            r.image_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            if (!st.ok()) {
+                r.error = st.error;
+                return r;
+            }
+            r.image_bytes += image.size();
+            g.doc["images"].push_back({{"bufferView", g.viewOf(image)}, {"mimeType", mime}});
+            if (!g.doc.contains("samplers"))
+                g.doc["samplers"] = json::array({{{"magFilter", kLinear}, {"minFilter", kLinearMipmapLinear},
+                                                  {"wrapS", kClampToEdge}, {"wrapT", kClampToEdge}}});
+            const size_t source = g.doc["images"].size() - 1;
+            if (mime == "image/webp")  // not a core glTF image type: through EXT_texture_webp, without fallback
+                g.doc["textures"].push_back({{"sampler", 0}, {"extensions", {{"EXT_texture_webp", {{"source", source}}}}}});
+            else
+                g.doc["textures"].push_back({{"sampler", 0}, {"source", source}});
+            texture = static_cast<int>(g.doc["textures"].size() - 1);
+        }
+        // Triangles by what colours them: the atlas (material -1) or a material's colour.
+        std::map<int32_t, std::vector<uint32_t>> groups;
+        for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+            const int32_t mat = m.material_id.empty() ? -1 : m.material_id[m.indices[t]];
+            auto& list = groups[mat];
+            list.insert(list.end(), m.indices.begin() + static_cast<std::ptrdiff_t>(t),
+                        m.indices.begin() + static_cast<std::ptrdiff_t>(t) + 3);
+        }
+        for (const auto& [mat, indices] : groups) {
+            json pbr = {{"metallicFactor", 0.0}, {"roughnessFactor", 1.0}};
+            std::array<double, 4> colour{1, 1, 1, 1};
+            if (mat >= 0 && static_cast<size_t>(mat) < scene.materials.size()) {
+                const Material& sm = scene.materials[static_cast<size_t>(mat)];
+                colour = {sm.diffuse[0], sm.diffuse[1], sm.diffuse[2], li == 1 ? 1.0 - sm.transparency : 1.0};
+            } else if (mat >= 0 || texture < 0) {
+                colour = {kNeutralGrey, kNeutralGrey, kNeutralGrey, 1.0};
+            } else {
+                pbr["baseColorTexture"] = {{"index", texture}};
+            }
+            pbr["baseColorFactor"] = colour;
+            json material = {{"pbrMetallicRoughness", pbr},
+                             {"doubleSided", true},  // city data has inconsistent winding (the native client does not cull either)
+                             {"alphaMode", li == 1 ? "BLEND" : "OPAQUE"},
+                             {"extensions", {{"KHR_materials_unlit", json::object()}}},
+                             {"name", fmt::format("{} {}", li == 1 ? "alpha" : "opaque",
+                                                  mat >= 0 ? fmt::format("material {}", mat) : std::string("atlas"))}};
+            g.doc["materials"].push_back(material);
+            json p = {{"attributes", attributes}, {"mode", 4}, {"material", g.doc["materials"].size() - 1}};
+            if (n <= 65535) {
+                std::vector<uint16_t> small(indices.begin(), indices.end());
+                p["indices"] = g.accessor(g.viewOf(small, kElementArrayBuffer), kUnsignedShort, small.size(), "SCALAR");
+            } else {
+                p["indices"] = g.accessor(g.viewOf(indices, kElementArrayBuffer), kUnsignedInt, indices.size(), "SCALAR");
+            }
+            p["extensions"]["EXT_mesh_features"] = {
+                {"featureIds", json::array({{{"featureCount", 0}, {"attribute", 0}, {"propertyTable", 0}}})}};
+            primitives.push_back(p);
+            r.triangles += indices.size() / 3;
+            ++r.primitives;
+        }
+    }
+    if (primitives.empty()) return r;  // no content for this tile
+    for (json& p : primitives) p["extensions"]["EXT_mesh_features"]["featureIds"][0]["featureCount"] = features.size();
+    g.doc["meshes"] = json::array({{{"primitives", primitives}}});
+    g.doc["nodes"] = json::array({{{"mesh", 0}, {"translation", {c.x, c.z, -c.y}}}});
+    g.doc["scenes"] = json::array({{{"nodes", {0}}}});
+    g.doc["scene"] = 0;
+    const AttributeColumns& cols = columns;
+    g.doc["extensions"]["EXT_structural_metadata"] = {{"schema", metadataSchema(cols)},
+                                                      {"propertyTables", json::array({propertyTable(g, scene, cols, features)})}};
+    json used = {"KHR_materials_unlit", "EXT_mesh_features", "EXT_structural_metadata"};
+    if (params.textures == WebTextures::Webp && g.doc.contains("textures")) {
+        used.push_back("EXT_texture_webp");
+        g.doc["extensionsRequired"] = json::array({"EXT_texture_webp"});
+    }
+    g.doc["extensionsUsed"] = used;
+    const std::vector<uint8_t> glb = g.glb();
+    if (Status st = writeFile(out_path, glb.data(), glb.size()); !st.ok()) {
+        r.error = st.error;
+        return r;
+    }
+    r.bytes = glb.size();
+    r.content = true;
+    return r;
+}
+
+}  // namespace
+
+const char* webTexturesName(WebTextures t) {
+    switch (t) {
+        case WebTextures::Png: return "png";
+        case WebTextures::Jpeg: return "jpeg";
+        case WebTextures::Webp: return "webp";
+    }
+    return "?";
+}
+
+bool parseWebTextures(const std::string& name, WebTextures* out) {
+    for (const WebTextures t : {WebTextures::Png, WebTextures::Jpeg, WebTextures::Webp})
+        if (name == webTexturesName(t)) {
+            *out = t;
+            return true;
+        }
+    return false;
+}
+
+Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::path& atlas_dir,
+                    const fs::path& native_dir, const Tiles3dParams& params, const fs::path& out_dir,
+                    const Tiles3dProgressFn& progress, Tiles3dStats* stats_out) {
+    const auto t0 = std::chrono::steady_clock::now();
+    // The native index, through the same reader as the client's.
+    std::vector<uint8_t> text;
+    if (Status st = readFile(native_dir / "tileset.json", &text); !st.ok()) return st;
+    format::TilesetDocument doc;
+    if (Status st = format::readTilesetDocument(std::string(text.begin(), text.end()), (native_dir / "tileset.json").string(), &doc);
+        !st.ok())
+        return st;
+    if (doc.tiles.size() != tree.nodes.size())
+        return Status::Internal(fmt::format("3dtiles: the native index has {} tiles, the tree {} nodes", doc.tiles.size(),
+                                            tree.nodes.size()));
+    std::error_code ec;
+    fs::create_directories(out_dir / "tiles", ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "tiles").string(), ec.message()));
+
+    const AttributeColumns columns = attributeColumns(scene);
+    std::vector<TileResult> results(doc.tiles.size());
+    std::atomic<uint64_t> done{0};
+    std::mutex progress_mutex;
+    tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+        tbb::parallel_for(size_t{0}, doc.tiles.size(), [&](size_t i) {
+            results[i] = writeTile(scene, tree, doc.tiles[i], atlas_dir, native_dir, params, columns,
+                                   out_dir / "tiles" / fmt::format("{}.glb", i));
+            if (progress) {
+                std::lock_guard lock(progress_mutex);
+                progress(++done, doc.tiles.size());
+            }
+        });
+    });
+    Tiles3dStats stats;
+    for (const TileResult& r : results) {
+        if (!r.error.empty()) return Status::Io("3dtiles: " + r.error);
+        ++stats.tiles;
+        stats.tiles_with_content += r.content ? 1 : 0;
+        stats.bytes_glb += r.bytes;
+        stats.bytes_images += r.image_bytes;
+        stats.triangles += r.triangles;
+        stats.primitives += r.primitives;
+        stats.max_float_rounding_m = std::max(stats.max_float_rounding_m, r.rounding_m);
+        stats.max_position_error_m = std::max(stats.max_position_error_m, r.native_error_m + r.rounding_m);
+        stats.image_encode_seconds += r.image_seconds;
+    }
+
+    // tileset.json: the same tree, boxes and geometric errors as the native index.
+    std::function<json(size_t)> tile = [&](size_t i) {
+        const format::TileEntry& e = doc.tiles[i];
+        json t = {{"boundingVolume", {{"box", e.box}}}, {"geometricError", e.geometric_error}, {"refine", "REPLACE"}};
+        if (results[i].content) t["content"] = {{"uri", fmt::format("tiles/{}.glb", i)}};
+        if (!e.children.empty()) {
+            json children = json::array();
+            for (const int32_t ch : e.children) children.push_back(tile(static_cast<size_t>(ch)));
+            t["children"] = children;
+        }
+        return t;
+    };
+    json root = tile(0);
+    if (doc.tiles[0].transform) root["transform"] = *doc.tiles[0].transform;
+    const format::BuildEntry& b = doc.build;
+    json tileset = {
+        {"asset", {{"version", "1.1"},
+                   {"generator", fmt::format("cityatlas {}", kCityAtlasVersion)},
+                   {"tilesetVersion", doc.tileset_version},
+                   {"extras", {{"cityatlas", {
+                       {"texel_guarantee",
+                        "at maximumScreenSpaceError = tau every drawn atlas texel covers at most tau pixels of a "
+                        "screen with focal_px (corner_factor at the corners); geometricError = min_distance_m / focal_px"},
+                       {"tau", b.tau},
+                       {"focal_px", b.focal_px},
+                       {"corner_factor", b.corner_factor},
+                       {"screen_height_px", b.screen_height_px},
+                       {"vertical_fov_deg", b.vertical_fov_deg},
+                       {"d_min_m", b.d_min_m},
+                       {"source_crs", doc.georeference.source_crs},
+                       {"web_textures", webTexturesName(params.textures)},
+                       {"max_position_error_mm", stats.max_position_error_m * 1000.0}}}}}}},
+        {"geometricError", doc.geometric_error},
+        {"root", root}};
+    const std::string out = tileset.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+    if (Status st = writeFile(out_dir / "tileset.json", out.data(), out.size()); !st.ok()) return st;
+    stats.bytes_tileset = out.size();
+    stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (stats_out) *stats_out = stats;
+    return Status::Ok();
+}
+
+}  // namespace cityatlas::tiles

@@ -1,0 +1,68 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// The 3D Tiles 1.1 export of a build: the atlas tree as a tileset that
+/// CesiumJS, 3DTilesRendererJS and any 3D Tiles client render, written beside
+/// the native folder by `cityatlas build --format 3dtiles|both`.
+///
+///   3dtiles/tileset.json      3D Tiles 1.1: one tile per atlas-tree node, refine REPLACE,
+///                             the node's box, geometricError = min_distance_m / focal_px
+///                             (so maximumScreenSpaceError = tau selects as the native client
+///                             does), the root's transform = local_to_ecef
+///   3dtiles/tiles/<node>.glb  one glTF 2.0 binary per tile
+///
+/// Each GLB is glTF y-up (x east, y up, z south in the local frame), its
+/// positions float32 relative to the node's centre, which the glTF node's
+/// translation carries in double: float32 rounding stays below 1e-5 m
+/// anywhere on Earth. The opaque and alpha layers are primitives of one mesh
+/// (alpha: alphaMode BLEND); material-coloured surfaces are primitives of
+/// their own with the material's colour as baseColorFactor. Materials are
+/// KHR_materials_unlit with the node's atlas embedded as the base colour
+/// texture (PNG as the atlas stage wrote it, or JPEG / WebP from it).
+/// Picking: EXT_mesh_features (per-vertex feature ids into the tile's own
+/// property table) and EXT_structural_metadata (gml:id, name, height, roof
+/// type, function, source file and the dataset's generic attributes).
+///
+/// Geometry comes from the native GLBs just written (decoded with the format
+/// library), so both formats hold the same triangles.
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "atlas/atlas_tree.h"
+#include "core/status.h"
+#include "ingest/scene.h"
+
+namespace cityatlas::tiles {
+
+enum class WebTextures { Png, Jpeg, Webp };
+const char* webTexturesName(WebTextures t);                  ///< "png", "jpeg", "webp"
+bool parseWebTextures(const std::string& name, WebTextures* out);
+
+struct Tiles3dParams {
+    WebTextures textures = WebTextures::Png;
+    int jpeg_quality = 90;   ///< JPEG and WebP quality, 1..100
+    int threads = 0;         ///< 0 = all cores
+};
+
+struct Tiles3dStats {
+    uint64_t tiles = 0, tiles_with_content = 0;
+    uint64_t bytes_glb = 0, bytes_images = 0, bytes_tileset = 0;
+    uint64_t triangles = 0, primitives = 0;
+    double max_float_rounding_m = 0;  ///< float32(position - centre) against the double value, all vertices
+    double max_position_error_m = 0;  ///< the native files' measured error plus the float32 rounding
+    double seconds = 0, image_encode_seconds = 0;
+};
+
+using Tiles3dProgressFn = std::function<void(uint64_t done, uint64_t total)>;
+
+/// Writes `out_dir` (3dtiles/) from the native folder `native_dir` that
+/// writeTileset has just written for `tree`, the atlas PNGs in `atlas_dir`
+/// and the scene's features.
+Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
+                    const std::filesystem::path& native_dir, const Tiles3dParams& params,
+                    const std::filesystem::path& out_dir, const Tiles3dProgressFn& progress, Tiles3dStats* stats);
+
+}  // namespace cityatlas::tiles
