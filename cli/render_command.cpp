@@ -53,6 +53,7 @@ struct RenderCliOptions {
     float anisotropy = 4;
     bool cpu_decode = false;
     int threads = 2;
+    std::string picks_file;  // JSON [[x, y], ...]: picked after the last frame
     bool quiet = false;
 };
 
@@ -280,6 +281,17 @@ int runRender(const RenderCliOptions& opt) {
         cut_frames.push_back(static_cast<size_t>(std::max(0.0, f)));
     }
 
+    std::vector<std::pair<double, double>> picks;
+    if (!opt.picks_file.empty()) {
+        std::ifstream f(opt.picks_file);
+        const json j = json::parse(f, nullptr, false);
+        if (!f || !j.is_array()) return fail(Status::Usage(fmt::format("{}: not a JSON array of [x, y] pixels", opt.picks_file)));
+        for (const json& p : j) {
+            if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number())
+                return fail(Status::Usage(fmt::format("{}: {} is not an [x, y] pixel", opt.picks_file, p.dump())));
+            picks.emplace_back(p[0].get<double>(), p[1].get<double>());
+        }
+    }
     auto cameraFor = [&](const render::CameraSample& s) {
         render::Camera c;
         c.position = s.position;
@@ -332,6 +344,25 @@ int runRender(const RenderCliOptions& opt) {
         frame_list.push_back(frameJson(i, s, wall_s, waited_ms, complete, r, image, centre));
         progress.update("frames", i + 1, frames);
     }
+    // Picks at given pixels of the last frame (the view's ray cast), with each building's gml:id.
+    json pick_list = json::array();
+    if (!picks.empty() && frames > 0) {
+        const render::Camera cam = cameraFor(render::sampleFrame(path, frames - 1));
+        for (const auto& [px, py] : picks) {
+            const render::PickHit hit = client->pick(cam, px, py);
+            json p = {{"x", px}, {"y", py}, {"hit", hit.hit}};
+            if (hit.hit) {
+                p["feature"] = hit.feature;
+                p["distance_m"] = hit.distance_m;
+                std::string record;
+                if (client->featureRecord(hit.feature, &record).ok()) {
+                    const json r = json::parse(record, nullptr, false);
+                    if (r.is_object() && r.contains("gml_id")) p["gml_id"] = r["gml_id"];
+                }
+            }
+            pick_list.push_back(p);
+        }
+    }
     progress.finish();
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
 
@@ -364,6 +395,7 @@ int runRender(const RenderCliOptions& opt) {
                                 {"bytes_textures", client->index().bytes_by_kind[2]}}},
                    {"summary", summary},
                    {"frames", frame_list}};
+    if (!picks.empty()) report["picks"] = pick_list;
     std::string report_path = opt.report;
     if (report_path.empty() && !opt.out_dir.empty()) report_path = (fs::path(opt.out_dir) / "report.json").string();
     if (!report_path.empty()) {
@@ -435,6 +467,9 @@ RunFn addRenderCommand(CLI::App& app) {
                   "(Mesa llvmpipe). The budget still counts the files' bytes, so textures take 4-8x the budget "
                   "in memory (the report's gpu_bytes)");
     cmd->add_option("--threads", opt->threads, "Decoding threads")->default_val(2)->check(CLI::Range(1, 256));
+    cmd->add_option("--picks", opt->picks_file,
+                    "JSON file [[x, y], ...]: after the last frame, pick the building at each pixel (from the top "
+                    "left) as `view` does on a click; the report's \"picks\" gives feature, gml_id and distance");
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress and no summary line");
     return [opt]() { return runRender(*opt); };
 }

@@ -19,6 +19,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -133,14 +134,14 @@ void plainStatus(httplib::Response& res, int status, const char* text) {
     res.set_content(text, "text/plain");
 }
 
-void serveFile(const fs::path& root, const httplib::Request& req, httplib::Response& res) {
+void serveFile(const fs::path& root, const std::string& path, const httplib::Request& req, httplib::Response& res) {
     // We answer Range ourselves (see the top of the file). httplib applies
     // req.ranges to every response after the handler, so take them out of the
     // request; it is httplib's own non-const object, passed to us as const.
     const httplib::Ranges ranges = req.ranges;
     const_cast<httplib::Request&>(req).ranges.clear();
 
-    LookupResult found = openInside(root, req.path);
+    LookupResult found = openInside(root, path);
     if (found.result == Lookup::kForbidden) return plainStatus(res, 403, "forbidden\n");
     if (found.result == Lookup::kNotFound) return plainStatus(res, 404, "not found\n");
     const std::shared_ptr<OpenFile> file = std::move(found.file);
@@ -245,7 +246,15 @@ const char* contentTypeFor(const fs::path& file) {
     if (ext == ".dds") return "image/vnd-ms.dds";
     if (ext == ".bin") return "application/octet-stream";
     if (ext == ".png") return "image/png";
-    if (ext == ".html") return "text/html";
+    if (ext == ".html") return "text/html; charset=utf-8";
+    if (ext == ".js" || ext == ".mjs") return "text/javascript; charset=utf-8";
+    if (ext == ".css") return "text/css; charset=utf-8";
+    if (ext == ".wasm") return "application/wasm";
+    if (ext == ".map") return "application/json";
+    if (ext == ".jpg" || ext == ".jpeg") return "image/jpeg";
+    if (ext == ".webp") return "image/webp";
+    if (ext == ".ktx2") return "image/ktx2";
+    if (ext == ".svg") return "image/svg+xml";
     return "application/octet-stream";
 }
 
@@ -289,7 +298,23 @@ std::unique_ptr<StaticServer> StaticServer::start(const StaticServerOptions& opt
                                 {"Access-Control-Expose-Headers", "Content-Length, Content-Range, Accept-Ranges"}});
     if (options.log_requests) server.set_logger(logRequest);
 
-    server.Get(".*", [root](const httplib::Request& req, httplib::Response& res) { serveFile(root, req, res); });
+    fs::path viewer;
+    if (!options.viewer_root.empty()) {
+        viewer = fs::canonical(options.viewer_root, ec);
+        if (ec || !fs::is_regular_file(viewer / "index.html", ec)) {
+            *status = Status::Io(fmt::format("{}: not a viewer folder (no index.html)", options.viewer_root.string()));
+            return nullptr;
+        }
+    }
+    server.Get(".*", [root, viewer](const httplib::Request& req, httplib::Response& res) {
+        // The viewer, when there is one: its page at / and its files under /_viewer/.
+        constexpr std::string_view kViewerPrefix = "/_viewer/";
+        if (!viewer.empty() && (req.path == "/" || req.path == "/index.html"))
+            return serveFile(viewer, "/index.html", req, res);
+        if (!viewer.empty() && req.path.rfind(kViewerPrefix, 0) == 0)
+            return serveFile(viewer, req.path.substr(kViewerPrefix.size() - 1), req, res);
+        serveFile(root, req.path, req, res);
+    });
     // HEAD runs the GET handler (httplib); everything else is read-only's 405.
     const auto refuse = [](const httplib::Request&, httplib::Response& res) {
         res.set_header("Allow", "GET, HEAD, OPTIONS");

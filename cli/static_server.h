@@ -20,6 +20,9 @@ struct StaticServerOptions {
     std::string host = "127.0.0.1";
     int port = 8080;            ///< 0: any free port (port() says which)
     bool log_requests = false;  ///< one line per request on stderr
+    /// A web viewer's folder (holding index.html): served at / and under
+    /// /_viewer/, with the same rules as the root. Empty: none.
+    std::filesystem::path viewer_root;
 };
 
 /// Serves in threads of its own from start() until stop() or destruction.

@@ -288,7 +288,9 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
             }
             if (!m.uv_atlas.empty()) {
                 uv[2 * v] = static_cast<float>(m.uv_atlas[v].x);
-                uv[2 * v + 1] = static_cast<float>(m.uv_atlas[v].y);
+                // The native files' atlas v runs up from the image's last row (the native
+                // client uploads DDS rows bottom-up); glTF's v runs down from the first.
+                uv[2 * v + 1] = static_cast<float>(1.0 - m.uv_atlas[v].y);
             }
             const uint32_t f = m.feature_id.empty() ? 0 : m.feature_id[v];
             const auto [it, added] = local_feature.emplace(f, static_cast<uint32_t>(features.size()));

@@ -69,3 +69,24 @@ expect() {
   grep -Eqi -- "$pattern" err.txt || { cat err.txt >&2; fail "'$*': stderr lacks '$pattern'"; }
   echo "ok: '$*' -> exit $rc: $(head -1 err.txt)"
 }
+
+# ensure_browser: Debian's chromium, node >= 18 and the npm packages of the web
+# viewer (web/: three.js, 3DTilesRendererJS) and of the browser tests
+# (tests/tools/browser: puppeteer-core, CesiumJS), installed with `npm ci` on
+# first use. Skips (77) when chromium or node is missing: scripts/setup-deps
+# installs both.
+ensure_browser() {
+  BROWSER_TOOLS="$SRC/tests/tools/browser"
+  [ -x "${CHROMIUM:-/usr/bin/chromium}" ] || { echo "SKIPPED: chromium is not installed (Debian: apt-get install chromium; scripts/setup-deps does)"; exit 77; }
+  command -v node > /dev/null || { echo "SKIPPED: node is not installed (Debian: apt-get install nodejs npm)"; exit 77; }
+  node -e 'process.exit(parseInt(process.versions.node) >= 18 ? 0 : 1)' ||
+    { echo "SKIPPED: node $(node --version) is too old for puppeteer-core 24 (needs >= 18)"; exit 77; }
+  local dir
+  for dir in "$SRC/web" "$BROWSER_TOOLS"; do
+    [ -f "$dir/node_modules/.package-lock.json" ] && continue
+    command -v npm > /dev/null || { echo "SKIPPED: npm is not installed (Debian: apt-get install npm)"; exit 77; }
+    echo "installing npm packages: npm ci --prefix $dir"
+    PUPPETEER_SKIP_DOWNLOAD=1 npm ci --prefix "$dir" --no-audit --no-fund --loglevel=error > npm.log 2>&1 ||
+      { tail -20 npm.log >&2; fail "npm ci in $dir failed (the first run needs the npm registry)"; }
+  done
+}

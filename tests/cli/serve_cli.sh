@@ -130,7 +130,7 @@ check_eq "render over serve: errors" "0" "$(json frames/report.json "j['summary'
 
 # --- Failures: one line, exit 1.
 expect 1 "cannot listen on 127\.0\.0\.1:$PORT: the port is in use" -- serve tiles --port "$PORT"
-expect 1 "^cityatlas serve: error: town: not a tile folder \(no tileset\.json\)$" -- serve town
+expect 1 "^cityatlas serve: error: town: not a tile folder \(no tileset\.json, no 3dtiles/tileset\.json\)$" -- serve town
 expect 1 "not a tile folder" -- serve tiles/tileset.json
 expect 1 "nowhere: no such folder" -- serve nowhere
 expect 1 "not an address of this machine" -- serve tiles --port 0 --host 192.0.2.1

@@ -6,12 +6,15 @@
 // every scene corner has such a vertex; at the origin, at a grid northing of
 // 9.9e6 m and at ECEF magnitudes. Feature ids index the tile's property table,
 // whose gml:id is the building the vertex belongs to (what picking returns).
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <map>
 #include <set>
 
 #include <fmt/format.h>
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -230,6 +233,51 @@ TEST(Tiles3d, TilesetMirrorsTheAtlasTree) {
     };
     walk(e.tileset["root"], native["root"]);
     EXPECT_EQ(e.stats.tiles, e.town->tree.nodes.size());
+}
+
+// Texture coordinates land on the atlas content: atlas texels outside every
+// region are black, so a triangle whose uv centroid samples pure black has
+// its coordinates wrong (e.g. v not flipped to glTF's top-down convention:
+// then a third of them do). The embedded images are decoded by OpenImageIO.
+TEST(Tiles3d, TexcoordsSampleTheAtlasContent) {
+    const Exported e = exportTown("t3_uv", {});
+    ASSERT_FALSE(HasFailure());
+    size_t triangles = 0, black = 0;
+    for (size_t id = 0; id < e.stats.tiles; ++id) {
+        const fs::path file = e.dir / "tiles" / fmt::format("{}.glb", id);
+        if (!fs::exists(file)) continue;
+        const Glb g = parseGlb(readFile(file));
+        for (const json& prim : g.doc["meshes"][0]["primitives"]) {
+            const json& pbr = g.doc["materials"][prim["material"].get<size_t>()]["pbrMetallicRoughness"];
+            if (!pbr.contains("baseColorTexture")) continue;
+            const json& image = g.doc["images"][g.doc["textures"][pbr["baseColorTexture"]["index"].get<size_t>()]["source"].get<size_t>()];
+            const json& view = g.doc["bufferViews"][image["bufferView"].get<size_t>()];
+            OIIO::Filesystem::IOMemReader mem(g.bin.data() + view["byteOffset"].get<size_t>(), view["byteLength"].get<size_t>());
+            OIIO::ImageSpec config;
+            void* proxy = &mem;
+            config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
+            auto in = OIIO::ImageInput::open("atlas.png", &config);
+            ASSERT_TRUE(in) << OIIO::geterror();
+            const int w = in->spec().width, h = in->spec().height, nc = in->spec().nchannels;
+            std::vector<uint8_t> px(static_cast<size_t>(w) * h * nc);
+            ASSERT_TRUE(in->read_image(0, 0, 0, nc, OIIO::TypeDesc::UINT8, px.data()));
+            const std::vector<double> uv = values(g, prim["attributes"]["TEXCOORD_0"]);
+            const std::vector<double> idx = values(g, prim["indices"]);
+            for (size_t t = 0; t + 2 < idx.size(); t += 3) {
+                double u = 0, v = 0;
+                for (size_t k = 0; k < 3; ++k) {
+                    u += uv[2 * static_cast<size_t>(idx[t + k])] / 3;
+                    v += uv[2 * static_cast<size_t>(idx[t + k]) + 1] / 3;
+                }
+                const int x = std::clamp(static_cast<int>(u * w), 0, w - 1), y = std::clamp(static_cast<int>(v * h), 0, h - 1);
+                const uint8_t* p = &px[(static_cast<size_t>(y) * w + x) * nc];
+                ++triangles;
+                black += std::max({p[0], p[1], p[2]}) < 8 ? 1 : 0;
+            }
+        }
+    }
+    EXPECT_GT(triangles, 500u);
+    EXPECT_LT(static_cast<double>(black), 0.05 * static_cast<double>(triangles)) << black << " of " << triangles;
 }
 
 TEST(Tiles3d, WebTextureFormats) {

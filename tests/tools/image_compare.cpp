@@ -8,7 +8,10 @@
 // every such pixel; `interior_holes` only those whose 3x3 neighbourhood is
 // covered in the reference, i.e. not on a silhouette, where two meshes of the
 // same surface (a node's merged geometry and its leaves', quantized about
-// different centres) may rasterize one pixel apart. Exit 2 on bad input.
+// different centres) may rasterize one pixel apart. For two renderers of the
+// same view (a browser client against `cityatlas render`): the silhouettes'
+// agreement, intersection over union of the covered (non-clear) pixels, and
+// the PSNR over the pixels both cover. Exit 2 on bad input.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -55,8 +58,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "image_compare: sizes differ: %dx%d and %dx%d\n", w1, h1, w2, h2);
         return 2;
     }
-    double se = 0;
-    long holes = 0, interior_holes = 0, reference_covered = 0;
+    double se = 0, se_both = 0;
+    long holes = 0, interior_holes = 0, reference_covered = 0, covered_both = 0, covered_either = 0;
     auto isClear = [&](const unsigned char* p) {
         return std::abs(p[0] - clear[0]) <= 2 && std::abs(p[1] - clear[1]) <= 2 && std::abs(p[2] - clear[2]) <= 2;
     };
@@ -67,6 +70,15 @@ int main(int argc, char** argv) {
         }
         const bool ref_clear = isClear(&b[i * 3]);
         reference_covered += ref_clear ? 0 : 1;
+        const bool test_clear = isClear(&a[i * 3]);
+        covered_either += ref_clear && test_clear ? 0 : 1;
+        if (!ref_clear && !test_clear) {
+            ++covered_both;
+            for (int c = 0; c < 3; ++c) {
+                const double d = static_cast<double>(a[i * 3 + static_cast<size_t>(c)]) - b[i * 3 + static_cast<size_t>(c)];
+                se_both += d * d;
+            }
+        }
         if (isClear(&a[i * 3]) && !ref_clear) {
             ++holes;
             const long x = static_cast<long>(i % static_cast<size_t>(w1)), y = static_cast<long>(i / static_cast<size_t>(w1));
@@ -82,7 +94,11 @@ int main(int argc, char** argv) {
     }
     const double mse = se / (3.0 * w1 * h1);
     const double psnr = mse > 0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : 99.0;
-    std::printf("{\"psnr_db\": %.3f, \"holes\": %ld, \"interior_holes\": %ld, \"reference_covered\": %ld, \"pixels\": %ld}\n",
-                psnr, holes, interior_holes, reference_covered, static_cast<long>(w1) * h1);
+    const double mse_both = covered_both ? se_both / (3.0 * static_cast<double>(covered_both)) : 0;
+    const double psnr_both = mse_both > 0 ? 10.0 * std::log10(255.0 * 255.0 / mse_both) : 99.0;
+    const double iou = covered_either ? static_cast<double>(covered_both) / static_cast<double>(covered_either) : 1.0;
+    std::printf("{\"psnr_db\": %.3f, \"holes\": %ld, \"interior_holes\": %ld, \"reference_covered\": %ld, \"pixels\": %ld, "
+                "\"silhouette_iou\": %.4f, \"covered_both\": %ld, \"psnr_covered_db\": %.3f}\n",
+                psnr, holes, interior_holes, reference_covered, static_cast<long>(w1) * h1, iou, covered_both, psnr_both);
     return 0;
 }

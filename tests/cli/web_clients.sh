@@ -1,0 +1,107 @@
+# The 3D Tiles export in two real clients, headless (Debian's chromium on
+# SwiftShader, driven by tests/tools/browser/drive.mjs): the cityatlas viewer
+# (three.js + 3DTilesRendererJS) and CesiumJS load the demo-size town (200
+# buildings, as scripts/demo) completely with no console error and no failed
+# request; a screenshot from each at one camera matches `cityatlas render` of
+# the same camera (silhouette IoU >= 0.95, PSNR >= 25 dB over the pixels both
+# cover); picking pixels of at least 10 buildings returns the gml:id that
+# `cityatlas render --picks` (the native client's ray cast) finds there; and
+# the viewer as `cityatlas serve` hosts it loads and shows a clicked
+# building's attributes. Figures in $WORK/web_clients.json.
+source "$(dirname "$0")/lib.sh" "$@"
+ensure_browser
+DRIVE="$BROWSER_TOOLS/drive.mjs"
+SIZE=960x540
+"$CITYATLAS" synth -q --buildings 200 --lod 2 --seed 1 -o town > /dev/null
+"$CITYATLAS" build -q town/town.gml -o out --format both > /dev/null
+
+# One camera, oblique over the town: the local frame for `render`, the
+# tileset's world frame (the root transform applied) for the browsers; and
+# candidate pick pixels, each with four neighbours 3 px away.
+"$PY" - out/tileset.json "${SIZE%x*}" "${SIZE#*x}" <<'PY'
+import json, math, sys
+native = json.load(open(sys.argv[1])); w, h = int(sys.argv[2]), int(sys.argv[3])
+b = native["root"]["boundingVolume"]["box"]
+c, hx, hy, hz = b[0:3], b[3], b[7], b[11]
+r = 0.4 * max(hx, hy)
+pos = [c[0], c[1] - 1.1 * r, c[2] + hz + 0.9 * r]
+d = [0.0, 1.0 * r, -(hz + 0.9 * r)]
+json.dump({"frame_rate": 1, "keyframes": [{"time_s": 0, "position": pos, "direction": d, "fov_deg": 60}]}, open("path.json", "w"))
+M = native["root"].get("transform")
+def apply(v, point):
+    if not M: return list(v)
+    return [sum(M[4 * k + i] * v[k] for k in range(3)) + (M[12 + i] if point else 0) for i in range(3)]
+def unit(v):
+    n = math.sqrt(sum(x * x for x in v)); return [x / n for x in v]
+dw, uw = unit(apply(d, False)), apply([0, 0, 1], False)
+dot = sum(a * b for a, b in zip(uw, dw))
+json.dump({"position": apply(pos, True), "direction": dw, "up": unit([u - dot * x for u, x in zip(uw, dw)]), "fov_deg": 60},
+          open("camera.json", "w"))
+cands = [[x, y] for x in range(24, w - 24, 24) for y in range(24, h - 24, 24)]
+json.dump([[x + dx, y + dy] for x, y in cands for dx, dy in ((0, 0), (3, 0), (-3, 0), (0, 3), (0, -3))], open("grid.json", "w"))
+PY
+"$CITYATLAS" render out --path path.json --size "$SIZE" --wait --frames 1 -o ours -q --picks grid.json
+# Pixels whose four neighbours hit the same building (none on an edge): at most 3 per building, 16 buildings.
+"$PY" - <<'PY'
+import json
+picks = json.load(open("ours/report.json"))["picks"]
+chosen, per = [], {}
+for k in range(0, len(picks), 5):
+    group = picks[k:k + 5]
+    ids = {p.get("gml_id") for p in group}
+    if len(ids) == 1 and group[0]["hit"] and None not in ids:
+        g = group[0]["gml_id"]
+        if per.get(g, 0) < 3 and (g in per or len(per) < 16):
+            per[g] = per.get(g, 0) + 1
+            chosen.append({"x": group[0]["x"], "y": group[0]["y"], "gml_id": g})
+json.dump(chosen, open("expected_picks.json", "w"))
+json.dump([[p["x"], p["y"]] for p in chosen], open("picks.json", "w"))
+print(f"pick targets: {len(chosen)} pixels on {len(per)} buildings")
+PY
+[ "$(json expected_picks.json "len({p['gml_id'] for p in j})")" -ge 10 ] || fail "fewer than 10 buildings to pick at this camera"
+
+for client in three cesium; do
+  node "$DRIVE" --client "$client" --folder out --camera camera.json --size "$SIZE" --picks picks.json \
+    --screenshot "$client.png" --out "$client.json" --timeout 240 > "$client.txt" 2>&1 ||
+    { cat "$client.txt" >&2; head -c 3000 "$client.json" >&2 2>/dev/null; fail "$client: did not load completely, or reported errors"; }
+  cat "$client.txt"
+  "$IMAGE_COMPARE" "$client.png" ours/frame_00000.png 196,218,243 > "$client.cmp"
+done
+"$PY" - "$WORK/web_clients.json" <<'PY'
+import json, sys
+expected = json.load(open("expected_picks.json"))
+out, bad = {}, []
+for client in ("three", "cesium"):
+    r, c = json.load(open(f"{client}.json")), json.load(open(f"{client}.cmp"))
+    picks = r["picks"]
+    right = sum(1 for p, e in zip(picks, expected) if p["properties"] and p["properties"].get("gml_id") == e["gml_id"])
+    wrong = [(e["x"], e["y"], e["gml_id"], (p["properties"] or {}).get("gml_id")) for p, e in zip(picks, expected)
+             if not p["properties"] or p["properties"].get("gml_id") != e["gml_id"]]
+    out[client] = {"ready_ms": r["state"]["ready_ms"], "wall_ms_to_ready": r["wall_ms_to_ready"],
+                   "tiles_loaded": r["state"]["tiles_loaded"], "tiles_drawn": r["state"]["tiles_visible"],
+                   "silhouette_iou": c["silhouette_iou"], "psnr_covered_db": c["psnr_covered_db"],
+                   "picks": len(picks), "picks_right": right, "buildings": len({e["gml_id"] for e in expected})}
+    f = out[client]
+    print(f"{client}: loaded in {f['ready_ms'] / 1000:.1f} s ({f['tiles_loaded']} tiles, {f['tiles_drawn']} drawn); "
+          f"vs cityatlas render: silhouette IoU {f['silhouette_iou']:.4f}, PSNR {f['psnr_covered_db']:.2f} dB; "
+          f"picks {right}/{len(picks)} on {f['buildings']} buildings")
+    if f["silhouette_iou"] < 0.95: bad.append(f"{client}: silhouette IoU {f['silhouette_iou']} < 0.95")
+    if f["psnr_covered_db"] < 25: bad.append(f"{client}: PSNR {f['psnr_covered_db']} dB < 25")
+    if wrong: bad.append(f"{client}: wrong picks (x, y, expected, got): {wrong[:5]}")
+json.dump(out, open(sys.argv[1], "w"), indent=1)
+if bad:
+    print("\n".join(bad), file=sys.stderr); sys.exit(1)
+PY
+
+# The viewer as `cityatlas serve` hosts it: loads, and a click shows the building's attributes.
+"$CITYATLAS" serve out --port 0 -q > serve.txt 2> serve.err & SERVE_PID=$!
+trap 'kill $SERVE_PID 2>/dev/null || true' EXIT
+for _ in $(seq 100); do grep -q '^viewer: open' serve.txt 2>/dev/null && break; sleep 0.05; done
+URL=$(sed -n 's|^viewer: open \(http://[^ ]*\) .*|\1|p' serve.txt)
+[ -n "$URL" ] || { cat serve.txt serve.err >&2; fail "serve did not announce the viewer"; }
+read -r X Y G < <("$PY" -c "import json; p=json.load(open('expected_picks.json'))[0]; print(p['x'], p['y'], p['gml_id'])")
+node "$DRIVE" --client three --url "$URL" --camera camera.json --size "$SIZE" --bare 0 --click "$X,$Y" \
+  --out viewer.json --timeout 240 > viewer.txt 2>&1 || { cat viewer.txt >&2; fail "the viewer served by cityatlas serve did not load cleanly"; }
+text=$(json viewer.json "j['clicked_text'] or ''")
+case "$text" in *"$G"*) ;; *) fail "the viewer's panel after a click at $X,$Y does not show $G: '$text'";; esac
+echo "ok: the viewer at $URL loaded ($(json viewer.json "j['state']['tiles_loaded']") tiles) and a click showed: $(echo "$text" | tr '\n' ' ' | cut -c1-160)"
