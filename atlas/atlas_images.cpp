@@ -314,11 +314,44 @@ Status writeCanvas(const Canvas& c, Layer layer, const fs::path& path) {
     return Status::Ok();
 }
 
+// Private ImageCaches are taken from a pool and never destroyed. OpenImageIO
+// keeps a per-thread record in each worker thread that used a cache, and
+// frees it when the thread exits; a cache destroyed before that (TBB's
+// workers outlive any one build in a process that builds several) made the
+// thread exit touch freed tiles (test_tiles3d crashed at exit, 1 run in 2).
+// Returned caches are emptied (invalidate_all) so they hold no memory.
+class CachePool {
+public:
+    static OIIO::ImageCache* acquire() {
+        std::lock_guard lock(mutex());
+        auto& free = caches();
+        if (free.empty()) return OIIO::ImageCache::create(/*shared=*/false);
+        OIIO::ImageCache* c = free.back();
+        free.pop_back();
+        return c;
+    }
+    static void release(OIIO::ImageCache* c) {
+        c->invalidate_all(/*force=*/true);
+        std::lock_guard lock(mutex());
+        caches().push_back(c);
+    }
+
+private:
+    static std::mutex& mutex() {
+        static std::mutex m;
+        return m;
+    }
+    static std::vector<OIIO::ImageCache*>& caches() {
+        static auto* v = new std::vector<OIIO::ImageCache*>();  // leaked on purpose, as the caches
+        return *v;
+    }
+};
+
 class Renderer {
 public:
     Renderer(const Scene& scene, const AtlasTree& tree, const fs::path& out, const AtlasProgressFn& progress)
         : scene_(scene), tree_(tree), out_(out), progress_(progress) {
-        cache_ = OIIO::ImageCache::create(/*shared=*/false);
+        cache_ = CachePool::acquire();
         cache_->attribute("max_memory_MB", static_cast<float>(tree.params.cache_mb));
         cache_->attribute("autotile", 0);
         cache_->attribute("max_open_files", 64);
@@ -328,7 +361,7 @@ public:
         for (const auto& n : tree.nodes)
             for (const auto& l : n.layers) total_ += l.present() ? 1 : 0;
     }
-    ~Renderer() { OIIO::ImageCache::destroy(cache_); }
+    ~Renderer() { CachePool::release(cache_); }
 
     Status run(RenderResult* result) {
         renderSubtree(0);

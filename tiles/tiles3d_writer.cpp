@@ -393,6 +393,21 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
     return r;
 }
 
+// The error if the tileset is not drawn at all: the whole city missing, i.e.
+// its root box's diagonal (at least twice the root's error). Clients skip a
+// tileset whose own error is below their threshold, so the native index's
+// 2 x root error (a few centimetres for a small town) would leave it unseen
+// from more than a few hundred metres.
+double tilesetError(const format::TilesetDocument& doc) {
+    const auto& b = doc.tiles[0].box;
+    double d2 = 0;
+    for (size_t axis = 0; axis < 3; ++axis) {
+        const double h = std::abs(b[3 + axis]) + std::abs(b[6 + axis]) + std::abs(b[9 + axis]);
+        d2 += 4 * h * h;
+    }
+    return std::max(doc.geometric_error, std::sqrt(d2));
+}
+
 }  // namespace
 
 const char* webTexturesName(WebTextures t) {
@@ -492,7 +507,7 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
                        {"source_crs", doc.georeference.source_crs},
                        {"web_textures", webTexturesName(params.textures)},
                        {"max_position_error_mm", stats.max_position_error_m * 1000.0}}}}}}},
-        {"geometricError", doc.geometric_error},
+        {"geometricError", tilesetError(doc)},
         {"root", root}};
     const std::string out = tileset.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
     if (Status st = writeFile(out_dir / "tileset.json", out.data(), out.size()); !st.ok()) return st;

@@ -146,7 +146,8 @@ function frame() {
   state.tiles_active = tiles.activeTiles ? tiles.activeTiles.size : (s.active ?? 0);
   const busy = !state.root_loaded || state.downloading > 0 || state.parsing > 0 || (s.queued ?? 0) > 0;
   quiet = busy ? 0 : quiet + 1;
-  if (!state.ready && quiet >= 10) { state.ready = true; state.ready_ms = performance.now() - state.started_ms; }
+  // Nothing loaded yet: the first requests may still be a few frames away.
+  if (!state.ready && quiet >= (state.tiles_loaded > 0 ? 10 : 120)) { state.ready = true; state.ready_ms = performance.now() - state.started_ms; }
   if (state.ready && busy) state.ready = false;  // the camera moved: loading again
   statusEl.textContent = `${tilesetUrl}\n` +
     (state.ready ? `loaded: ${state.tiles_visible} tiles drawn (${state.tiles_loaded} downloaded)` :

@@ -1,31 +1,27 @@
-# `cityatlas build` on every dataset in ../shared/data (defaults), then
-# `cityatlas inspect` on each folder: schema, every uri, every Draco mesh,
-# every DDS header and size. The FZK-Haus examples mix a local engineering
+# `cityatlas build --format both` on every dataset in ../shared/data (other
+# parameters at their defaults), then `cityatlas inspect` on each folder:
+# schema, every uri, every Draco mesh, every DDS header and size; and the 3D
+# Tiles export against the official schemas and the glTF validator. The FZK-Haus examples mix a local engineering
 # CRS with EPSG:25832 files, so they are built one file at a time (the mixed
 # folder must fail with a clear message).
 source "$(dirname "$0")/lib.sh" "$@"
 DATA="$SRC/../shared/data"
 if [ ! -d "$DATA" ]; then echo "SKIP: $DATA is absent (the team's shared data folder)"; exit 77; fi
 
-inputs=()
-for d in "$DATA"/*/; do
-  case "$(basename "$d")" in
-    citygml2_fzk_haus_official_examples)  # LOD0, 3 and 4 have nothing we draw (LOD <= 2; checked below)
-      for f in "$d"*.gml; do case "$f" in *LOD[034]*) ;; *) inputs+=("$f") ;; esac; done ;;
-    *) inputs+=("$d") ;;
-  esac
-done
+ensure_gltf_validator
+shared_inputs "$DATA"
 n=0
-for in in "${inputs[@]}"; do
+for in in "${INPUTS[@]}"; do
   name="$(basename "$(dirname "$in")")/$(basename "$in")"; out="tiles_$n"; n=$((n + 1))
-  set +e; "$CITYATLAS" build "$in" -o "$out" -q > "$out.txt" 2> "$out.err"; rc=$?; set -e
+  set +e; "$CITYATLAS" build "$in" -o "$out" -q --format both > "$out.txt" 2> "$out.err"; rc=$?; set -e
   [ $rc -eq 0 ] || { cat "$out.err" >&2; fail "$name: build exit $rc"; }
   set +e; "$CITYATLAS" inspect "$out" > "$out.inspect" 2>&1; rc=$?; set -e
   [ $rc -eq 0 ] || { tail -20 "$out.inspect" >&2; fail "$name: inspect exit $rc"; }
   echo "ok: $name: $(head -1 "$out.txt" | sed 's/^Built [^:]*: //'); inspect: $(tail -1 "$out.inspect")"
+  validate_export "$out" "$name (3D Tiles)"
 done
 expect 1 "no triangles" -- build "$DATA/citygml2_fzk_haus_official_examples/Building_LOD0-EPSG25832.gml" -o lod0 -q
 [ ! -e lod0 ] || fail "the LOD0-only build left a folder behind"
 expect 1 "local engineering CRS" -- build "$DATA/citygml2_fzk_haus_official_examples" -o mixed -q
 [ ! -e mixed ] && [ ! -e mixed.partial ] || fail "the failed build left a folder behind"
-echo "ok: $n datasets built and inspected"
+echo "ok: $n datasets built, inspected and their 3D Tiles exports validated"

@@ -90,3 +90,37 @@ ensure_browser() {
       { tail -20 npm.log >&2; fail "npm ci in $dir failed (the first run needs the npm registry)"; }
   done
 }
+
+# validate_export FOLDER WHAT: FOLDER/3dtiles/tileset.json against the official
+# 3D Tiles 1.1 schemas (tests/tools/validate_3dtiles.py) and every GLB against
+# the glTF validator (ensure_gltf_validator first): no error, no warning.
+validate_export() {  # validate_export FOLDER WHAT
+  "$PY" "$SRC/tests/tools/validate_3dtiles.py" "$1/3dtiles/tileset.json" > schema.txt 2>&1 || { head -20 schema.txt >&2; fail "$2: tileset.json is not valid 3D Tiles 1.1"; }
+  local glbs
+  glbs=$(find "$1/3dtiles/tiles" -name '*.glb' | wc -l)
+  [ "$glbs" -gt 0 ] || fail "$2: no GLB written"
+  set +e
+  find "$1/3dtiles/tiles" -name '*.glb' -print0 | xargs -0 node "$GLTF_TOOLS/validate.mjs" > validate.txt 2>&1
+  local rc=$?
+  set -e
+  local bad
+  bad=$(grep -c -v -E ': 0 errors, 0 warnings, [0-9]+ infos$' validate.txt || true)
+  [ "$rc" -eq 0 ] && [ "$bad" -eq 0 ] || { grep -v ': 0 errors, 0 warnings' validate.txt | head -20 >&2; fail "$2: the glTF validator reports errors or warnings"; }
+  echo "ok: $2: $(tail -1 schema.txt | sed 's/.*: valid/valid/'); $glbs GLBs with 0 errors, 0 warnings"
+}
+
+
+# shared_inputs: the inputs of ../shared/data one build each, in $INPUTS (the
+# FZK-Haus examples mix a local engineering CRS with EPSG:25832 files: one
+# file at a time, without LOD0, 3 and 4, which have nothing we draw).
+shared_inputs() {
+  INPUTS=()
+  local d f
+  for d in "$1"/*/; do
+    case "$(basename "$d")" in
+      citygml2_fzk_haus_official_examples)
+        for f in "$d"*.gml; do case "$f" in *LOD[034]*) ;; *) INPUTS+=("$f") ;; esac; done ;;
+      *) INPUTS+=("$d") ;;
+    esac
+  done
+}

@@ -6,23 +6,7 @@
 # a 3dtiles-only folder holds no native files and a rerun is up to date.
 source "$(dirname "$0")/lib.sh" "$@"
 ensure_gltf_validator
-VALIDATE="$SRC/tests/tools/validate_3dtiles.py"
 "$CITYATLAS" synth -q --buildings 60 --seed 4 --texture-size 64 -o town > /dev/null
-
-validate_export() {  # validate_export FOLDER WHAT
-  "$PY" "$VALIDATE" "$1/3dtiles/tileset.json" > schema.txt 2>&1 || { head -20 schema.txt >&2; fail "$2: tileset.json is not valid 3D Tiles 1.1"; }
-  local glbs
-  glbs=$(find "$1/3dtiles/tiles" -name '*.glb' | wc -l)
-  [ "$glbs" -gt 0 ] || fail "$2: no GLB written"
-  set +e
-  find "$1/3dtiles/tiles" -name '*.glb' -print0 | xargs -0 node "$GLTF_TOOLS/validate.mjs" > validate.txt 2>&1
-  local rc=$?
-  set -e
-  local bad
-  bad=$(grep -c -v -E ': 0 errors, 0 warnings, [0-9]+ infos$' validate.txt || true)
-  [ "$rc" -eq 0 ] && [ "$bad" -eq 0 ] || { grep -v ': 0 errors, 0 warnings' validate.txt | head -20 >&2; fail "$2: the glTF validator reports errors or warnings"; }
-  echo "ok: $2: $(tail -1 schema.txt | sed 's/.*: valid/valid/'); $glbs GLBs with 0 errors, 0 warnings"
-}
 
 "$CITYATLAS" build -q town/town.gml -o both --d-min 30 --format both > build.txt
 validate_export both "png (both)"

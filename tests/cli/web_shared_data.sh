@@ -1,0 +1,28 @@
+# Every dataset in ../shared/data, exported to 3D Tiles (--format 3dtiles,
+# other parameters at their defaults), loads completely in both real clients
+# (the three.js viewer and CesiumJS, headless chromium), each flying to the
+# tileset by itself: no console error, no failed request, every tile that
+# loaded drawn from its GLB. Figures in $WORK/web_shared_data.tsv.
+source "$(dirname "$0")/lib.sh" "$@"
+DATA="$SRC/../shared/data"
+if [ ! -d "$DATA" ]; then echo "SKIP: $DATA is absent (the team's shared data folder)"; exit 77; fi
+ensure_browser
+shared_inputs "$DATA"
+printf 'dataset\tclient\tready_ms\ttiles_loaded\ttiles_drawn\n' > "$WORK/web_shared_data.tsv"
+n=0
+for in in "${INPUTS[@]}"; do
+  if [ -d "$in" ]; then name="$(basename "$in")"; else name="$(basename "$(dirname "$in")")/$(basename "$in")"; fi
+  out="t_$n"; n=$((n + 1))
+  "$CITYATLAS" build "$in" -o "$out" -q --format 3dtiles > /dev/null 2> "$out.err" || { cat "$out.err" >&2; fail "$name: build failed"; }
+  line="ok: $name:"
+  for client in three cesium; do
+    node "$BROWSER_TOOLS/drive.mjs" --client "$client" --folder "$out" --size 480x270 --out "$out.$client.json" \
+      --timeout 180 > "$out.$client.txt" 2>&1 || { cat "$out.$client.txt" >&2; head -c 2000 "$out.$client.json" >&2 2>/dev/null; fail "$name: $client"; }
+    read -r ms loaded drawn s < <(json "$out.$client.json" "'%d %d %d %.1f' % (j['state']['ready_ms'], j['state']['tiles_loaded'], j['state']['tiles_visible'], j['state']['ready_ms'] / 1000)")
+    [ "$loaded" -gt 0 ] && [ "$drawn" -gt 0 ] || fail "$name: $client loaded $loaded tiles and drew $drawn"
+    printf '%s\t%s\t%s\t%s\t%s\n' "$name" "$client" "$ms" "$loaded" "$drawn" >> "$WORK/web_shared_data.tsv"
+    line="$line $client $loaded tiles in $s s;"
+  done
+  echo "$line"
+done
+echo "ok: $n datasets load completely in the three.js viewer and in CesiumJS"
