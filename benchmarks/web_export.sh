@@ -1,0 +1,103 @@
+#!/usr/bin/env bash
+# The 3D Tiles export per --web-textures option on a synthetic town (default
+# 10,000 buildings, every other parameter at its default): export time and
+# bytes, the PSNR of the embedded atlases against the lossless PNG export, and
+# the time until CesiumJS (headless chromium, SwiftShader: a CPU renderer,
+# so slow) has everything loaded at an overview and at street level.
+#
+#   benchmarks/web_export.sh [BUILDINGS] [FORMATS]     # e.g. 10000 "png jpeg webp"
+#
+# Writes out/benchmarks/web_export.tsv (one row per format) and prints it.
+# Needs the build (scripts/build), chromium and the npm packages of web/ and
+# tests/tools/browser (ctest -R cli.web_clients installs them).
+set -euo pipefail
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+N="${1:-10000}"
+FORMATS="${2:-png jpeg webp}"
+BIN="$ROOT/build/cli/cityatlas"
+COMPARE="$ROOT/build/tests/tools/image_compare"
+DRIVE="$ROOT/tests/tools/browser/drive.mjs"
+WORK="$ROOT/out/benchmarks/web_export_$N"
+mkdir -p "$WORK" "$ROOT/out/benchmarks"
+TSV="$ROOT/out/benchmarks/web_export.tsv"
+cd "$WORK"
+[ -f town/town.gml ] || "$BIN" synth -q --buildings "$N" --seed 1 -o town > /dev/null
+
+# Two cameras in the tileset's world frame: an overview (the whole town, oblique) and street level
+# (1.7 m above the ground at the town's centre, looking along y).
+cameras() {  # cameras FOLDER
+  python3 - "$1/3dtiles/tileset.json" "$1/build_report.json" <<'PY'
+import json, math, sys
+t = json.load(open(sys.argv[1]))
+b = t["root"]["boundingVolume"]["box"]
+c, hx, hy, hz = b[0:3], b[3], b[7], b[11]
+M = t["root"].get("transform")
+def apply(v, point):
+    if not M: return list(v)
+    return [sum(M[4 * k + i] * v[k] for k in range(3)) + (M[12 + i] if point else 0) for i in range(3)]
+def unit(v):
+    n = math.sqrt(sum(x * x for x in v)); return [x / n for x in v]
+def cam(pos, d, name):
+    dw, uw = unit(apply(d, False)), apply([0, 0, 1], False)
+    dot = sum(a * b for a, b in zip(uw, dw))
+    json.dump({"position": apply(pos, True), "direction": dw, "up": unit([u - dot * x for u, x in zip(uw, dw)]),
+               "fov_deg": 60}, open(name, "w"))
+r = max(hx, hy)
+cam([c[0], c[1] - 1.1 * r, c[2] + hz + 0.9 * r], [0, 1.1 * r, -(hz + 0.9 * r)], "overview.json")
+cam([c[0] + 0.5, c[1] - 0.3 * hy, c[2] - hz + 1.7], [0, 1, -0.05], "street.json")
+PY
+}
+
+printf 'buildings\tweb_textures\tbuild_s\texport_s\timage_encode_s\tglb_bytes\timage_bytes\ttiles\tpsnr_min_db\tpsnr_mean_db\tcesium_overview_s\tcesium_overview_tiles\tcesium_street_s\tcesium_street_tiles\n' > "$TSV"
+for f in $FORMATS; do
+  out="tiles_$f"
+  t0=$(date +%s.%N)
+  "$BIN" build -q town/town.gml -o "$out" --format 3dtiles --web-textures "$f" > "build_$f.txt"
+  t1=$(date +%s.%N)
+  build_s=$(python3 -c "print(round($t1 - $t0, 1))")
+  read -r export_s encode_s glb img tiles < <(python3 -c "
+import json; t = json.load(open('$out/build_report.json'))['tiles3d']
+print(round(t['seconds'], 1), round(t['image_encode_seconds'], 1), t['bytes']['glb'], t['bytes']['images'], t['tiles'])")
+  # PSNR of each embedded (opaque) atlas against the same tile's PNG, when PNG was exported first.
+  psnr_min=-; psnr_mean=-
+  if [ "$f" != png ] && [ -d tiles_png ]; then
+    mkdir -p "img_$f"
+    python3 - "$out/3dtiles/tiles" tiles_png/3dtiles/tiles "img_$f" <<'PY'
+import json, os, struct, sys
+def images(path):
+    b = open(path, "rb").read(); n = struct.unpack_from("<I", b, 12)[0]; j = json.loads(b[20:20 + n]); binc = b[28 + n:]
+    out = []
+    for im in j.get("images", []):
+        v = j["bufferViews"][im["bufferView"]]
+        out.append((im["mimeType"], binc[v["byteOffset"]:v["byteOffset"] + v["byteLength"]]))
+    return out
+src, ref, dst = sys.argv[1:4]
+for name in sorted(os.listdir(src)):
+    a, r = images(os.path.join(src, name)), images(os.path.join(ref, name))
+    if a and r and a[0][0] != "image/png":
+        ext = {"image/jpeg": "jpg", "image/webp": "webp"}[a[0][0]]
+        open(os.path.join(dst, f"{name}.{ext}"), "wb").write(a[0][1])
+        open(os.path.join(dst, f"{name}.png"), "wb").write(r[0][1])
+PY
+    read -r psnr_min psnr_mean < <(for img in "img_$f"/*.glb.*; do
+        case "$img" in *.png) continue ;; esac
+        "$COMPARE" "$img" "${img%.*}.png" 0,0,0 | python3 -c "import json,sys; print(json.load(sys.stdin)['psnr_db'])"
+      done | python3 -c "import sys; v=[float(x) for x in sys.stdin]; print(round(min(v), 2), round(sum(v) / len(v), 2)) if v else print('- -')")
+  fi
+  cameras "$out"
+  ov_s=-; ov_t=-; st_s=-; st_t=-
+  if [ -x /usr/bin/chromium ] && [ -f "$DRIVE" ]; then
+    for view in overview street; do
+      if node "$DRIVE" --client cesium --folder "$out" --camera "$view.json" --size 960x540 --timeout 1800 \
+           --out "cesium_${f}_$view.json" > "cesium_${f}_$view.txt" 2>&1; then
+        read -r s n < <(python3 -c "
+import json; j = json.load(open('cesium_${f}_$view.json')); print(round(j['state']['ready_ms'] / 1000, 1), j['state']['tiles_loaded'])")
+      else s=FAILED; n=-; fi
+      if [ "$view" = overview ]; then ov_s=$s; ov_t=$n; else st_s=$s; st_t=$n; fi
+    done
+  fi
+  printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$N" "$f" "$build_s" "$export_s" "$encode_s" "$glb" "$img" \
+    "$tiles" "$psnr_min" "$psnr_mean" "$ov_s" "$ov_t" "$st_s" "$st_t" >> "$TSV"
+  tail -1 "$TSV"
+done
+column -t -s $'\t' "$TSV"
