@@ -5,7 +5,7 @@
 # the time until CesiumJS (headless chromium, SwiftShader: a CPU renderer,
 # so slow) has everything loaded at an overview and at street level.
 #
-#   benchmarks/web_export.sh [BUILDINGS] [FORMATS]     # e.g. 10000 "png jpeg webp"
+#   benchmarks/web_export.sh [BUILDINGS] [FORMATS]     # e.g. 10000 "png jpeg webp ktx2"
 #
 # Writes out/benchmarks/web_export.tsv (one row per format) and prints it.
 # Needs the build (scripts/build), chromium and the npm packages of web/ and
@@ -13,7 +13,7 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 N="${1:-10000}"
-FORMATS="${2:-png jpeg webp}"
+FORMATS="${2:-png jpeg webp ktx2}"
 BIN="$ROOT/build/cli/cityatlas"
 COMPARE="$ROOT/build/tests/tools/image_compare"
 DRIVE="$ROOT/tests/tools/browser/drive.mjs"
@@ -23,29 +23,11 @@ TSV="$ROOT/out/benchmarks/web_export.tsv"
 cd "$WORK"
 [ -f town/town.gml ] || "$BIN" synth -q --buildings "$N" --seed 1 -o town > /dev/null
 
-# Two cameras in the tileset's world frame: an overview (the whole town, oblique) and street level
-# (1.7 m above the ground at the town's centre, looking along y).
+# Two cameras in the tileset's world frame (tests/tools/browser/camera.py): an
+# overview (the whole town, oblique) and street level (1.7 m above the ground).
 cameras() {  # cameras FOLDER
-  python3 - "$1/3dtiles/tileset.json" "$1/build_report.json" <<'PY'
-import json, math, sys
-t = json.load(open(sys.argv[1]))
-b = t["root"]["boundingVolume"]["box"]
-c, hx, hy, hz = b[0:3], b[3], b[7], b[11]
-M = t["root"].get("transform")
-def apply(v, point):
-    if not M: return list(v)
-    return [sum(M[4 * k + i] * v[k] for k in range(3)) + (M[12 + i] if point else 0) for i in range(3)]
-def unit(v):
-    n = math.sqrt(sum(x * x for x in v)); return [x / n for x in v]
-def cam(pos, d, name):
-    dw, uw = unit(apply(d, False)), apply([0, 0, 1], False)
-    dot = sum(a * b for a, b in zip(uw, dw))
-    json.dump({"position": apply(pos, True), "direction": dw, "up": unit([u - dot * x for u, x in zip(uw, dw)]),
-               "fov_deg": 60}, open(name, "w"))
-r = max(hx, hy)
-cam([c[0], c[1] - 1.1 * r, c[2] + hz + 0.9 * r], [0, 1.1 * r, -(hz + 0.9 * r)], "overview.json")
-cam([c[0] + 0.5, c[1] - 0.3 * hy, c[2] - hz + 1.7], [0, 1, -0.05], "street.json")
-PY
+  python3 "$ROOT/tests/tools/browser/camera.py" "$1/3dtiles/tileset.json" oblique:1 --camera overview.json
+  python3 "$ROOT/tests/tools/browser/camera.py" "$1/3dtiles/tileset.json" street --camera street.json
 }
 
 printf 'buildings\tweb_textures\tbuild_s\texport_s\timage_encode_s\tglb_bytes\timage_bytes\ttiles\tpsnr_min_db\tpsnr_mean_db\tcesium_overview_s\tcesium_overview_tiles\tcesium_street_s\tcesium_street_tiles\n' > "$TSV"
@@ -60,7 +42,8 @@ import json; t = json.load(open('$out/build_report.json'))['tiles3d']
 print(round(t['seconds'], 1), round(t['image_encode_seconds'], 1), t['bytes']['glb'], t['bytes']['images'], t['tiles'])")
   # PSNR of each embedded (opaque) atlas against the same tile's PNG, when PNG was exported first.
   psnr_min=-; psnr_mean=-
-  if [ "$f" != png ] && [ -d tiles_png ]; then
+  # (KTX2: no decoder here; OpenImageIO does not read it, so no PSNR column.)
+  if { [ "$f" = jpeg ] || [ "$f" = webp ]; } && [ -d tiles_png ]; then
     mkdir -p "img_$f"
     python3 - "$out/3dtiles/tiles" tiles_png/3dtiles/tiles "img_$f" <<'PY'
 import json, os, struct, sys
