@@ -32,6 +32,7 @@
 #include "format/glb_reader.h"
 #include "format/tileset_document.h"
 #include "tiles/texture_blocks.h"
+#include "tiles/tileset.h"
 
 namespace cityatlas::tiles {
 namespace {
@@ -48,17 +49,6 @@ Status readFile(const fs::path& path, std::vector<uint8_t>* out) {
     if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
     out->assign(std::istreambuf_iterator<char>(f), {});
     if (f.bad()) return Status::Io(fmt::format("{}: cannot read", path.string()));
-    return Status::Ok();
-}
-
-Status writeFile(const fs::path& path, const void* data, size_t size) {
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
-    const bool written = std::fwrite(data, 1, size, f) == size;
-    const int write_errno = errno;
-    const bool closed = std::fclose(f) == 0;
-    if (!written || !closed)
-        return Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(!written ? write_errno : errno)));
     return Status::Ok();
 }
 
@@ -444,7 +434,7 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
     }
     g.doc["extensionsUsed"] = used;
     const std::vector<uint8_t> glb = g.glb();
-    if (Status st = writeFile(out_path, glb.data(), glb.size()); !st.ok()) {
+    if (Status st = writeBytes(out_path, glb.data(), glb.size()); !st.ok()) {
         r.error = st.error;
         return r;
     }
@@ -588,7 +578,7 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
         {"geometricError", tilesetError(doc)},
         {"root", root}};
     const std::string out = tileset.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
-    if (Status st = writeFile(out_dir / "tileset.json", out.data(), out.size()); !st.ok()) return st;
+    if (Status st = writeBytes(out_dir / "tileset.json", out.data(), out.size()); !st.ok()) return st;
     stats.bytes_tileset = out.size();
     stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (stats_out) *stats_out = stats;

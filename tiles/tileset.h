@@ -115,6 +115,10 @@ struct TilesStats {
 /// the folder's textures cost over the data's own; 0 without textures.
 double textureRatio(const TilesStats& s);
 
+/// Writes a whole file; a failure (a full disk often shows only at fclose) is
+/// one line naming the file and the errno's reason.
+Status writeBytes(const std::filesystem::path& path, const void* data, size_t size);
+
 using TilesProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
 
 /// Writes the folder for `tree` (built from `scene`, its atlas PNGs under

@@ -40,18 +40,6 @@ double peakRssMb() {
     return static_cast<double>(u.ru_maxrss) / 1024.0;  // KiB on Linux
 }
 
-// C stdio, for the errno of a failure (a full disk often shows only at fclose).
-Status writeBytes(const fs::path& path, const void* data, size_t size) {
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
-    const bool written = std::fwrite(data, 1, size, f) == size;
-    const int write_errno = errno;
-    const bool closed = std::fclose(f) == 0;
-    if (!written || !closed)
-        return Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(!written ? write_errno : errno)));
-    return Status::Ok();
-}
-
 Vec3d centreOf(const Box3d& b) { return 0.5 * (b.min + b.max); }
 
 // Distinct feature ids of the triangles that survive encoding (encodeTileGlb
@@ -149,6 +137,18 @@ int uvOriginalBitsFor(const TileMesh& m, const std::vector<double>& texture_size
 }
 
 }  // namespace
+
+// C stdio, for the errno of a failure (a full disk often shows only at fclose).
+Status writeBytes(const fs::path& path, const void* data, size_t size) {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
+    const bool written = std::fwrite(data, 1, size, f) == size;
+    const int write_errno = errno;
+    const bool closed = std::fclose(f) == 0;
+    if (!written || !closed)
+        return Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(!written ? write_errno : errno)));
+    return Status::Ok();
+}
 
 double textureRatio(const TilesStats& s) {
     return s.bytes_originals_bc ? static_cast<double>(s.bytes_atlases + s.bytes_textures) / static_cast<double>(s.bytes_originals_bc)
