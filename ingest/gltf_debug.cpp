@@ -53,16 +53,6 @@ constexpr uint32_t kChunkBin = 0x004E4942;      // "BIN\0"
 // bits, high 16 bits) instead; asset.extras.feature_id_encoding says which.
 constexpr uint32_t kMaxExactFloatInt = 1u << 24;
 
-int samplerWrap(WrapMode w) {
-    switch (w) {
-        case WrapMode::Wrap: return kRepeat;
-        case WrapMode::Mirror: return kMirroredRepeat;
-        case WrapMode::Clamp:
-        case WrapMode::Border:
-        case WrapMode::None: break;
-    }
-    return kClampToEdge;
-}
 
 // The corners of a triangle as float32, or false when one is not finite there
 // (non-finite in double, or beyond float range).
@@ -334,7 +324,7 @@ Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) 
                                uv_view, uv_cursor * 8, kFloat, count);
                 fmt::format_to(prim, R"(,"TEXCOORD_0":{})", n_accessors++);
                 uv_cursor += count;
-                const int wrap = samplerWrap(tex.wrap);
+                const int wrap = gltfSamplerWrap(tex.wrap);
                 const int slot = wrap == kRepeat ? 0 : wrap == kMirroredRepeat ? 1 : 2;
                 if (sampler_of[slot] < 0) {
                     sampler_of[slot] = static_cast<int>(n_samplers++);
@@ -470,6 +460,17 @@ Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) 
     fs::rename(tmp, glb_path, ec);
     if (ec) return fail(fmt::format("cannot rename {} into place: {}", tmp.string(), ec.message()));
     return Status::Ok();
+}
+
+int gltfSamplerWrap(WrapMode w) {
+    switch (w) {
+        case WrapMode::Wrap: return kRepeat;
+        case WrapMode::Mirror: return kMirroredRepeat;
+        case WrapMode::Clamp:
+        case WrapMode::Border:
+        case WrapMode::None: break;
+    }
+    return kClampToEdge;
 }
 
 }  // namespace cityatlas

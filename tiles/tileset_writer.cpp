@@ -150,6 +150,14 @@ Status writeBytes(const fs::path& path, const void* data, size_t size) {
     return Status::Ok();
 }
 
+Status readBytes(const fs::path& path, std::vector<uint8_t>* out) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return Status::Io(fmt::format("{}: cannot open: {}", path.string(), std::strerror(errno)));
+    out->assign(std::istreambuf_iterator<char>(f), {});
+    if (f.bad()) return Status::Io(fmt::format("{}: cannot read", path.string()));
+    return Status::Ok();
+}
+
 double textureRatio(const TilesStats& s) {
     return s.bytes_originals_bc ? static_cast<double>(s.bytes_atlases + s.bytes_textures) / static_cast<double>(s.bytes_originals_bc)
                                 : 0.0;

@@ -146,6 +146,7 @@ function frame() {
   state.downloading = s.downloading ?? 0;
   state.parsing = s.parsing ?? 0;
   state.tiles_visible = tiles.visibleTiles ? tiles.visibleTiles.size : (s.visible ?? 0);
+  if (tiles.visibleTiles) state.visible_uris = [...tiles.visibleTiles].map((t) => t.content?.uri || t.content?.url || '').sort();
   state.tiles_active = tiles.activeTiles ? tiles.activeTiles.size : (s.active ?? 0);
   const busy = !state.root_loaded || state.downloading > 0 || state.parsing > 0 || (s.queued ?? 0) > 0;
   quiet = busy ? 0 : quiet + 1;

