@@ -39,7 +39,7 @@ for f in $FORMATS; do
   build_s=$(python3 -c "print(round($t1 - $t0, 1))")
   read -r export_s encode_s glb img tiles < <(python3 -c "
 import json; t = json.load(open('$out/build_report.json'))['tiles3d']
-print(round(t['seconds'], 1), round(t['image_encode_seconds'], 1), t['bytes']['glb'], t['bytes']['images'], t['tiles'])")
+print(round(t['seconds'], 1), round(t['image_encode_seconds'], 1), t['bytes']['glb'] + t['bytes']['shared_images'], t['bytes']['images'] + t['bytes']['shared_images'], t['tiles'])")
   # PSNR of each embedded (opaque) atlas against the same tile's PNG, when PNG was exported first.
   psnr_min=-; psnr_mean=-
   # (KTX2: no decoder here; OpenImageIO does not read it, so no PSNR column.)

@@ -332,8 +332,9 @@ int runBuild(const BuildCliOptions& opt_in) {
                              {"primitives", t3.primitives},
                              {"originals_tiles", t3.originals_tiles},
                              {"original_images", t3.original_images},
+                             {"shared_images", t3.shared_images},
                              {"web_textures", opt.web_textures},
-                             {"bytes", {{"glb", t3.bytes_glb}, {"originals_glb", t3.bytes_originals_glb}, {"images", t3.bytes_images}, {"tileset", t3.bytes_tileset}}},
+                             {"bytes", {{"glb", t3.bytes_glb}, {"originals_glb", t3.bytes_originals_glb}, {"shared_images", t3.bytes_shared_images}, {"images", t3.bytes_images}, {"tileset", t3.bytes_tileset}}},
                              {"position_error_mm_max", t3.max_position_error_m * 1000.0},
                              {"float_rounding_mm_max", t3.max_float_rounding_m * 1000.0},
                              {"seconds", t3.seconds},
@@ -372,11 +373,13 @@ int runBuild(const BuildCliOptions& opt_in) {
                                   ts.root_features_dropped.size())
                           .c_str());
     if (opt.format != "native")
-        std::printf("  3D Tiles: %llu tiles (%llu with content, %llu of them leaves' originals: %s), %s of GLB (images %s, "
+        std::printf("  3D Tiles: %llu tiles (%llu with content, %llu of them leaves' originals: %s, sharing %llu "
+                    "originals in textures/: %s), %s of GLB (images %s, "
                     "%s), position <= %.2f mm; open 3dtiles/tileset.json (maximumScreenSpaceError = %.0f keeps the "
                     "texel guarantee)\n",
                     static_cast<unsigned long long>(t3.tiles), static_cast<unsigned long long>(t3.tiles_with_content),
                     static_cast<unsigned long long>(t3.originals_tiles), humanBytes(t3.bytes_originals_glb).c_str(),
+                    static_cast<unsigned long long>(t3.shared_images), humanBytes(t3.bytes_shared_images).c_str(),
                     humanBytes(t3.bytes_glb).c_str(), humanBytes(t3.bytes_images).c_str(), opt.web_textures.c_str(),
                     t3.max_position_error_m * 1000.0, 1.0);
     printWarnings(diagnostics);

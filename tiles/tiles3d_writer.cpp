@@ -197,6 +197,13 @@ struct TileResult {
     std::string error;
 };
 
+// An original written once, textures/<name>, for every close-range tile that uses it.
+struct SharedImage {
+    std::string uri;   ///< relative to tiles/
+    std::string mime;
+    bool ok = false;   ///< false: it could not be read or encoded (the atlas stands in)
+};
+
 // What every tile reads besides its own entry.
 struct ExportContext {
     const Scene& scene;
@@ -207,6 +214,10 @@ struct ExportContext {
     /// The tileset textures in the native writer's order (its leaf geometry's
     /// _TEXTURE_ID): scene texture and wrap mode of each.
     TextureBlocks plan;
+    /// Originals that several close-range tiles use (an orthophoto under many
+    /// leaves, a repeated roof texture): written once under textures/ and
+    /// referenced by uri; the others are embedded in their one tile.
+    std::map<int32_t, SharedImage> shared;
 };
 
 WebImageParams imageParams(const Tiles3dParams& p) { return {p.textures, p.jpeg_quality, p.basisu}; }
@@ -228,16 +239,24 @@ struct TextureTable {
     const char* image_extension = nullptr;   // EXT_texture_webp / KHR_texture_basisu when used
 
     int add(const WebImage& image, int wrap) {
+        g.doc["images"].push_back({{"bufferView", g.viewOf(image.bytes)}, {"mimeType", image.mime}});
+        return texture(image.mime, wrap);
+    }
+    int addShared(const SharedImage& image, int wrap) {
+        g.doc["images"].push_back({{"uri", image.uri}, {"mimeType", image.mime}});
+        return texture(image.mime, wrap);
+    }
+    // A texture of the image just added.
+    int texture(const std::string& mime, int wrap) {
         const auto [it, added] = samplers.emplace(wrap, static_cast<int>(samplers.size()));
         if (added)
             g.doc["samplers"].push_back({{"magFilter", kLinear}, {"minFilter", kLinearMipmapLinear}, {"wrapS", wrap}, {"wrapT", wrap}});
-        g.doc["images"].push_back({{"bufferView", g.viewOf(image.bytes)}, {"mimeType", image.mime}});
         const size_t source = g.doc["images"].size() - 1;
         // WebP and KTX2 are not core glTF image types: through their extensions, without fallback.
-        if (image.mime == "image/webp") {
+        if (mime == "image/webp") {
             g.doc["textures"].push_back({{"sampler", it->second}, {"extensions", {{"EXT_texture_webp", {{"source", source}}}}}});
             image_extension = "EXT_texture_webp";
-        } else if (image.mime == "image/ktx2") {
+        } else if (mime == "image/ktx2") {
             g.doc["textures"].push_back({{"sampler", it->second}, {"extensions", {{"KHR_texture_basisu", {{"source", source}}}}}});
             image_extension = "KHR_texture_basisu";
         } else {
@@ -295,6 +314,10 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
                     if (t >= 0 && static_cast<size_t>(t) < x.plan.textures.size()) used.insert(t);
         for (const int32_t t : used) {
             const TextureEntry& te = x.plan.textures[static_cast<size_t>(t)];
+            if (const auto it = x.shared.find(t); it != x.shared.end()) {
+                if (it->second.ok) original_texture[t] = table.addShared(it->second, gltfSamplerWrap(te.wrap));
+                continue;
+            }
             const TextureRef& ref = x.scene.textures[static_cast<size_t>(te.scene_texture)];
             WebImage image;
             if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_path.parent_path() / fmt::format(".{}-t{}", entry.id, t),
@@ -438,6 +461,53 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
     return r;
 }
 
+// The originals that more than one close-range tile uses, each written once
+// as textures/<tileset texture>.<ext>; `shared` says which and where.
+Status writeSharedOriginals(const ExportContext& x, const format::TilesetDocument& doc, const fs::path& out_dir,
+                            tbb::task_arena& arena, std::map<int32_t, SharedImage>* shared, std::vector<TileResult>* results) {
+    std::map<int32_t, int> uses;  // tileset texture -> close-range tiles using it
+    for (size_t i = 0; i < doc.tiles.size(); ++i) {
+        const atlas::AtlasNode& node = x.tree.nodes[i];
+        if (!doc.tiles[i].leaf() || node.originals.empty()) continue;
+        std::set<int32_t> used;
+        for (const auto& layer : node.layers)
+            for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
+                if (const int32_t st = x.tree.triangles[t].tri.texture; st >= 0) used.insert(x.plan.texture_index[static_cast<size_t>(st)]);
+        for (const int32_t t : used)
+            if (t >= 0) ++uses[t];
+    }
+    std::vector<int32_t> list;
+    for (const auto& [t, n] : uses)
+        if (n > 1) list.push_back(t);
+    if (list.empty()) return Status::Ok();
+    std::error_code ec;
+    fs::create_directories(out_dir / "textures", ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "textures").string(), ec.message()));
+    results->assign(list.size(), {});
+    std::vector<SharedImage> images(list.size());
+    arena.execute([&] {
+        tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
+            const TextureEntry& te = x.plan.textures[static_cast<size_t>(list[k])];
+            const TextureRef& ref = x.scene.textures[static_cast<size_t>(te.scene_texture)];
+            WebImage image;
+            TileResult& r = (*results)[k];
+            if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_dir / "textures" / fmt::format(".{}", list[k]), r, &image).ok())
+                return;  // the native build counted it (texture_unreadable); the atlas stands in
+            const std::string name = fmt::format("{}.{}", list[k], image.mime.substr(image.mime.find('/') + 1));
+            if (Status st = writeBytes(out_dir / "textures" / name, image.bytes.data(), image.bytes.size()); !st.ok()) {
+                r.error = st.error;
+                return;
+            }
+            images[k] = {"../textures/" + name, image.mime, true};
+        });
+    });
+    for (size_t k = 0; k < list.size(); ++k) {
+        if (!(*results)[k].error.empty()) return Status::Io("3dtiles: " + (*results)[k].error);
+        (*shared)[list[k]] = images[k];
+    }
+    return Status::Ok();
+}
+
 // A tile's GLB under tiles/: the node's, or its close range's.
 std::string tileUri(size_t node, bool originals) {
     return originals ? fmt::format("{}_originals.glb", node) : fmt::format("{}.glb", node);
@@ -481,11 +551,14 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
     fs::create_directories(out_dir / "tiles", ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "tiles").string(), ec.message()));
 
-    const ExportContext context{scene,  tree, atlas_dir, native_dir, params, attributeColumns(scene),
-                                planTextureBlocks(scene, tree, doc.build.originals == "all")};
+    ExportContext context{scene,  tree, atlas_dir, native_dir, params, attributeColumns(scene),
+                          planTextureBlocks(scene, tree, doc.build.originals == "all"), {}};
     if (context.plan.textures.size() != doc.textures.size())
         return Status::Internal(fmt::format("3dtiles: the native index has {} textures, the plan {}", doc.textures.size(),
                                             context.plan.textures.size()));
+    tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+    std::vector<TileResult> shared_results;
+    if (Status st = writeSharedOriginals(context, doc, out_dir, arena, &context.shared, &shared_results); !st.ok()) return st;
     // Every node's tile, then the close range of each leaf whose atlas holds some texture below its own resolution.
     struct Job {
         size_t node;
@@ -498,7 +571,6 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
     std::vector<TileResult> results(doc.tiles.size()), close(doc.tiles.size());
     std::atomic<uint64_t> done{0};
     std::mutex progress_mutex;
-    tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         tbb::parallel_for(size_t{0}, jobs.size(), [&](size_t k) {
             const Job& job = jobs[k];
@@ -526,6 +598,11 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
         }
     for (const TileResult& r : close)
         if (r.content) ++stats.tiles, ++stats.originals_tiles, stats.bytes_originals_glb += r.bytes, stats.original_images += r.originals;
+    for (const TileResult& r : shared_results) {
+        stats.bytes_shared_images += r.image_bytes;
+        stats.shared_images += r.images;
+        stats.image_encode_seconds += r.image_seconds;
+    }
 
     // tileset.json: the same tree, boxes and geometric errors as the native index.
     std::function<json(size_t)> tile = [&](size_t i) {

@@ -16,6 +16,9 @@
 ///                             leaf's box) with the leaf's geometry and its original textures,
 ///                             sampled as the source says (repeat, mirror or clamp): what the
 ///                             native client draws closer than the leaf's min distance
+///   3dtiles/textures/<t>.<ext> an original that several close-range tiles use (an orthophoto,
+///                             a repeated roof texture), written once and referenced by uri;
+///                             the others are embedded in their one tile
 ///
 /// Each GLB is glTF y-up (x east, y up, z south in the local frame), its
 /// positions float32 relative to the node's centre, which the glTF node's
@@ -61,6 +64,8 @@ struct Tiles3dStats {
     uint64_t originals_tiles = 0;      ///< leaves' close-range child tiles
     uint64_t bytes_originals_glb = 0;  ///< their GLBs (also in bytes_glb)
     uint64_t original_images = 0;      ///< original textures embedded, summed over those tiles
+    uint64_t shared_images = 0;        ///< originals several of them use, written once under textures/
+    uint64_t bytes_shared_images = 0;  ///< those files
     double max_float_rounding_m = 0;  ///< float32(position - centre) against the double value, all vertices
     double max_position_error_m = 0;  ///< the native files' measured error plus the float32 rounding
     double seconds = 0, image_encode_seconds = 0;

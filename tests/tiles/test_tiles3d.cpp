@@ -340,7 +340,8 @@ const uint8_t* texel(const Pixels& img, double u, double v_down) {
 // uv centroid samples the embedded image where the scene's own uvs sample the
 // source texture (found by the triangle's position; CityGML's v runs up, the
 // image rows down), and coordinates beyond [0, 1] come with the repeat or
-// mirror sampler the source's wrapMode asks for.
+// mirror sampler the source's wrapMode asks for. An original several close-range
+// tiles use is one file under textures/, referenced by uri.
 TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
     const Exported e = exportTown("t3_close", {}, WebTextures::Png, 512, 30);
     ASSERT_FALSE(HasFailure());
@@ -353,7 +354,7 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
         if (it == sources.end()) it = sources.emplace(path, decodeImage(path)).first;
         return it->second;
     };
-    size_t close_tiles = 0, triangles = 0, mismatched = 0, beyond_unit = 0, embedded_as_is = 0;
+    size_t close_tiles = 0, triangles = 0, mismatched = 0, beyond_unit = 0, embedded_as_is = 0, by_uri = 0;
     for (size_t id = 0; id < tree.nodes.size(); ++id) {
         const atlas::AtlasNode& node = tree.nodes[id];
         const fs::path file = e.dir / "tiles" / fmt::format("{}_originals.glb", id);
@@ -381,8 +382,10 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
             const json& texture = g.doc["textures"][pbr["baseColorTexture"]["index"].get<size_t>()];
             const size_t image = texture["source"];
             const int wrap = g.doc["samplers"][texture["sampler"].get<size_t>()]["wrapS"];
-            if (!images.count(image))
-                images[image] = decodeEmbedded(g, image, e.dir / fmt::format("close-{}-{}.png", id, image));
+            const json& im = g.doc["images"][image];
+            if (!images.count(image))  // embedded, or shared by several close-range tiles and referenced by uri
+                images[image] = im.contains("uri") ? decodeImage(file.parent_path() / im["uri"].get<std::string>())
+                                                   : decodeEmbedded(g, image, e.dir / fmt::format("close-{}-{}.png", id, image));
             const Pixels& img = images[image];
             const std::vector<double> pos = values(g, prim["attributes"]["POSITION"]);
             const std::vector<double> uv = values(g, prim["attributes"]["TEXCOORD_0"]);
@@ -431,7 +434,13 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
         }
         // PNG sources are embedded as they are (no second encoding).
         for (const auto& [image, px] : images) {
-            const std::vector<uint8_t> bytes = imageBytes(g, image);
+            const json& im = g.doc["images"][image];
+            const std::vector<uint8_t> bytes =
+                im.contains("uri") ? readFile(file.parent_path() / im["uri"].get<std::string>()) : imageBytes(g, image);
+            if (im.contains("uri")) {
+                EXPECT_EQ(im["uri"].get<std::string>().rfind("../textures/", 0), 0u);
+                ++by_uri;
+            }
             for (const TextureRef& ref : scene.textures)
                 if (readFile(ref.path) == bytes) {
                     ++embedded_as_is;
@@ -444,7 +453,13 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
     EXPECT_GT(triangles, 200u);
     EXPECT_GT(beyond_unit, 0u) << "the paving roofs repeat their texture";
     EXPECT_LT(static_cast<double>(mismatched), 0.02 * static_cast<double>(triangles)) << mismatched << " of " << triangles;
-    EXPECT_EQ(embedded_as_is, e.stats.original_images);
+    // Every image is its source's bytes; the shared ones (the orthophoto under many leaves) are files of their own.
+    EXPECT_EQ(embedded_as_is, e.stats.original_images + by_uri);
+    EXPECT_GT(e.stats.shared_images, 0u);
+    EXPECT_GT(by_uri, e.stats.shared_images) << "a shared original is used by more than one tile";
+    size_t files = 0;
+    for (const auto& f : fs::directory_iterator(e.dir / "textures")) files += f.path().filename().string()[0] != '.';
+    EXPECT_EQ(files, e.stats.shared_images);
 }
 
 TEST(Tiles3d, WebTextureFormats) {
