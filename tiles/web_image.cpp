@@ -155,15 +155,23 @@ Status encodeWebImage(const fs::path& source, int channels, const WebImageParams
         fs::remove(file, ec);
         return st;
     };
+    // A lossy encoding that comes out larger than a PNG or JPEG source (flat-coloured
+    // synthetic or scanned-plan textures often do) keeps the source: smaller and exact.
+    auto smaller = [&](const char* ext, const char* mime) {
+        Status st = encoded(ext, mime);
+        std::error_code ec;
+        if (st.ok() && kind != Kind::Other && out->bytes.size() >= fs::file_size(source, ec) && !ec) return embed(kind);
+        return st;
+    };
     switch (p.format) {
         case WebTextures::Png:
             return kind == Kind::Other ? encoded("png", "image/png") : embed(kind);
         case WebTextures::Jpeg:
             if (kind == Kind::Jpeg) return embed(kind);
             if (channels == 4) return kind == Kind::Png ? embed(kind) : encoded("png", "image/png");  // JPEG has no alpha
-            return encoded("jpg", "image/jpeg");
+            return smaller("jpg", "image/jpeg");
         case WebTextures::Webp:
-            return encoded("webp", "image/webp");
+            return smaller("webp", "image/webp");
         case WebTextures::Ktx2: {
             if (kind == Kind::Png) return basisu(source, p, scratch, out);
             const fs::path png = scratch.string() + ".png";

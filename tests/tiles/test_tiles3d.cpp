@@ -476,5 +476,41 @@ TEST(Tiles3d, WebTextureFormats) {
     }
 }
 
+// A lossy encoding never makes an image larger than its PNG source: a flat
+// colour stays the PNG it was as JPEG (lossy WebP codes it in ~170 bytes),
+// noise (photo-like) becomes JPEG / WebP.
+TEST(Tiles3d, LossyWebImagesNeverGrowAPngSource) {
+    const fs::path dir = test::scratchPath("tiles3d", "web_image");
+    fs::create_directories(dir);
+    auto writePng = [&](const char* name, bool noisy) {
+        const int w = 256, h = 256;
+        std::vector<uint8_t> px(static_cast<size_t>(w) * h * 3, 128);
+        uint32_t state = 12345;
+        if (noisy)
+            for (uint8_t& v : px) v = static_cast<uint8_t>((state = state * 1664525u + 1013904223u) >> 24);
+        const fs::path file = dir / name;
+        auto out = OIIO::ImageOutput::create(file.string());
+        EXPECT_TRUE(out && out->open(file.string(), OIIO::ImageSpec(w, h, 3, OIIO::TypeDesc::UINT8)) &&
+                    out->write_image(OIIO::TypeDesc::UINT8, px.data()) && out->close());
+        return file;
+    };
+    const fs::path flat = writePng("flat.png", false), noisy = writePng("noisy.png", true);
+    for (const auto& [format, mime] : {std::pair{WebTextures::Jpeg, "image/jpeg"}, std::pair{WebTextures::Webp, "image/webp"}}) {
+        WebImageParams p;
+        p.format = format;
+        p.quality = 90;
+        WebImage a, b;
+        ASSERT_TRUE(encodeWebImage(flat, 3, p, dir / "scratch", &a).ok());
+        EXPECT_LE(a.bytes.size(), fs::file_size(flat)) << webTexturesName(format);
+        if (format == WebTextures::Jpeg) {  // the flat JPEG is larger than the PNG
+            EXPECT_EQ(a.mime, "image/png");
+            EXPECT_EQ(a.bytes, readFile(flat));
+        }
+        ASSERT_TRUE(encodeWebImage(noisy, 3, p, dir / "scratch", &b).ok());
+        EXPECT_EQ(b.mime, mime);
+        EXPECT_LT(b.bytes.size(), fs::file_size(noisy));
+    }
+}
+
 }  // namespace
 }  // namespace cityatlas::tiles
