@@ -131,7 +131,8 @@ Exported exportTown(const std::string& name, const Vec3d& offset, WebTextures te
     return e;
 }
 
-// Scene corners on a 1 cm grid, for nearest-corner lookups.
+// Points (scene corners, or triangle centroids) with an id each (feature, or
+// triangle index) on a 1 cm grid, for nearest-point lookups.
 struct CornerGrid {
     std::map<std::array<int64_t, 3>, std::vector<std::pair<Vec3d, uint32_t>>> cells;
     static std::array<int64_t, 3> key(const Vec3d& p) {
@@ -361,17 +362,13 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
         ASSERT_EQ(fs::exists(file), node.leaf() && !node.originals.empty()) << "node " << id;
         if (!fs::exists(file)) continue;
         ++close_tiles;
-        // The leaf's scene triangles by centroid (local frame, 1 cm cells).
-        std::map<std::array<int64_t, 3>, std::vector<const Triangle*>> by_centroid;
-        auto key = [](const Vec3d& p) {
-            return std::array<int64_t, 3>{std::llround(p.x * 100), std::llround(p.y * 100), std::llround(p.z * 100)};
-        };
+        // The leaf's textured scene triangles by centroid (local frame, 1 cm cells), as tree triangle indices.
+        CornerGrid by_centroid;
         for (const auto& layer : node.layers)
             for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t) {
                 const Triangle& tri = tree.triangles[t].tri;
-                if (tri.texture < 0) continue;
-                const Vec3d c = (1.0 / 3) * (tri.position_local[0] + tri.position_local[1] + tri.position_local[2]);
-                by_centroid[key(c)].push_back(&tri);
+                if (tri.texture >= 0)
+                    by_centroid.add((1.0 / 3) * (tri.position_local[0] + tri.position_local[1] + tri.position_local[2]), t);
             }
         const Glb g = parseGlb(readFile(file));
         const json& tr = g.doc["nodes"][0]["translation"];
@@ -401,23 +398,10 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
                     u += uv[2 * vi] / 3, v += uv[2 * vi + 1] / 3;
                     for (size_t a = 0; a < 2; ++a) outside |= uv[2 * vi + a] < -1e-3 || uv[2 * vi + a] > 1 + 1e-3;
                 }
-                // The scene triangle of this centroid: the nearest within the neighbouring cells.
-                const Triangle* found = nullptr;
-                double best = 0.01;
-                const auto k0 = key(c);
-                for (int64_t dx = -1; dx <= 1; ++dx)
-                    for (int64_t dy = -1; dy <= 1; ++dy)
-                        for (int64_t dz = -1; dz <= 1; ++dz) {
-                            const auto it = by_centroid.find({k0[0] + dx, k0[1] + dy, k0[2] + dz});
-                            if (it == by_centroid.end()) continue;
-                            for (const Triangle* cand : it->second) {
-                                const Vec3d d = (1.0 / 3) * (cand->position_local[0] + cand->position_local[1] + cand->position_local[2]) - c;
-                                const double dist = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-                                if (dist < best) best = dist, found = cand;
-                            }
-                        }
-                ASSERT_NE(found, nullptr) << "node " << id << ": a triangle not in the leaf";
-                const Triangle& tri = *found;
+                // The scene triangle of this centroid: the nearest, within 1 cm.
+                const auto [dist, index] = by_centroid.nearest(c);
+                ASSERT_LE(dist, 0.01) << "node " << id << ": a triangle not in the leaf";
+                const Triangle& tri = tree.triangles[index].tri;
                 const TextureRef& ref = scene.textures[static_cast<size_t>(tri.texture)];
                 if (outside) {
                     ++beyond_unit;
