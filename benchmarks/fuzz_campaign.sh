@@ -10,7 +10,10 @@
 #
 # One fuzzing process (one core). Run it under `nice -n 19` beside other work;
 # the ledger records CPU seconds, which is less than SECONDS when the core was
-# busy with something else. Needs the sanitized build tree (scripts/fuzz-smoke
+# busy with something else; libFuzzer's -timeout is wall-clock, so it is 60 s
+# here (a unit starved at nice 19 on a busy machine took 11 s for a 0.5 s run:
+# reproduce any timeout artifact unloaded before calling it a finding). Needs
+# the sanitized build tree (scripts/fuzz-smoke
 # makes it). Crashes land in out/fuzz-campaign/<target>/artifacts/; see
 # tests/fuzz/README.md for what to do with them and for folding the working
 # corpus back into the committed one (-merge=1).
@@ -41,7 +44,7 @@ export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
 TIMEFORMAT='%U %S'
 rc=0
-{ time (cd "$work" && "$bin" "$work/corpus" "$seed" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+{ time (cd "$work" && "$bin" "$work/corpus" "$seed" -max_total_time="$seconds" -timeout=60 -rss_limit_mb=2048 \
      -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$work/artifacts/" > "$log" 2>&1) || rc=$?; } 2> "$work/cpu.txt"
 read -r user sys < "$work/cpu.txt"
 cpu=$(python3 -c "print(round($user + $sys))")

@@ -30,6 +30,9 @@ find_package(meshoptimizer CONFIG REQUIRED)
 # tileset.json validation in `cityatlas inspect` (header-only), content hashes for `build`.
 find_package(valijson CONFIG REQUIRED)
 pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
+# The 3D Tiles export's WebP images: libwebp itself, in memory and at its default
+# effort (OpenImageIO's WebP writer works through a file at the slowest method, 6).
+pkg_check_modules(WEBP REQUIRED IMPORTED_TARGET libwebp)
 endif()
 
 # Both sides: JSON, messages, the command line.

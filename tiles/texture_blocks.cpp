@@ -18,8 +18,10 @@
 namespace cityatlas::tiles {
 namespace fs = std::filesystem;
 
-bool readImage8(const std::string& path, int channels, Image8* out, std::string* why) {
-    auto in = OIIO::ImageInput::open(path);
+bool readImage8(const std::string& path, int channels, Image8* out, std::string* why, bool straight_alpha) {
+    OIIO::ImageSpec config;
+    if (straight_alpha) config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
     if (!in) {
         *why = OIIO::geterror();
         if (why->empty()) *why = "cannot open";

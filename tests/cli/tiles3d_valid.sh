@@ -44,11 +44,39 @@ for format in jpeg webp; do
     [ ! -e "$format/$native" ] || fail "--format 3dtiles left the native $native"
   done
 done
-# KTX2 (basisu, ETC1S with mips) on a smaller town: basisu takes about 0.1 s per atlas.
+# KTX2 (basisu, ETC1S and UASTC with mips) on a smaller town: basisu takes about 0.1 s per atlas.
+# Each GLB's KTX2 images carry the data format descriptor's colour model of their codec
+# (KHR_DF_MODEL_ETC1S 163, KHR_DF_MODEL_UASTC 166) and a full mip chain.
 "$CITYATLAS" synth -q --buildings 12 --seed 5 --texture-size 64 -o small > /dev/null
-"$CITYATLAS" build -q small/town.gml -o ktx2 --d-min 40 --format 3dtiles --web-textures ktx2 > /dev/null
-validate_export ktx2 "ktx2 (3dtiles)"
-[ "$(find ktx2/3dtiles/tiles -name '*.glb' -exec grep -l -a KHR_texture_basisu {} + | wc -l)" -gt 0 ] || fail "no GLB uses KHR_texture_basisu"
+for format in ktx2 ktx2-uastc; do
+  "$CITYATLAS" build -q small/town.gml -o "$format" --d-min 40 --format 3dtiles --web-textures "$format" > /dev/null
+  validate_export "$format" "$format (3dtiles)"
+  [ "$(find "$format/3dtiles/tiles" -name '*.glb' -exec grep -l -a KHR_texture_basisu {} + | wc -l)" -gt 0 ] || fail "$format: no GLB uses KHR_texture_basisu"
+  "$PY" - "$format" <<'PY' || fail "$format: KTX2 images of the wrong codec or without mips"
+import glob, json, os, struct, sys
+want = {"ktx2": 163, "ktx2-uastc": 166}[sys.argv[1]]
+seen = 0
+for f in glob.glob(f"{sys.argv[1]}/3dtiles/tiles/*.glb"):
+    b = open(f, "rb").read()
+    n = struct.unpack_from("<I", b, 12)[0]
+    doc, base = json.loads(b[20:20 + n]), 20 + n + 8
+    for im in doc.get("images", []):
+        if im.get("mimeType") != "image/ktx2": continue
+        if "uri" in im:  # a shared original under 3dtiles/textures/
+            k = open(os.path.join(os.path.dirname(f), im["uri"]), "rb").read()
+        else:
+            v = doc["bufferViews"][im["bufferView"]]
+            k = b[base + v.get("byteOffset", 0):base + v.get("byteOffset", 0) + v["byteLength"]]
+        assert k[:12] == b"\xabKTX 20\xbb\r\n\x1a\n", f
+        w, h, levels = struct.unpack_from("<I", k, 20)[0], struct.unpack_from("<I", k, 24)[0], struct.unpack_from("<I", k, 40)[0]
+        model = k[struct.unpack_from("<I", k, 48)[0] + 12]
+        assert model == want, f"{f}: colour model {model}, expected {want}"
+        assert levels == max(w, h).bit_length(), f"{f}: {levels} mip levels for {w}x{h}"
+        seen += 1
+assert seen > 0
+print(f"ok: {sys.argv[1]}: {seen} KTX2 images, colour model {want}, full mip chains")
+PY
+done
 CITYATLAS_BASISU=/nonexistent/basisu expect 2 "needs the Basis Universal encoder" -- build small/town.gml -o ktx2_missing --format 3dtiles --web-textures ktx2 -q
 [ ! -e ktx2_missing ] || fail "a build without its KTX2 encoder left a folder"
 "$CITYATLAS" build town/town.gml -o webp --d-min 30 --format 3dtiles --web-textures webp > rerun.txt

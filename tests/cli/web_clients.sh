@@ -115,14 +115,17 @@ if bad:
     print("\n".join(bad), file=sys.stderr); sys.exit(1)
 PY
 
-# KTX2 atlases (KHR_texture_basisu; the viewer transcodes with three's basis
-# transcoder, CesiumJS with its own): a small town loads in both with no error.
+# KTX2 atlases, ETC1S and UASTC (KHR_texture_basisu; the viewer transcodes with
+# three's basis transcoder, CesiumJS with its own): a small town loads in both with no error.
 "$CITYATLAS" synth -q --buildings 12 --seed 5 --texture-size 64 -o small > /dev/null
-"$CITYATLAS" build -q small/town.gml -o ktx2 --d-min 40 --format 3dtiles --web-textures ktx2 > /dev/null
-for client in three cesium; do
-  node "$DRIVE" --client "$client" --folder ktx2 --size 480x270 --out "ktx2_$client.json" --screenshot "ktx2_$client.png" \
-    --timeout 120 > "ktx2_$client.txt" 2>&1 || { cat "ktx2_$client.txt" >&2; fail "$client: the KTX2 export did not load cleanly"; }
-  echo "ok: ktx2: $(cat "ktx2_$client.txt")"
+for format in ktx2 ktx2-uastc; do
+  "$CITYATLAS" build -q small/town.gml -o "$format" --d-min 40 --format 3dtiles --web-textures "$format" > /dev/null
+  for client in three cesium; do
+    node "$DRIVE" --client "$client" --folder "$format" --size 480x270 --out "${format}_$client.json" \
+      --screenshot "${format}_$client.png" --timeout 120 > "${format}_$client.txt" 2>&1 ||
+      { cat "${format}_$client.txt" >&2; fail "$client: the $format export did not load cleanly"; }
+    echo "ok: $format: $(cat "${format}_$client.txt")"
+  done
 done
 
 # The viewer as `cityatlas serve` hosts it: loads, and a click shows the building's attributes.
