@@ -137,7 +137,7 @@ json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostic
     j["warnings_total"] = diagnostics.total();
     json steps = json::array();
     for (const StepStats& st : s.steps)
-        steps.push_back({{"name", st.name}, {"seconds", st.seconds}, {"peak_rss_mb", st.peak_rss_mb}});
+        steps.push_back({{"name", st.name}, {"seconds", st.seconds}, {"cpu_seconds", st.cpu_seconds}, {"peak_rss_mb", st.peak_rss_mb}});
     j["steps"] = std::move(steps);
     j["nodes"] = std::move(nodes);
     return j;

@@ -188,6 +188,7 @@ struct StepStats {
     std::string name;
     double seconds = 0;
     double peak_rss_mb = 0;
+    double cpu_seconds = 0;  ///< user + system over all threads (core/resource_usage.h)
 };
 
 /// Every level-0 atlas texel of the tree, by what it holds. The parts add up

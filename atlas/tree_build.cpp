@@ -8,7 +8,6 @@
 #include <map>
 #include <memory>
 #include <set>
-#include <sys/resource.h>
 
 #include <fmt/format.h>
 #include <tbb/global_control.h>
@@ -25,18 +24,13 @@
 #include "atlas/texel_budget.h"
 #include "atlas/texel_estimate.h"
 #include "atlas/texture_economy.h"
+#include "core/resource_usage.h"
 
 namespace cityatlas::atlas {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-double peakRssMb() {
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    return static_cast<double>(u.ru_maxrss) * 1024.0 / 1e6;  // Linux reports KiB; MB as the CLI prints them
-}
 
 Layer layerOf(const Triangle& t, const Scene& scene) {
     if (t.texture >= 0) return scene.textures[t.texture].channels == 4 ? Layer::Alpha : Layer::Opaque;
@@ -462,11 +456,10 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     tree->params = params;
     tree->projection = projectionBound(params);
     AtlasStats& stats = tree->stats;
-    auto clock = std::chrono::steady_clock::now();
+    StageClock clock;
     auto step = [&](const char* name) {
-        const auto now = std::chrono::steady_clock::now();
-        stats.steps.push_back({name, std::chrono::duration<double>(now - clock).count(), peakRssMb()});
-        clock = now;
+        const StageCost c = clock.lap();
+        stats.steps.push_back({name, c.seconds, c.peak_rss_mb, c.cpu_seconds});
     };
     if (scene.triangles.empty()) return Status::Invalid("the scene has no triangles: nothing to build an atlas tree from");
 

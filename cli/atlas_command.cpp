@@ -15,6 +15,7 @@
 #include "cli/commands.h"
 #include "cli/outcome.h"
 #include "cli/progress.h"
+#include "core/resource_usage.h"
 #include "cli/scene_input.h"
 
 namespace cityatlas::cli {
@@ -98,6 +99,7 @@ int runAtlas(const AtlasCliOptions& opt) {
 
     Progress progress(!opt.quiet);
     const auto t_start = std::chrono::steady_clock::now();
+    StageClock read_clock;
     IngestState state;
     SceneCollector collector;
     state.sink = &collector;
@@ -105,8 +107,7 @@ int runAtlas(const AtlasCliOptions& opt) {
     if (Status s = readInputs(opt.input, progress, state, &files); !s.ok()) return fail(progress, s);
     Scene& scene = collector.scene;
     attachGeoreference(state, computeStats(scene).bounds_local, scene.georef, files.front());
-    const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    const double read_peak_mb = static_cast<double>(peakRssBytes()) / 1e6;
+    const StageCost read = read_clock.lap();
 
     // Everything goes to a sibling working folder renamed into place at the
     // end: a failed or interrupted run never leaves a half-written tree.
@@ -124,7 +125,7 @@ int runAtlas(const AtlasCliOptions& opt) {
         scene, params, tmp, diagnostics,
         [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &tree);
     if (!built.ok()) return abandon(built);
-    tree.stats.steps.insert(tree.stats.steps.begin(), {"read", read_seconds, read_peak_mb});
+    tree.stats.steps.insert(tree.stats.steps.begin(), {"read", read.seconds, read.peak_rss_mb, read.cpu_seconds});
     const auto report = atlas::makeAtlasReport(tree, scene, diagnostics);
     if (Status s = writeTextAtomically(tmp / "atlas_report.json", report.dump(2) + "\n"); !s.ok())
         return abandon(s);

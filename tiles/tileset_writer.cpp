@@ -2,7 +2,6 @@
 // The tile folder of tiles/tileset.h: geometry bottom-up, atlases, original
 // texture blocks, feature tables, then tileset.json (a format::TilesetDocument,
 // serialized by the format library that the client and `inspect` read it with).
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -21,6 +20,7 @@
 #include <tbb/task_arena.h>
 
 #include "cityatlas_version.h"
+#include "core/resource_usage.h"
 #include "format/tileset_document.h"
 #include "tiles/node_geometry.h"
 #include "tiles/texture_blocks.h"
@@ -33,12 +33,6 @@ using nlohmann::json;
 using atlas::AtlasNode;
 using atlas::AtlasTree;
 using atlas::Layer;
-
-double peakRssMb() {
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    return static_cast<double>(u.ru_maxrss) / 1024.0;  // KiB on Linux
-}
 
 Vec3d centreOf(const Box3d& b) { return 0.5 * (b.min + b.max); }
 
@@ -178,11 +172,10 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         std::lock_guard lock(progress_mutex);
         progress(step, done, total);
     };
-    auto clock = std::chrono::steady_clock::now();
+    StageClock clock;
     auto endStep = [&](const char* name) {
-        const auto now = std::chrono::steady_clock::now();
-        stats.steps.push_back({name, std::chrono::duration<double>(now - clock).count(), peakRssMb()});
-        clock = now;
+        const StageCost c = clock.lap();
+        stats.steps.push_back({name, c.seconds, c.peak_rss_mb, c.cpu_seconds});
     };
     std::error_code ec;
     for (const char* dir : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha", "features"}) {
