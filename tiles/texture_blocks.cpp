@@ -14,6 +14,8 @@
 #include <fmt/format.h>
 #include <OpenImageIO/imageio.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
 
 namespace cityatlas::tiles {
 namespace fs = std::filesystem;
@@ -142,14 +144,10 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         int mips = 0;
         uint64_t texels = 0;
         double seconds = 0;
+        int width = 0, height = 0;
     };
-    uint64_t done = 0;
-    const auto exact = static_cast<uint64_t>(
-        std::count_if(blocks->textures.begin(), blocks->textures.end(), [](const TextureEntry& e) { return e.exact; }));
-    // A block whose textures are all unreadable is not written; the others are
-    // renumbered densely so every block in the index has a file of >= 1 byte.
-    std::vector<uint64_t> written_bytes;
-    for (size_t blk = 0; blk < nblocks; ++blk) {
+    // Encodes one block's textures (in parallel: a block may hold a single large original).
+    auto encodeBlock = [&](size_t blk) {
         const std::vector<size_t>& list = members[blk];
         std::vector<Encoded> enc(list.size());
         tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
@@ -166,10 +164,21 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             enc[k].dds = encodeDds(mips, quality);
             enc[k].mips = static_cast<int>(mips.size());
             enc[k].seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            // The real size wins over the one recorded at ingest.
-            blocks->textures[list[k]].width = img.width;
-            blocks->textures[list[k]].height = img.height;
+            enc[k].width = img.width, enc[k].height = img.height;
         });
+        return enc;
+    };
+    uint64_t done = 0;
+    const auto exact = static_cast<uint64_t>(
+        std::count_if(blocks->textures.begin(), blocks->textures.end(), [](const TextureEntry& e) { return e.exact; }));
+    // A block whose textures are all unreadable is not written; the others are
+    // renumbered densely so every block in the index has a file of >= 1 byte.
+    // Writes one encoded block, in block order (the numbering and the bytes do not
+    // depend on the thread count).
+    std::vector<uint64_t> written_bytes;
+    Status write_status = Status::Ok();
+    auto writeBlock = [&](size_t blk, std::vector<Encoded>& enc) {
+        const std::vector<size_t>& list = members[blk];
         const bool any_readable = std::any_of(enc.begin(), enc.end(), [](const Encoded& x) { return x.why.empty(); });
         const auto index = static_cast<int32_t>(written_bytes.size());
         const fs::path path = out_dir / "textures" / fmt::format("{}.bin", index);
@@ -186,6 +195,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
                 continue;
             }
             e.block = index;
+            // The real size wins over the one recorded at ingest.
+            e.width = enc[k].width, e.height = enc[k].height;
             f.write(reinterpret_cast<const char*>(enc[k].dds.data()), static_cast<std::streamsize>(enc[k].dds.size()));
             e.offset = offset;
             e.bytes = enc[k].dds.size();
@@ -196,11 +207,36 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         }
         done += list.size();
         if (progress) progress(done, blocks->textures.size() - exact);
-        if (!any_readable) continue;
+        if (!any_readable) return;
         f.close();
-        if (!f) return Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
+        if (!f) {
+            write_status = Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
+            return;
+        }
         written_bytes.push_back(offset);
-    }
+    };
+    // A pipeline rather than block after block: every core encodes while the
+    // blocks are written in order, and at most a few blocks' DDS bytes are held
+    // at once (memory bounded by the token count, whatever the city's texture total).
+    const size_t tokens = 2 * static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+    size_t next = 0;
+    tbb::parallel_pipeline(
+        tokens,
+        tbb::make_filter<void, size_t>(tbb::filter_mode::serial_in_order,
+                                       [&](tbb::flow_control& fc) -> size_t {
+                                           if (next >= nblocks || !write_status.ok()) {
+                                               fc.stop();
+                                               return 0;
+                                           }
+                                           return next++;
+                                       }) &
+            tbb::make_filter<size_t, std::pair<size_t, std::vector<Encoded>>>(
+                tbb::filter_mode::parallel, [&](size_t blk) { return std::pair{blk, encodeBlock(blk)}; }) &
+            tbb::make_filter<std::pair<size_t, std::vector<Encoded>>, void>(
+                tbb::filter_mode::serial_in_order, [&](std::pair<size_t, std::vector<Encoded>> b) {
+                    if (write_status.ok()) writeBlock(b.first, b.second);
+                }));
+    if (!write_status.ok()) return write_status;
     blocks->block_bytes = std::move(written_bytes);
     // A leaf lists the blocks its needed originals ended up in: a texture that
     // could not be read leaves no block behind, even when its block survives
