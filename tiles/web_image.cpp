@@ -215,6 +215,7 @@ Status encodeWebImage(const fs::path& source, int channels, const WebImageParams
             if (channels == 4) return kind == Kind::Png ? embed(kind) : encoded("png", "image/png");  // JPEG has no alpha
             return smaller("jpg", "image/jpeg");
         case WebTextures::Webp:
+            if (kind == Kind::Jpeg) return embed(kind);  // core glTF already; no second lossy pass
             return smaller("webp", "image/webp");
         case WebTextures::Ktx2:
         case WebTextures::Ktx2Uastc: {

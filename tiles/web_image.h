@@ -41,7 +41,8 @@ std::string findBasisu(const std::filesystem::path& web_dir);
 
 /// `source` (any image OpenImageIO reads; `channels` 4 when its alpha is
 /// meaningful, else 3) as `params.format`; JPEG keeps an alpha image as PNG,
-/// and JPEG or WebP that would be larger than a PNG / JPEG source keeps the source.
+/// JPEG and WebP keep a JPEG source as it is, and a JPEG or WebP that would be
+/// larger than a PNG source keeps the source.
 /// `scratch` is a path prefix for the encoders' temporary files (removed).
 Status encodeWebImage(const std::filesystem::path& source, int channels, const WebImageParams& params,
                       const std::filesystem::path& scratch, WebImage* out);

@@ -494,6 +494,25 @@ TEST(Tiles3d, LossyWebImagesNeverGrowAPngSource) {
         EXPECT_EQ(b.mime, mime);
         EXPECT_LT(b.bytes.size(), fs::file_size(noisy));
     }
+    // A JPEG source (most real facade photos) is core glTF already: JPEG and WebP
+    // embed it byte for byte rather than decode and lose quality a second time.
+    const fs::path photo = dir / "photo.jpg";
+    {
+        std::vector<uint8_t> px(256 * 256 * 3);
+        uint32_t state = 7;
+        for (uint8_t& v : px) v = static_cast<uint8_t>((state = state * 1664525u + 1013904223u) >> 24);
+        auto out = OIIO::ImageOutput::create(photo.string());
+        ASSERT_TRUE(out && out->open(photo.string(), OIIO::ImageSpec(256, 256, 3, OIIO::TypeDesc::UINT8)) &&
+                    out->write_image(OIIO::TypeDesc::UINT8, px.data()) && out->close());
+    }
+    for (const WebTextures format : {WebTextures::Jpeg, WebTextures::Webp, WebTextures::Png}) {
+        WebImageParams p;
+        p.format = format;
+        WebImage a;
+        ASSERT_TRUE(encodeWebImage(photo, 3, p, dir / "scratch", &a).ok());
+        EXPECT_EQ(a.mime, "image/jpeg") << webTexturesName(format);
+        EXPECT_EQ(a.bytes, readFile(photo)) << webTexturesName(format);
+    }
 }
 
 // WebP comes from libwebp in memory: decoded by OpenImageIO it is the source,
