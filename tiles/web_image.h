@@ -25,7 +25,7 @@ inline bool isKtx2(WebTextures t) { return t == WebTextures::Ktx2 || t == WebTex
 bool parseWebTextures(const std::string& name, WebTextures* out);
 
 struct WebImageParams {
-    WebTextures format = WebTextures::Png;
+    WebTextures format = WebTextures::Webp;
     int quality = 90;     ///< JPEG and WebP quality, 1..100; KTX2 (ETC1S) quality 1..255 is 2.55 x this
     std::string basisu;   ///< the encoder for Ktx2 and Ktx2Uastc (findBasisu)
 };
