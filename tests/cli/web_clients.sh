@@ -6,7 +6,8 @@
 # street level, where leaves' close-range tiles draw the original textures)
 # matches `cityatlas render` of the same camera (silhouette IoU >= 0.95, PSNR
 # over the pixels both cover >= 24 dB at full resolution and >= 25 dB at half
-# resolution, see below); picking pixels of at least 10 buildings returns the gml:id that
+# resolution, see below; exported as KTX2 UASTC, whose mips are ours, >= 25 dB
+# at full resolution at the oblique camera); picking pixels of at least 10 buildings returns the gml:id that
 # `cityatlas render --picks` (the native client's ray cast) finds there; and
 # the viewer as `cityatlas serve` hosts it loads and shows a clicked
 # building's attributes. Figures in $WORK/web_clients.json.
@@ -47,9 +48,10 @@ print(f"pick targets: {len(chosen)} pixels on {len(per)} buildings")
 PY
 [ "$(json expected_picks.json "len({p['gml_id'] for p in j})")" -ge 10 ] || fail "fewer than 10 buildings to pick at this camera"
 
-# Half resolution (2x2 box) as well: two WebGL clients on the same files disagree at ~25 dB at full
-# resolution through texture sampling alone (CesiumJS vs 3DTilesRendererJS, measured 24.98 dB), so the
-# gate is 24 dB at full resolution and 25 dB at half, where sub-pixel sampling differences average out.
+# Half resolution (2x2 box) as well: from PNG/WebP images, the two WebGL clients disagree at ~25 dB at
+# full resolution (CesiumJS vs 3DTilesRendererJS on the same files, measured 24.98 dB: CesiumJS makes
+# its own mips from the sRGB-encoded bytes), so the gate there is 24 dB at full resolution and 25 dB at
+# half, where sub-pixel sampling differences average out; the UASTC export below carries our mips.
 compare() {  # CLIENT_PNG OURS_PNG OUT_JSON
   "$IMAGE_COMPARE" "$1" "$2" 196,218,243 > "$3.full"
   oiiotool "$1" --resize:filter=box 50% -o "$3.a.png" && oiiotool "$2" --resize:filter=box 50% -o "$3.b.png"
@@ -74,6 +76,18 @@ for client in three cesium; do
     { cat "street_$client.txt" >&2; fail "$client: the street view did not load completely, or reported errors"; }
   echo "street: $(cat "street_$client.txt")"
   compare "street_$client.png" ours_street/frame_00000.png "street_$client.cmp"
+done
+# The same town exported as KTX2 UASTC, whose images carry their own mip chain (basisu filters in
+# linear light, as cityatlas does): here both clients must reach the issue's 25 dB at full
+# resolution at the oblique camera. From PNG or WebP, CesiumJS builds the mips itself
+# (generateMipmap over the sRGB-encoded bytes: darker minified facades), which costs it ~3.7 dB.
+"$CITYATLAS" build -q town/town.gml -o uastc --format 3dtiles --web-textures ktx2-uastc > /dev/null
+for client in three cesium; do
+  node "$DRIVE" --client "$client" --folder uastc --camera camera.json --size "$SIZE" \
+    --screenshot "uastc_$client.png" --out "uastc_$client.json" --timeout 240 > "uastc_$client.txt" 2>&1 ||
+    { cat "uastc_$client.txt" >&2; fail "$client: the UASTC export did not load completely, or reported errors"; }
+  echo "uastc: $(cat "uastc_$client.txt")"
+  compare "uastc_$client.png" ours/frame_00000.png "uastc_$client.cmp"
 done
 "$PY" - "$WORK/web_clients.json" <<'PY'
 import json, sys
@@ -109,6 +123,13 @@ for client in ("three", "cesium"):
         if v["psnr_covered_db"] < 24: bad.append(f"{client} {view}: PSNR {v['psnr_covered_db']} dB < 24")
         if v["psnr_covered_half_db"] < 25: bad.append(f"{client} {view}: PSNR at half resolution {v['psnr_covered_half_db']} dB < 25")
     if st["close_range_tiles_drawn"] < 1: bad.append(f"{client} street: no leaf's close range drawn")
+    u = json.load(open(f"uastc_{client}.cmp"))
+    f["uastc"] = {"silhouette_iou": u["silhouette_iou"], "psnr_covered_db": u["psnr_covered_db"],
+                  "psnr_covered_half_db": u["psnr_covered_half_db"]}
+    print(f"{client} ktx2-uastc: silhouette IoU {u['silhouette_iou']:.4f}, PSNR {u['psnr_covered_db']:.2f} dB "
+          f"({u['psnr_covered_half_db']:.2f} dB at half resolution)")
+    if u["silhouette_iou"] < 0.95: bad.append(f"{client} ktx2-uastc: silhouette IoU {u['silhouette_iou']} < 0.95")
+    if u["psnr_covered_db"] < 25: bad.append(f"{client} ktx2-uastc: PSNR {u['psnr_covered_db']} dB < 25")
     if wrong: bad.append(f"{client}: wrong picks (x, y, expected, got): {wrong[:5]}")
 json.dump(out, open(sys.argv[1], "w"), indent=1)
 if bad:
