@@ -154,7 +154,10 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             const TextureEntry& e = blocks->textures[list[k]];
             const TextureRef& ref = scene.textures[static_cast<size_t>(e.scene_texture)];
             Image8 img;
-            if (!readImage8(ref.path, e.channels, &img, &enc[k].why)) {
+            // Straight alpha, as the client blends (GL_SRC_ALPHA): OpenImageIO
+            // premultiplies many RGBA PNGs on read, which drew translucent
+            // glass at street level with alpha squared.
+            if (!readImage8(ref.path, e.channels, &img, &enc[k].why, /*straight_alpha=*/true)) {
                 if (enc[k].why.empty()) enc[k].why = "unreadable";
                 return;
             }

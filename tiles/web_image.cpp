@@ -132,12 +132,14 @@ Status webp(const fs::path& source, int channels, int quality, WebImage* out) {
 Status reencode(const fs::path& source, int channels, const char* ext, int quality, const fs::path& file) {
     Image8 img;
     std::string why;
-    if (!readImage8(source.string(), channels, &img, &why))
+    // The stored (straight) colours in and out: no premultiply on read, no divide on write.
+    if (!readImage8(source.string(), channels, &img, &why, /*straight_alpha=*/true))
         return Status::Io(fmt::format("{}: cannot read the image: {}", source.string(), why));
     auto out = OIIO::ImageOutput::create(file.string());
     if (!out) return Status::Internal(fmt::format("OpenImageIO cannot write {}: {}", file.string(), OIIO::geterror()));
     OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
     if (std::string_view(ext) == "jpg") spec.attribute("Compression", fmt::format("jpeg:{}", std::clamp(quality, 1, 100)));
+    spec.attribute("oiio:UnassociatedAlpha", 1);
     if (!out->open(file.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()) || !out->close())
         return Status::Io(fmt::format("{}: cannot encode: {}", file.string(), out->geterror()));
     return Status::Ok();

@@ -226,8 +226,9 @@ TEST(Tileset, SimplifiedInnerNodesKeepErrorsBelowTexelsAndAccountForEveryFeature
 double psnrAgainst(const fs::path& dds, const fs::path& reference, int channels) {
     Image8 ref, got;
     std::string why;
-    EXPECT_TRUE(readImage8(reference.string(), channels, &ref, &why)) << why;
-    EXPECT_TRUE(readImage8(dds.string(), channels, &got, &why)) << dds << ": " << why;
+    // Both as stored (straight alpha, as the client blends), not premultiplied by OpenImageIO.
+    EXPECT_TRUE(readImage8(reference.string(), channels, &ref, &why, true)) << why;
+    EXPECT_TRUE(readImage8(dds.string(), channels, &got, &why, true)) << dds << ": " << why;
     if (ref.width != got.width || ref.height != got.height) {
         ADD_FAILURE() << dds << " is " << got.width << "x" << got.height << ", expected " << ref.width << "x" << ref.height;
         return 0;
@@ -268,8 +269,11 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
               << median << " dB, max " << psnr.back() << " dB\n";
     // BC1 on the synthetic facades' pixel-sized windows: ~1 % of atlases fall
     // to 29.5-32 dB (libsquish gains only 0.1-0.4 dB there); see tiles/README.md.
+    // The lowest is an alpha atlas: its translucent panes, stored straight since
+    // writer revision 5 (not premultiplied, so up to 1/alpha brighter), give BC3's
+    // colour endpoints more contrast (measured 27.83 dB; >= 28 dB premultiplied).
     EXPECT_GE(median, 32.0);
-    EXPECT_GE(psnr.front(), 28.0);
+    EXPECT_GE(psnr.front(), 27.5);
 
     // Original textures: each DDS inside its block, cut out and read by OpenImageIO.
     int checked = 0;
@@ -337,6 +341,52 @@ TEST(Tileset, UnreadableOriginalsAreCountedAndLeaveNoEmptyBlocks) {
 // written anyway (--originals all; the tree and atlases do not change): over
 // every texel the leaves' triangles show, the atlas DDS is within 0.5 dB of
 // the original DDS, both measured against the PNG.
+// The client blends straight alpha (GL_SRC_ALPHA, ONE_MINUS_SRC_ALPHA), so the
+// originals' BC3 blocks must hold the file's straight colours. OpenImageIO
+// premultiplies the synthetic glass PNGs on read; stored that way, a pane of
+// alpha 0.3 was drawn at 0.09 of its colour at street level (measured: red 28
+// against the file's 103 on translucent texels), while the atlas, straight,
+// drew it at 0.3 from farther away.
+TEST(Tileset, OriginalsKeepStraightAlphaAsTheClientBlendsIt) {
+    TilesParams p = defaults();
+    p.all_originals = true;
+    const auto b = buildTown("straight_alpha", 20, {}, p, 150);
+    ASSERT_FALSE(HasFailure());
+    const json& ca = b->tileset["extras"]["cityatlas"];
+    const TextureBlocks plan = planTextureBlocks(b->scene, b->tree, true);
+    uint64_t translucent = 0;
+    double diff = 0;
+    for (size_t st = 0; st < b->scene.textures.size(); ++st) {
+        const TextureRef& ref = b->scene.textures[st];
+        if (ref.channels != 4 || plan.texture_index[st] < 0) continue;
+        const json& e = ca["textures"][static_cast<size_t>(plan.texture_index[st])];
+        if (e["block"].is_null() || e["block"].get<int>() < 0) continue;
+        // The file's own bytes, read without OpenImageIO's premultiplication.
+        OIIO::ImageSpec config;
+        config.attribute("oiio:UnassociatedAlpha", 1);
+        auto in = OIIO::ImageInput::open(ref.path, &config);
+        ASSERT_TRUE(in);
+        const int w = in->spec().width, h = in->spec().height;
+        ASSERT_EQ(in->spec().nchannels, 4);
+        std::vector<uint8_t> file(static_cast<size_t>(w) * h * 4);
+        ASSERT_TRUE(in->read_image(0, 0, 0, 4, OIIO::TypeDesc::UINT8, file.data()));
+        const std::vector<uint8_t> block = readFile(b->dir / "tiles" / ca["texture_blocks"][e["block"].get<size_t>()]["uri"].get<std::string>());
+        const size_t at = e["offset"].get<size_t>() + 128;
+        ASSERT_EQ(e["width"].get<int>(), w);
+        const Image8 stored = decodeBc(
+            std::vector<uint8_t>(block.begin() + static_cast<long>(at), block.begin() + static_cast<long>(at + bcBlockBytes(w, h, 4))), w, h, 4);
+        for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
+            const uint8_t a = file[i * 4 + 3];
+            if (a < 10 || a > 120) continue;  // the translucent panes
+            ++translucent;
+            for (size_t c = 0; c < 3; ++c) diff += std::abs(double(stored.pixels[i * 4 + c]) - file[i * 4 + c]);
+        }
+    }
+    ASSERT_GT(translucent, 200u) << "the town has no translucent glass to check";
+    // BC3's colour endpoints give a few levels of error; premultiplied colours are ~75 levels off.
+    EXPECT_LT(diff / (3.0 * static_cast<double>(translucent)), 8.0);
+}
+
 TEST(Tileset, ExactLeavesShowTheirTexturesAsWellAsTheOriginals) {
     TilesParams p = defaults();
     p.all_originals = true;
