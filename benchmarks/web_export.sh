@@ -5,15 +5,16 @@
 # the time until CesiumJS (headless chromium, SwiftShader: a CPU renderer,
 # so slow) has everything loaded at an overview and at street level.
 #
-#   benchmarks/web_export.sh [BUILDINGS] [FORMATS]     # e.g. 10000 "png jpeg webp ktx2"
+#   benchmarks/web_export.sh [BUILDINGS] [FORMATS]     # e.g. 10000 "png jpeg webp ktx2 ktx2-uastc"
 #
-# Writes out/benchmarks/web_export.tsv (one row per format) and prints it.
+# Writes out/benchmarks/web_export.tsv (one row per town and format; rows of
+# formats not in this run are kept) and prints it.
 # Needs the build (scripts/build), chromium and the npm packages of web/ and
 # tests/tools/browser (ctest -R cli.web_clients installs them).
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 N="${1:-10000}"
-FORMATS="${2:-png jpeg webp ktx2}"
+FORMATS="${2:-png jpeg webp ktx2 ktx2-uastc}"
 BIN="$ROOT/build/cli/cityatlas"
 COMPARE="$ROOT/build/tests/tools/image_compare"
 DRIVE="$ROOT/tests/tools/browser/drive.mjs"
@@ -30,7 +31,10 @@ cameras() {  # cameras FOLDER
   python3 "$ROOT/tests/tools/browser/camera.py" "$1/3dtiles/tileset.json" street --camera street.json
 }
 
-printf 'buildings\tweb_textures\tbuild_s\texport_s\timage_encode_s\tglb_bytes\timage_bytes\ttiles\tpsnr_min_db\tpsnr_mean_db\tcesium_overview_s\tcesium_overview_tiles\tcesium_street_s\tcesium_street_tiles\n' > "$TSV"
+# Rows of other towns and formats from earlier runs stay; this run's replace theirs.
+HEADER='buildings\tweb_textures\tbuild_s\texport_s\timage_encode_s\tglb_bytes\timage_bytes\ttiles\tpsnr_min_db\tpsnr_mean_db\tcesium_overview_s\tcesium_overview_tiles\tcesium_street_s\tcesium_street_tiles'
+{ printf "$HEADER\n"; [ -f "$TSV" ] && tail -n +2 "$TSV" | awk -F'\t' -v n="$N" -v f=" $FORMATS " '!($1 == n && index(f, " " $2 " "))'; true; } > "$TSV.new"
+mv "$TSV.new" "$TSV"
 for f in $FORMATS; do
   out="tiles_$f"
   t0=$(date +%s.%N)
