@@ -66,29 +66,29 @@ for client in three cesium; do
   compare "$client.png" ours/frame_00000.png "$client.cmp"
 done
 
+# shoot TAG FOLDER CAMERA REFERENCE: both clients load FOLDER at CAMERA completely (no error), and
+# their screenshots are compared with REFERENCE into TAG_<client>.cmp.
+shoot() {
+  for client in three cesium; do
+    node "$DRIVE" --client "$client" --folder "$2" --camera "$3" --size "$SIZE" \
+      --screenshot "$1_$client.png" --out "$1_$client.json" --timeout 240 > "$1_$client.txt" 2>&1 ||
+      { cat "$1_$client.txt" >&2; fail "$client: $1: $2 did not load completely, or reported errors"; }
+    echo "$1: $(cat "$1_$client.txt")"
+    compare "$1_$client.png" "$4" "$1_$client.cmp"
+  done
+}
+
 # Street level (1.7 m above the ground near the town's centre): leaves' close range, the original
 # textures as the leaves' children of error 0, drawn by both clients where cityatlas draws its originals.
 "$PY" "$BROWSER_TOOLS/camera.py" out/tileset.json street --path street_path.json --camera street_camera.json
 "$CITYATLAS" render out --path street_path.json --size "$SIZE" --wait --frames 1 -o ours_street -q
-for client in three cesium; do
-  node "$DRIVE" --client "$client" --folder out --camera street_camera.json --size "$SIZE" \
-    --screenshot "street_$client.png" --out "street_$client.json" --timeout 240 > "street_$client.txt" 2>&1 ||
-    { cat "street_$client.txt" >&2; fail "$client: the street view did not load completely, or reported errors"; }
-  echo "street: $(cat "street_$client.txt")"
-  compare "street_$client.png" ours_street/frame_00000.png "street_$client.cmp"
-done
+shoot street out street_camera.json ours_street/frame_00000.png
 # The same town exported as KTX2 UASTC, whose images carry their own mip chain (basisu filters in
 # linear light, as cityatlas does): here both clients must reach the issue's 25 dB at full
 # resolution at the oblique camera. From PNG or WebP, CesiumJS builds the mips itself
 # (generateMipmap over the sRGB-encoded bytes: darker minified facades), which costs it ~3.7 dB.
 "$CITYATLAS" build -q town/town.gml -o uastc --format 3dtiles --web-textures ktx2-uastc > /dev/null
-for client in three cesium; do
-  node "$DRIVE" --client "$client" --folder uastc --camera camera.json --size "$SIZE" \
-    --screenshot "uastc_$client.png" --out "uastc_$client.json" --timeout 240 > "uastc_$client.txt" 2>&1 ||
-    { cat "uastc_$client.txt" >&2; fail "$client: the UASTC export did not load completely, or reported errors"; }
-  echo "uastc: $(cat "uastc_$client.txt")"
-  compare "uastc_$client.png" ours/frame_00000.png "uastc_$client.cmp"
-done
+shoot uastc uastc camera.json ours/frame_00000.png
 "$PY" - "$WORK/web_clients.json" <<'PY'
 import json, sys
 expected = json.load(open("expected_picks.json"))
