@@ -20,9 +20,9 @@
 namespace cityatlas::tiles {
 namespace fs = std::filesystem;
 
-bool readImage8(const std::string& path, int channels, Image8* out, std::string* why, bool straight_alpha) {
+bool readImage8(const std::string& path, int channels, Image8* out, std::string* why) {
     OIIO::ImageSpec config;
-    if (straight_alpha) config.attribute("oiio:UnassociatedAlpha", 1);
+    config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = OIIO::ImageInput::open(path, &config);
     if (!in) {
         *why = OIIO::geterror();
@@ -157,7 +157,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             // Straight alpha, as the client blends (GL_SRC_ALPHA): OpenImageIO
             // premultiplies many RGBA PNGs on read, which drew translucent
             // glass at street level with alpha squared.
-            if (!readImage8(ref.path, e.channels, &img, &enc[k].why, /*straight_alpha=*/true)) {
+            if (!readImage8(ref.path, e.channels, &img, &enc[k].why)) {
                 if (enc[k].why.empty()) enc[k].why = "unreadable";
                 return;
             }

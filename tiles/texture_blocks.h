@@ -58,9 +58,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const std::file
 
 /// Reads an image file as 8-bit, `channels` (3 or 4) channels, rows top-down;
 /// grey and grey+alpha are expanded. Empty optional-like: returns false with a reason.
-/// Colours come premultiplied by alpha, as OpenImageIO associates them on read,
-/// unless `straight_alpha`: then as the file stores them (what a PNG or WebP
-/// encoder that does not unpremultiply itself must be given).
-bool readImage8(const std::string& path, int channels, Image8* out, std::string* why, bool straight_alpha = false);
+/// Colours as the file stores them, straight alpha (OpenImageIO would premultiply
+/// them on read): what the client blends, the mip downsampler expects and glTF wants.
+bool readImage8(const std::string& path, int channels, Image8* out, std::string* why);
 
 }  // namespace cityatlas::tiles

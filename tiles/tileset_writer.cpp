@@ -324,7 +324,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
             const int channels = li == static_cast<int>(Layer::Alpha) ? 4 : 3;
             Image8 img;
             std::string why;
-            if (!readImage8((atlas_dir / nl.atlas_path).string(), channels, &img, &why, /*straight_alpha=*/true)) {
+            if (!readImage8((atlas_dir / nl.atlas_path).string(), channels, &img, &why)) {
                 atlas_errors[k] = fmt::format("{}: cannot read the atlas: {}", (atlas_dir / nl.atlas_path).string(), why);
                 return;
             }

@@ -99,7 +99,7 @@ Status basisu(const fs::path& png, const WebImageParams& p, const fs::path& scra
 Status webp(const fs::path& source, int channels, int quality, WebImage* out) {
     Image8 img;
     std::string why;
-    if (!readImage8(source.string(), channels, &img, &why, /*straight_alpha=*/true))
+    if (!readImage8(source.string(), channels, &img, &why))
         return Status::Io(fmt::format("{}: cannot read the image: {}", source.string(), why));
     WebPConfig config;
     WebPPicture picture;
@@ -133,7 +133,7 @@ Status reencode(const fs::path& source, int channels, const char* ext, int quali
     Image8 img;
     std::string why;
     // The stored (straight) colours in and out: no premultiply on read, no divide on write.
-    if (!readImage8(source.string(), channels, &img, &why, /*straight_alpha=*/true))
+    if (!readImage8(source.string(), channels, &img, &why))
         return Status::Io(fmt::format("{}: cannot read the image: {}", source.string(), why));
     auto out = OIIO::ImageOutput::create(file.string());
     if (!out) return Status::Internal(fmt::format("OpenImageIO cannot write {}: {}", file.string(), OIIO::geterror()));

@@ -227,8 +227,8 @@ double psnrAgainst(const fs::path& dds, const fs::path& reference, int channels)
     Image8 ref, got;
     std::string why;
     // Both as stored (straight alpha, as the client blends), not premultiplied by OpenImageIO.
-    EXPECT_TRUE(readImage8(reference.string(), channels, &ref, &why, true)) << why;
-    EXPECT_TRUE(readImage8(dds.string(), channels, &got, &why, true)) << dds << ": " << why;
+    EXPECT_TRUE(readImage8(reference.string(), channels, &ref, &why)) << why;
+    EXPECT_TRUE(readImage8(dds.string(), channels, &got, &why)) << dds << ": " << why;
     if (ref.width != got.width || ref.height != got.height) {
         ADD_FAILURE() << dds << " is " << got.width << "x" << got.height << ", expected " << ref.width << "x" << ref.height;
         return 0;
