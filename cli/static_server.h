@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// A minimal static file server over cpp-httplib for a tile folder, used by
+// A minimal static file server (Boost.Beast over Asio) for a tile folder, used by
 // `cityatlas serve` (local viewing, browser clients). It serves only regular
 // files inside the root once symlinks are resolved, with the tile formats'
 // content types, single byte ranges, HEAD, keep-alive and CORS; files are
-// streamed from disk in 64 KiB pieces, never read whole into memory.
+// streamed from disk in 64 KiB pieces, never read whole into memory. Every
+// request read whole is answered, also on a socket the client half-closed.
 // Production hosting is any static web server: a tile folder is plain files.
 
 #include <filesystem>
@@ -25,7 +26,9 @@ struct StaticServerOptions {
     std::filesystem::path viewer_root;
 };
 
-/// Serves in threads of its own from start() until stop() or destruction.
+/// Serves in threads of its own (2 to 8, by the core count; connections are
+/// asynchronous, so an idle one holds no thread) from start() until stop()
+/// or destruction.
 /// The serving threads block SIGPIPE (a client that hangs up is an error
 /// return, not a dead process); they inherit the caller's other signal mask,
 /// so a caller that waits for SIGINT/SIGTERM blocks them before start().

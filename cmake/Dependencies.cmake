@@ -53,14 +53,17 @@ find_package(draco CONFIG REQUIRED)
 
 # render: OpenGL 3.3 core through libepoxy; EGL surfaceless for headless
 # rendering (Mesa llvmpipe, no display), GLFW for the window; libcurl fetches
-# tiles over HTTP; cpp-httplib serves them (Debian ships its compiled build:
-# link through pkg-config so the ABI defines match); Dear ImGui's static
-# library carries the GLFW and OpenGL3 backends.
+# tiles over HTTP; `serve` answers them with Boost.Beast over Boost.Asio
+# (header-only, in libboost-dev); cpp-httplib is only the loader tests'
+# in-process server (Debian ships its compiled build: link through pkg-config
+# so the ABI defines match); Dear ImGui's static library carries the GLFW and
+# OpenGL3 backends.
 set(OpenGL_GL_PREFERENCE GLVND)
 find_package(OpenGL REQUIRED COMPONENTS OpenGL EGL)
 find_package(glfw3 3.3 CONFIG REQUIRED)
 pkg_check_modules(EPOXY REQUIRED IMPORTED_TARGET epoxy)
 find_package(CURL REQUIRED)
+find_package(Boost 1.74 REQUIRED)  # Boost::headers: Beast, Asio
 pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
 pkg_check_modules(IMGUI REQUIRED IMPORTED_TARGET imgui)
 

@@ -124,6 +124,45 @@ for target in (b"http://127.0.0.1/../secret.txt", b"../secret.txt", b"*"):
 PY
 echo "ok: nothing outside the folder is served (dot segments, encoded dots and slashes, NUL, absolute targets, a symlink out)"
 
+# --- Raw-socket clients: a request on a half-closed socket (RFC 9112 §9.6) gets
+# the whole file (cpp-httplib 0.11, serve's server until stop 26, sent
+# nothing); an 80 kB request line is refused with 431, not a reset that loses
+# the answer; a malformed escape is a 400; pipelined requests are answered in order.
+"$PY" - "$PORT" tiles <<'PY' || fail "raw-socket clients"
+import socket, sys
+port, folder = int(sys.argv[1]), sys.argv[2]
+def exchange(data, half_close=True):
+    s = socket.create_connection(("127.0.0.1", port), timeout=30)
+    s.sendall(data)
+    if half_close:
+        s.shutdown(socket.SHUT_WR)
+    out = b""
+    while chunk := s.recv(65536):
+        out += chunk
+    s.close()
+    return out
+big = open(f"{folder}/big.bin", "rb").read()
+raw = exchange(b"GET /big.bin HTTP/1.1\r\nHost: x\r\n\r\n")
+head, _, body = raw.partition(b"\r\n\r\n")
+if not head.startswith(b"HTTP/1.1 200") or body != big:
+    sys.exit(f"half-closed GET big.bin: {head[:40]!r}, {len(body)} of {len(big)} bytes")
+raw = exchange(b"GET /" + b"a/" * 40000 + b"x HTTP/1.1\r\nHost: x\r\n\r\n", half_close=False)
+if not raw.startswith(b"HTTP/1.1 431"):
+    sys.exit(f"80 kB request line: {raw[:40]!r}")
+raw = exchange(b"GET /tileset%zz.json HTTP/1.1\r\nHost: x\r\n\r\n")
+if not raw.startswith(b"HTTP/1.1 400"):
+    sys.exit(f"malformed escape: {raw[:40]!r}")
+tileset = open(f"{folder}/tileset.json", "rb").read()
+raw = exchange(b"HEAD /tileset.json HTTP/1.1\r\nHost: x\r\n\r\nGET /tileset.json HTTP/1.1\r\nHost: x\r\n\r\n"
+               b"GET /nothing HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+first, _, rest = raw.partition(b"\r\n\r\n")
+second, _, rest = rest.partition(b"\r\n\r\n")
+if not (first.startswith(b"HTTP/1.1 200") and second.startswith(b"HTTP/1.1 200") and rest.startswith(tileset)
+        and rest[len(tileset):].startswith(b"HTTP/1.1 404")):
+    sys.exit(f"pipelined HEAD, GET, GET: {raw[:60]!r}")
+PY
+echo "ok: half-closed GET answered whole (3 MB), 80 kB request line 431, bad escape 400, pipelined requests in order"
+
 # --- The client streams from it.
 "$CITYATLAS" render "$URL/" --size 160x120 --wait --frames 3 --fps 1 -o frames -q || fail "render from serve failed"
 check_eq "render over serve: errors" "0" "$(json frames/report.json "j['summary']['errors']")"
