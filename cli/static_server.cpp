@@ -27,6 +27,7 @@
 #include <optional>
 #include <string_view>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include <fcntl.h>
@@ -310,6 +311,7 @@ private:
         if (ec == http::error::end_of_stream) return finish();
         if (ec == beast::error::timeout || ec == http::error::partial_message) return close();
         keep_alive_ = false;
+        head_request_ = false;
         if (ec == http::error::header_limit) return sendText(http::status::request_header_fields_too_large, "-", "-",
                                                              "request header fields too large\n");
         if (ec == http::error::body_limit) return sendText(http::status::payload_too_large, "-", "-", "payload too large\n");
@@ -319,6 +321,7 @@ private:
 
         const http::request<http::string_body>& req = parser_->get();
         keep_alive_ = req.keep_alive();
+        head_request_ = req.method() == http::verb::head;
         version_ = req.version();
         const std::string method = str(req.method_string());
         const std::string target = str(req.target());
@@ -409,6 +412,14 @@ private:
 
     template <class Body>
     void send(http::response<Body>&& res, const std::string& method, const std::string& path, uint64_t bytes) {
+        // A response to HEAD is the headers alone (a 404's text too): a body
+        // there would be read as the start of the next response.
+        if constexpr (!std::is_same_v<Body, http::empty_body>) {
+            if (head_request_) {
+                http::response<http::empty_body> headers_only(std::move(res.base()));
+                return send(std::move(headers_only), method, path, bytes);
+            }
+        }
         // Browser clients on other origins read tiles and the range headers.
         res.set(http::field::access_control_allow_origin, "*");
         res.set(http::field::access_control_expose_headers, "Content-Length, Content-Range, Accept-Ranges");
@@ -458,6 +469,7 @@ private:
     beast::flat_buffer buffer_;
     std::optional<http::request_parser<http::string_body>> parser_;
     bool keep_alive_ = false;
+    bool head_request_ = false;
     unsigned version_ = 11;
     std::array<char, 4096> drain_{};
 };
