@@ -25,8 +25,9 @@ struct RenderResult {
 /// Renders and writes `tree`'s atlases (node.layers[l].atlas_path must be set
 /// for every present layer) under `output_dir`, in parallel on the current
 /// TBB arena. Memory in flight is a few atlases per tree level and thread;
-/// source textures go through one ImageCache of `params.cache_mb`.
+/// decoded source textures are kept within `params.cache_mb`.
+/// With a `sink`, each image goes there instead of to a PNG file.
 Status renderAtlases(const Scene& scene, const AtlasTree& tree, const std::filesystem::path& output_dir,
-                     const AtlasProgressFn& progress, RenderResult* result);
+                     const AtlasProgressFn& progress, RenderResult* result, const AtlasImageSink& sink = {});
 
 }  // namespace cityatlas::atlas

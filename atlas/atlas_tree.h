@@ -59,6 +59,7 @@
 #include <vector>
 
 #include "atlas/packing.h"
+#include "format/dds.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
 #include "core/status.h"
@@ -92,7 +93,7 @@ struct AtlasParams {
     PackingMethod packing = PackingMethod::MaxRects;
     double critical_fraction = 0.10;  ///< c: above it d_min is enlarged, below it triangles are split
     int threads = 0;                  ///< 0 = all cores
-    int cache_mb = 256;               ///< OpenImageIO ImageCache budget for original textures
+    int cache_mb = 256;               ///< memory for decoded original textures, kept for leaves that share them
     bool render_images = true;        ///< false: structure, ranges and coordinates only (no files)
 };
 
@@ -274,13 +275,26 @@ using AtlasProgressFn = std::function<void(const char* step, uint64_t done, uint
 /// Bytes of a DDS with a full mip chain of a w x h image in BC1 (3 channels) or BC3 (4).
 uint64_t bcBytesWithMips(int width, int height, int channels);
 
+/// Receives each finished atlas image instead of its PNG: 8-bit sRGB, rows
+/// top-down, 3 channels (opaque layer) or 4 with straight alpha (alpha layer),
+/// exactly the bytes the PNG would hold. Called from worker threads, any
+/// order, once per present node layer; a failed status stops the build. This
+/// is how `build` hands atlases to the tile encoder in memory.
+using AtlasImageSink = std::function<Status(int32_t node, Layer layer, const format::Image8& image)>;
+
 /// Builds the tree and writes every node's atlas images (PNG, 8-bit sRGB) to
-/// `output_dir/atlas/<layer>/<node>.png`, each as soon as it is finished.
-/// Original textures are read on demand through an ImageCache bounded by
+/// `output_dir/atlas/<layer>/<node>.png`, each as soon as it is finished, or
+/// hands them to `sink` when one is given (no PNG then).
+/// Original textures are read on demand and kept, decoded, within
 /// params.cache_mb; nodes are built in parallel, with identical results for any
 /// thread count. Unreadable textures are counted in `diagnostics`
 /// (their regions are filled with mid grey) and do not stop the build.
 Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const std::filesystem::path& output_dir,
-                      Diagnostics& diagnostics, const AtlasProgressFn& progress, AtlasTree* tree);
+                      Diagnostics& diagnostics, const AtlasProgressFn& progress, AtlasTree* tree,
+                      const AtlasImageSink& sink = {});
+
+/// Writes an atlas image as buildAtlasTree does without a sink: PNG, fastest
+/// deflate (an intermediate), sRGB, straight alpha.
+Status writeAtlasPng(const format::Image8& image, const std::filesystem::path& path);
 
 }  // namespace cityatlas::atlas

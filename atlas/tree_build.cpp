@@ -450,7 +450,8 @@ struct Flattener {
 }  // namespace
 
 Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::path& output_dir,
-                      Diagnostics& diagnostics, const AtlasProgressFn& progress, AtlasTree* tree) {
+                      Diagnostics& diagnostics, const AtlasProgressFn& progress, AtlasTree* tree,
+                      const AtlasImageSink& sink) {
     if (Status s = validateParams(params); !s.ok()) return s;
     *tree = AtlasTree{};
     tree->params = params;
@@ -614,7 +615,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     if (!params.render_images) return Status::Ok();
     RenderResult rendered;
     Status s;
-    arena.execute([&] { s = renderAtlases(scene, *tree, output_dir, progress, &rendered); });
+    arena.execute([&] { s = renderAtlases(scene, *tree, output_dir, progress, &rendered, sink); });
     if (!s.ok()) return s;
     stats.original_texture_bytes = rendered.original_texture_bytes;
     stats.textures_unreadable = rendered.unreadable_textures.size();

@@ -197,7 +197,7 @@ void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt) {
     cmd->add_option("--threads", opt->params.threads, "Worker threads (0 = all cores); the output does not depend on it")
         ->default_val(0)
         ->group(g);
-    cmd->add_option("--cache-mb", opt->params.cache_mb, "Memory for decoded original textures (OpenImageIO ImageCache), MB")
+    cmd->add_option("--cache-mb", opt->params.cache_mb, "Memory for decoded original textures, kept for the leaves that share them, MB")
         ->default_val(256)
         ->group(g);
 }

@@ -227,21 +227,25 @@ int runBuild(const BuildCliOptions& opt_in) {
         fs::remove_all(tmp, ignored);
         return fail(progress, s);
     };
+    // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
+    // round trip); the 3D Tiles export still reads PNGs, so it gets them too.
     atlas::AtlasTree tree;
     Diagnostics& diagnostics = state.diagnostics;
+    tiles::AtlasHandOff hand_off(opt.tiles.bc_quality, tmp, opt.format != "native" ? work : fs::path());
     const Status built = atlas::buildAtlasTree(
         scene, params, work, diagnostics,
         [&](const char* step, uint64_t done, uint64_t total) {
             progress.update(fmt::format("atlas: {}", step).c_str(), done, total);
         },
-        &tree);
+        &tree, hand_off.sink());
     if (!built.ok()) return abandon(built);
+    const tiles::EncodedAtlases encoded = hand_off.take(tree.nodes.size());
     endStage("atlas");
 
     tiles::TilesStats ts;
     const Status written = tiles::writeTileset(
         scene, tree, work, opt.tiles, tmp, build_hash, diagnostics,
-        [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts);
+        [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts, &encoded);
     if (!written.ok()) return abandon(written);
     endStage("tiles");
 

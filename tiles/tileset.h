@@ -38,9 +38,12 @@
 /// tileset materials for an untextured vertex; -1 for textured ones and for
 /// untextured ones without a material).
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -127,12 +130,56 @@ using TilesProgressFn = std::function<void(const char* step, uint64_t done, uint
 /// Writes the folder for `tree` (built from `scene`, its atlas PNGs under
 /// `atlas_dir/atlas/<layer>/<node>.png`) into `out_dir` (which must exist;
 /// files are created inside it). `build_hash` (16 hex digits) becomes
+/// One node layer's atlas as written: a DDS with its full mip chain.
+struct EncodedAtlas {
+    std::string uri;            ///< atlas/<layer>/<node>.dds, relative to the output folder; empty: none
+    uint64_t bytes = 0;
+    int mips = 0;
+    double psnr_db = 0;         ///< level 0 decoded against the image; +inf when BC reproduces it exactly
+    double encode_seconds = 0;  ///< mips + BC, without the PSNR and the write
+    uint64_t texels = 0;        ///< of all mip levels
+};
+
+/// Encodes one atlas image as the atlas stage renders it (atlas::AtlasImageSink:
+/// sRGB, rows top-down, straight alpha) to out_dir/atlas/<layer>/<node>.dds,
+/// BC1 for 3 channels and BC3 for 4; creates the folder if needed.
+/// Thread-safe; the bytes depend only on the image and `quality`.
+Status encodeAtlas(const format::Image8& image, int32_t node, atlas::Layer layer, BcQuality quality,
+                   const std::filesystem::path& out_dir, EncodedAtlas* out);
+
+/// Atlases encoded while the atlas stage rendered them, by node and layer.
+using EncodedAtlases = std::vector<std::array<EncodedAtlas, atlas::kLayerCount>>;
+
+/// The build's in-memory hand-off from the atlas stage to this one: a sink
+/// (atlas::buildAtlasTree) that encodes each atlas to out_dir as soon as it is
+/// rendered, and the record of what it wrote, for writeTileset. With a
+/// `png_dir`, each atlas is also written there as the PNG the atlas stage
+/// would have written (the 3D Tiles export reads those).
+class AtlasHandOff {
+public:
+    AtlasHandOff(BcQuality quality, std::filesystem::path out_dir, std::filesystem::path png_dir = {});
+    atlas::AtlasImageSink sink();
+    /// What was encoded, for a tree of `nodes` nodes; call after the atlas stage.
+    EncodedAtlases take(size_t nodes);
+
+private:
+    BcQuality quality_;
+    std::filesystem::path out_dir_, png_dir_;
+    std::mutex mutex_;
+    std::map<int32_t, std::array<EncodedAtlas, atlas::kLayerCount>> by_node_;
+};
+
 /// asset.tilesetVersion. An original texture that cannot be read is a counted
 /// warning (its entry gets block -1); any write failure is an error naming the
 /// file. Deterministic for any thread count.
+/// Atlases: with `encoded` (the build's in-memory hand-off) they are already
+/// in out_dir (a layer the geometry step leaves empty has its DDS removed);
+/// without, they are read from the atlas stage's PNGs under `atlas_dir` and
+/// encoded here. The folder is byte-identical either way.
 Status writeTileset(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
                     const TilesParams& params, const std::filesystem::path& out_dir, const std::string& build_hash,
-                    Diagnostics& diagnostics, const TilesProgressFn& progress, TilesStats* stats);
+                    Diagnostics& diagnostics, const TilesProgressFn& progress, TilesStats* stats,
+                    const EncodedAtlases* encoded = nullptr);
 
 /// The schema of tileset.json (schemas/tileset.schema.json, compiled in).
 const nlohmann::json& tilesetSchema();

@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include "cityatlas_version.h"
 #include "core/resource_usage.h"
@@ -157,9 +158,61 @@ double textureRatio(const TilesStats& s) {
                                 : 0.0;
 }
 
+Status encodeAtlas(const Image8& image, int32_t node, Layer layer, BcQuality quality, const fs::path& out_dir,
+                   EncodedAtlas* out) {
+    EncodedAtlas a;
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::vector<Image8> mips = mipChain(image);
+    const std::vector<uint8_t> dds = encodeDds(mips, quality);
+    a.encode_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    for (const Image8& m : mips) a.texels += static_cast<uint64_t>(m.width) * m.height;
+    constexpr size_t kDdsHeader = 128;
+    const std::vector<uint8_t> level0(dds.begin() + kDdsHeader,
+                                      dds.begin() + kDdsHeader + bcBlockBytes(image.width, image.height, image.channels));
+    a.psnr_db = psnrRgb(image, decodeBc(level0, image.width, image.height, image.channels));
+    a.uri = fmt::format("atlas/{}/{}.dds", atlas::layerName(layer), node);
+    const fs::path path = out_dir / a.uri;
+    std::error_code ec;
+    fs::create_directories(path.parent_path(), ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", path.parent_path().string(), ec.message()));
+    if (Status w = writeBytes(path, dds.data(), dds.size()); !w.ok()) return w;
+    a.bytes = dds.size();
+    a.mips = static_cast<int>(mips.size());
+    *out = std::move(a);
+    return Status::Ok();
+}
+
+AtlasHandOff::AtlasHandOff(BcQuality quality, fs::path out_dir, fs::path png_dir)
+    : quality_(quality), out_dir_(std::move(out_dir)), png_dir_(std::move(png_dir)) {}
+
+atlas::AtlasImageSink AtlasHandOff::sink() {
+    return [this](int32_t node, Layer layer, const Image8& image) {
+        EncodedAtlas a;
+        if (Status s = encodeAtlas(image, node, layer, quality_, out_dir_, &a); !s.ok()) return s;
+        if (!png_dir_.empty()) {
+            const fs::path png = png_dir_ / fmt::format("atlas/{}/{}.png", atlas::layerName(layer), node);
+            std::error_code ec;
+            fs::create_directories(png.parent_path(), ec);
+            if (Status s = atlas::writeAtlasPng(image, png); !s.ok()) return s;
+        }
+        std::lock_guard lock(mutex_);
+        by_node_[node][static_cast<size_t>(layer)] = std::move(a);
+        return Status::Ok();
+    };
+}
+
+EncodedAtlases AtlasHandOff::take(size_t nodes) {
+    std::lock_guard lock(mutex_);
+    EncodedAtlases encoded(nodes);
+    for (auto& [node, layers] : by_node_)
+        if (node >= 0 && static_cast<size_t>(node) < nodes) encoded[static_cast<size_t>(node)] = std::move(layers);
+    by_node_.clear();
+    return encoded;
+}
+
 Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
                     const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
-                    const TilesProgressFn& progress, TilesStats* stats_out) {
+                    const TilesProgressFn& progress, TilesStats* stats_out, const EncodedAtlases* encoded) {
     TilesStats stats;
     const size_t n_nodes = tree.nodes.size();
     if (n_nodes == 0) return Status::Io("tiles: the atlas tree has no nodes");
@@ -188,177 +241,200 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     std::vector<NodeRecord> records(n_nodes);
     tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
 
-    // --- Geometry, deepest level first: a node merges its children's geometry.
-    std::vector<std::vector<int32_t>> by_level;
-    for (size_t i = 0; i < n_nodes; ++i) {
-        const auto level = static_cast<size_t>(tree.nodes[i].level);
-        if (by_level.size() <= level) by_level.resize(level + 1);
-        by_level[level].push_back(static_cast<int32_t>(i));
-    }
-    std::vector<std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> geometry(n_nodes);
-    std::atomic<uint64_t> nodes_done{0};
-    for (size_t level = by_level.size(); level-- > 0;) {
-        const std::vector<int32_t>& ids = by_level[level];
-        arena.execute([&] {
-            tbb::parallel_for(size_t{0}, ids.size(), [&](size_t k) {
-                const int32_t id = ids[k];
-                const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
-                NodeRecord& rec = records[static_cast<size_t>(id)];
-                const double texel = node.min_distance_m / ppm;
-                const Vec3d centre = centreOf(node.bounds);
-                for (int li = 0; li < atlas::kLayerCount; ++li) {
-                    if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
-                    const auto layer = static_cast<Layer>(li);
-                    std::unique_ptr<NodeGeometry> g;
-                    if (node.leaf()) {
-                        g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, blocks.texture_index));
-                    } else {
-                        std::array<const NodeGeometry*, 4> children{};
-                        for (size_t q = 0; q < 4; ++q)
-                            if (node.children[q] >= 0)
-                                children[q] = geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)].get();
-                        g = std::make_unique<NodeGeometry>(
-                            innerGeometry(tree, id, layer, children, params.node_triangles, texel));
-                    }
-                    if (g->empty()) continue;
-                    TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
-                    if (!node.leaf()) mesh.texture_id.clear();
-                    GlbResult glb;
-                    json extras = {{"cityatlas", {{"node", id},
-                                                  {"layer", std::string(atlas::layerName(layer))},
-                                                  {"centre", {centre.x, centre.y, centre.z}}}}};
-                    DracoSettings draco = params.draco;
-                    const double target = params.position_error_target_m;
-                    if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
-                    const double uv_target = params.uv_original_error_target_texels;
-                    double texels = 0;  // of the leaf's largest texture
-                    if (node.leaf() && !mesh.uv_original.empty())
-                        draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
-                    if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
-                    Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                    // The predictions leave room for float32 rounding; should they not
-                    // suffice, the measurements decide.
-                    while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
-                        ++draco.position_bits;
-                        st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                    }
-                    while (st.ok() && uv_target > 0 && texels > 0 && glb.max_uv_original_error * texels > uv_target &&
-                           draco.uv_original_bits < 30) {
-                        ++draco.uv_original_bits;
-                        st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                    }
-                    if (!st.ok()) {
-                        rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
-                        continue;
-                    }
-                    LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
-                    lr.present = true;
-                    lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
-                    if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
-                        rec.error = w.error;
-                        continue;
-                    }
-                    lr.geometry_bytes = glb.bytes.size();
-                    lr.triangles = glb.triangles;
-                    lr.triangles_source = g->triangles_source;
-                    lr.geometric_error_m = g->geometric_error_m;
-                    lr.simplified = g->simplified;
-                    lr.position_error_m = glb.max_position_error_m;
-                    lr.position_bits = draco.position_bits;
-                    lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
-                                                                                node.layers[static_cast<size_t>(li)].height);
-                    if (!mesh.uv_original.empty()) {
-                        lr.uv_original_error_texels = glb.max_uv_original_error * texels;
-                        lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
-                    }
-                    rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
-                    geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
-                }
-                report("tiles: geometry", ++nodes_done, n_nodes);
-            });
-        });
-        if (level + 1 < by_level.size())
-            for (int32_t id : by_level[level + 1]) geometry[static_cast<size_t>(id)] = {};
-    }
-    geometry.clear();
-    for (const NodeRecord& r : records)
-        if (!r.error.empty()) return Status::Io("tiles: " + r.error);
-
-    // Subtree features (both layers), for the dropped lists: bottom-up unions.
-    {
-        std::vector<std::vector<uint32_t>> subtree(n_nodes);
-        for (size_t i = n_nodes; i-- > 0;) {
-            const AtlasNode& node = tree.nodes[i];
-            std::vector<uint32_t>& s = subtree[i];
-            if (node.leaf()) {
-                for (const auto& layer : node.layers)
-                    for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
-                        s.push_back(tree.triangles[t].tri.feature);
-                std::sort(s.begin(), s.end());
-                s.erase(std::unique(s.begin(), s.end()), s.end());
-            } else {
-                for (int32_t c : node.children)
-                    if (c >= 0) s = unionOf(s, subtree[static_cast<size_t>(c)]);
-            }
-            std::set_difference(s.begin(), s.end(), records[i].features.begin(), records[i].features.end(),
-                                std::back_inserter(records[i].dropped));
-            for (int32_t c : node.children)
-                if (c >= 0) subtree[static_cast<size_t>(c)].clear();
+    // --- Geometry (deepest level first: a node merges its children's geometry)
+    // and the leaves' original textures, side by side: they share nothing but
+    // the texture index, and the textures' parallel work fills the cores the
+    // geometry's top levels (a few large merges) leave idle.
+    auto runGeometry = [&]() -> Status {
+        // --- Geometry, deepest level first: a node merges its children's geometry.
+        std::vector<std::vector<int32_t>> by_level;
+        for (size_t i = 0; i < n_nodes; ++i) {
+            const auto level = static_cast<size_t>(tree.nodes[i].level);
+            if (by_level.size() <= level) by_level.resize(level + 1);
+            by_level[level].push_back(static_cast<int32_t>(i));
         }
-    }
-    endStep("geometry");
+        std::vector<std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> geometry(n_nodes);
+        std::atomic<uint64_t> nodes_done{0};
+        for (size_t level = by_level.size(); level-- > 0;) {
+            const std::vector<int32_t>& ids = by_level[level];
+            arena.execute([&] {
+                tbb::parallel_for(size_t{0}, ids.size(), [&](size_t k) {
+                    const int32_t id = ids[k];
+                    const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
+                    NodeRecord& rec = records[static_cast<size_t>(id)];
+                    const double texel = node.min_distance_m / ppm;
+                    const Vec3d centre = centreOf(node.bounds);
+                    for (int li = 0; li < atlas::kLayerCount; ++li) {
+                        if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
+                        const auto layer = static_cast<Layer>(li);
+                        std::unique_ptr<NodeGeometry> g;
+                        if (node.leaf()) {
+                            g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, blocks.texture_index));
+                        } else {
+                            std::array<const NodeGeometry*, 4> children{};
+                            for (size_t q = 0; q < 4; ++q)
+                                if (node.children[q] >= 0)
+                                    children[q] = geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)].get();
+                            g = std::make_unique<NodeGeometry>(
+                                innerGeometry(tree, id, layer, children, params.node_triangles, texel));
+                        }
+                        if (g->empty()) continue;
+                        TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
+                        if (!node.leaf()) mesh.texture_id.clear();
+                        GlbResult glb;
+                        json extras = {{"cityatlas", {{"node", id},
+                                                      {"layer", std::string(atlas::layerName(layer))},
+                                                      {"centre", {centre.x, centre.y, centre.z}}}}};
+                        DracoSettings draco = params.draco;
+                        const double target = params.position_error_target_m;
+                        if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
+                        const double uv_target = params.uv_original_error_target_texels;
+                        double texels = 0;  // of the leaf's largest texture
+                        if (node.leaf() && !mesh.uv_original.empty())
+                            draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
+                        if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
+                        Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                        // The predictions leave room for float32 rounding; should they not
+                        // suffice, the measurements decide.
+                        while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
+                            ++draco.position_bits;
+                            st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                        }
+                        while (st.ok() && uv_target > 0 && texels > 0 && glb.max_uv_original_error * texels > uv_target &&
+                               draco.uv_original_bits < 30) {
+                            ++draco.uv_original_bits;
+                            st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                        }
+                        if (!st.ok()) {
+                            rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
+                            continue;
+                        }
+                        LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
+                        lr.present = true;
+                        lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
+                        if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
+                            rec.error = w.error;
+                            continue;
+                        }
+                        lr.geometry_bytes = glb.bytes.size();
+                        lr.triangles = glb.triangles;
+                        lr.triangles_source = g->triangles_source;
+                        lr.geometric_error_m = g->geometric_error_m;
+                        lr.simplified = g->simplified;
+                        lr.position_error_m = glb.max_position_error_m;
+                        lr.position_bits = draco.position_bits;
+                        lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
+                                                                                    node.layers[static_cast<size_t>(li)].height);
+                        if (!mesh.uv_original.empty()) {
+                            lr.uv_original_error_texels = glb.max_uv_original_error * texels;
+                            lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
+                        }
+                        rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
+                        geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
+                    }
+                    report("tiles: geometry", ++nodes_done, n_nodes);
+                });
+            });
+            if (level + 1 < by_level.size())
+                for (int32_t id : by_level[level + 1]) geometry[static_cast<size_t>(id)] = {};
+        }
+        geometry.clear();
+        for (const NodeRecord& r : records)
+            if (!r.error.empty()) return Status::Io("tiles: " + r.error);
 
-    // --- Atlases: PNG from the atlas stage -> DDS with its mip chain.
+        // Subtree features (both layers), for the dropped lists: bottom-up unions.
+        {
+            std::vector<std::vector<uint32_t>> subtree(n_nodes);
+            for (size_t i = n_nodes; i-- > 0;) {
+                const AtlasNode& node = tree.nodes[i];
+                std::vector<uint32_t>& s = subtree[i];
+                if (node.leaf()) {
+                    for (const auto& layer : node.layers)
+                        for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
+                            s.push_back(tree.triangles[t].tri.feature);
+                    std::sort(s.begin(), s.end());
+                    s.erase(std::unique(s.begin(), s.end()), s.end());
+                } else {
+                    for (int32_t c : node.children)
+                        if (c >= 0) s = unionOf(s, subtree[static_cast<size_t>(c)]);
+                }
+                std::set_difference(s.begin(), s.end(), records[i].features.begin(), records[i].features.end(),
+                                    std::back_inserter(records[i].dropped));
+                for (int32_t c : node.children)
+                    if (c >= 0) subtree[static_cast<size_t>(c)].clear();
+            }
+        }
+        return Status::Ok();
+    };
+    Status geometry_status = Status::Ok(), tex_status = Status::Ok();
+    arena.execute([&] {
+        tbb::task_group side;
+        side.run([&] {
+            tex_status = writeTextureBlocks(scene, params.bc_quality, out_dir, diagnostics,
+                                            [&](uint64_t d, uint64_t t) { report("tiles: textures", d, t); }, &blocks);
+        });
+        geometry_status = runGeometry();
+        side.wait();
+    });
+    if (!geometry_status.ok()) return geometry_status;
+    if (!tex_status.ok()) return tex_status;
+    endStep("geometry and textures");
+
+    // --- Atlases: encoded during the atlas stage, or PNG from it -> DDS with its mip chain.
     std::vector<std::pair<int32_t, int>> atlas_jobs;
     for (size_t i = 0; i < n_nodes; ++i)
         for (int li = 0; li < atlas::kLayerCount; ++li)
             if (tree.nodes[i].layers[static_cast<size_t>(li)].present() && records[i].layers[static_cast<size_t>(li)].present)
                 atlas_jobs.emplace_back(static_cast<int32_t>(i), li);
     std::vector<std::string> atlas_errors(atlas_jobs.size());
-    std::atomic<uint64_t> atlases_done{0};
-    arena.execute([&] {
-        tbb::parallel_for(size_t{0}, atlas_jobs.size(), [&](size_t k) {
+    std::vector<EncodedAtlas> atlases(atlas_jobs.size());
+    if (encoded) {
+        for (size_t k = 0; k < atlas_jobs.size(); ++k) {
             const auto [id, li] = atlas_jobs[k];
-            const atlas::NodeLayer& nl = tree.nodes[static_cast<size_t>(id)].layers[static_cast<size_t>(li)];
-            LayerRecord& lr = records[static_cast<size_t>(id)].layers[static_cast<size_t>(li)];
-            const int channels = li == static_cast<int>(Layer::Alpha) ? 4 : 3;
-            Image8 img;
-            std::string why;
-            if (!readImage8((atlas_dir / nl.atlas_path).string(), channels, &img, &why)) {
-                atlas_errors[k] = fmt::format("{}: cannot read the atlas: {}", (atlas_dir / nl.atlas_path).string(), why);
-                return;
-            }
-            const auto t0 = std::chrono::steady_clock::now();
-            const std::vector<Image8> mips = mipChain(img);
-            const std::vector<uint8_t> dds = encodeDds(mips, params.bc_quality);
-            lr.atlas_encode_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            for (const Image8& m : mips) lr.atlas_texels += static_cast<uint64_t>(m.width) * m.height;
-            constexpr size_t kDdsHeader = 128;
-            const std::vector<uint8_t> level0(dds.begin() + kDdsHeader,
-                                              dds.begin() + kDdsHeader + bcBlockBytes(img.width, img.height, channels));
-            lr.atlas_psnr_db = psnrRgb(img, decodeBc(level0, img.width, img.height, channels));
-            lr.atlas_uri = fmt::format("atlas/{}/{}.dds", atlas::layerName(static_cast<Layer>(li)), id);
-            if (Status w = writeBytes(out_dir / lr.atlas_uri, dds.data(), dds.size()); !w.ok()) {
-                atlas_errors[k] = w.error;
-                return;
-            }
-            lr.atlas_bytes = dds.size();
-            lr.atlas_mips = static_cast<int>(mips.size());
-            report("tiles: atlases", ++atlases_done, atlas_jobs.size());
+            if (static_cast<size_t>(id) < encoded->size())
+                atlases[k] = (*encoded)[static_cast<size_t>(id)][static_cast<size_t>(li)];
+            if (atlases[k].uri.empty())
+                atlas_errors[k] = fmt::format("node {} ({}): the atlas stage encoded no atlas", id,
+                                              atlas::layerName(static_cast<Layer>(li)));
+        }
+        // Atlases of layers whose geometry came out empty (every triangle degenerate in float32) go.
+        for (size_t i = 0; i < encoded->size() && i < n_nodes; ++i)
+            for (int li = 0; li < atlas::kLayerCount; ++li)
+                if (!(*encoded)[i][static_cast<size_t>(li)].uri.empty() && !records[i].layers[static_cast<size_t>(li)].present)
+                    fs::remove(out_dir / (*encoded)[i][static_cast<size_t>(li)].uri, ec);
+    } else {
+        std::atomic<uint64_t> atlases_done{0};
+        arena.execute([&] {
+            tbb::parallel_for(size_t{0}, atlas_jobs.size(), [&](size_t k) {
+                const auto [id, li] = atlas_jobs[k];
+                const atlas::NodeLayer& nl = tree.nodes[static_cast<size_t>(id)].layers[static_cast<size_t>(li)];
+                Image8 img;
+                std::string why;
+                const fs::path png = atlas_dir / nl.atlas_path;
+                if (!readImage8(png.string(), li == static_cast<int>(Layer::Alpha) ? 4 : 3, &img, &why)) {
+                    atlas_errors[k] = fmt::format("{}: cannot read the atlas: {}", png.string(), why);
+                    return;
+                }
+                if (Status w = encodeAtlas(img, id, static_cast<Layer>(li), params.bc_quality, out_dir, &atlases[k]); !w.ok())
+                    atlas_errors[k] = w.error;
+                report("tiles: atlases", ++atlases_done, atlas_jobs.size());
+            });
         });
-    });
+    }
     for (const std::string& e : atlas_errors)
         if (!e.empty()) return Status::Io("tiles: " + e);
+    for (size_t k = 0; k < atlas_jobs.size(); ++k) {
+        const auto [id, li] = atlas_jobs[k];
+        LayerRecord& lr = records[static_cast<size_t>(id)].layers[static_cast<size_t>(li)];
+        lr.atlas_uri = atlases[k].uri;
+        lr.atlas_bytes = atlases[k].bytes;
+        lr.atlas_mips = atlases[k].mips;
+        lr.atlas_psnr_db = atlases[k].psnr_db;
+        lr.atlas_encode_seconds = atlases[k].encode_seconds;
+        lr.atlas_texels = atlases[k].texels;
+    }
     endStep("atlases");
 
-    // --- Original textures for leaves.
-    Status tex_status = Status::Ok();
-    arena.execute([&] {
-        tex_status = writeTextureBlocks(scene, params.bc_quality, out_dir, diagnostics,
-                                        [&](uint64_t d, uint64_t t) { report("tiles: textures", d, t); }, &blocks);
-    });
-    if (!tex_status.ok()) return tex_status;
-    endStep("textures");
 
     // --- Feature tables.
     format::TilesetDocument doc;

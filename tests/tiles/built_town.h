@@ -43,7 +43,8 @@ struct Built {
 inline std::unique_ptr<Built> buildTown(const std::string& name, uint32_t buildings, const Vec3d& offset,
                                  const TilesParams& params, double d_min_m = 150,
                                  const std::function<void(const Built&)>& before_tiles = {},
-                                 Diagnostics* tiles_diagnostics = nullptr, int texture_px = 64) {
+                                 Diagnostics* tiles_diagnostics = nullptr, int texture_px = 64,
+                                 bool hand_off_in_memory = false) {
     auto b = std::make_unique<Built>();
     b->dir = test::scratchPath("tileset", name);
     synth::TownSettings settings;
@@ -60,13 +61,17 @@ inline std::unique_ptr<Built> buildTown(const std::string& name, uint32_t buildi
     ap.atlas_size_px = 256;
     b->atlas_dir = b->dir / "work";
     Diagnostics diagnostics;
-    const Status st = atlas::buildAtlasTree(b->scene, ap, b->atlas_dir, diagnostics, {}, &b->tree);
+    // As `build` does it: atlases encoded as they are rendered, no PNG.
+    AtlasHandOff hand_off(params.bc_quality, b->dir / "tiles");
+    const Status st = atlas::buildAtlasTree(b->scene, ap, b->atlas_dir, diagnostics, {}, &b->tree,
+                                            hand_off_in_memory ? hand_off.sink() : atlas::AtlasImageSink());
     EXPECT_TRUE(st.ok()) << st.error;
+    const EncodedAtlases encoded = hand_off.take(b->tree.nodes.size());
     if (before_tiles) before_tiles(*b);
     fs::create_directories(b->dir / "tiles");
     Diagnostics& tiles_diag = tiles_diagnostics ? *tiles_diagnostics : diagnostics;
-    const Status w =
-        writeTileset(b->scene, b->tree, b->atlas_dir, params, b->dir / "tiles", "0123456789abcdef", tiles_diag, {}, &b->stats);
+    const Status w = writeTileset(b->scene, b->tree, b->atlas_dir, params, b->dir / "tiles", "0123456789abcdef",
+                                  tiles_diag, {}, &b->stats, hand_off_in_memory ? &encoded : nullptr);
     EXPECT_TRUE(w.ok()) << w.error;
     std::ifstream f(b->dir / "tiles" / "tileset.json");
     b->tileset = json::parse(f);

@@ -305,6 +305,35 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
     EXPECT_GT(checked, 0);
 }
 
+// `build` hands each atlas from the renderer to the DDS encoder in memory;
+// the folder must be byte for byte the one the PNG round trip gives (PNG is
+// lossless and the PNG holds exactly the handed-over bytes), alpha layers
+// (the town's glass) included, and no PNG is written on the way.
+// Mutations run: writeTileset taking the opaque layer's record for both
+// layers -> fails (tileset.json differs); the hand-off's sink encoding every
+// image as the opaque layer -> fails (an alpha atlas missing).
+TEST(Tileset, AtlasesHandedOverInMemoryGiveTheSameFolderAsThroughPng) {
+    const auto png = buildTown("handoff_png", 30, {}, defaults(), 150);
+    const auto memory = buildTown("handoff_memory", 30, {}, defaults(), 150, {}, nullptr, 64, true);
+    ASSERT_FALSE(HasFailure());
+    EXPECT_GT(png->stats.atlas_files, 4u);
+    EXPECT_FALSE(fs::exists(memory->atlas_dir / "atlas" / "opaque" / "0.png"));
+    EXPECT_TRUE(fs::exists(png->atlas_dir / "atlas" / "opaque" / "0.png"));
+    size_t files = 0, alpha_atlases = 0;
+    for (const auto& e : fs::recursive_directory_iterator(png->dir / "tiles")) {
+        if (!e.is_regular_file()) continue;
+        const fs::path rel = fs::relative(e.path(), png->dir / "tiles");
+        ++files;
+        alpha_atlases += rel.parent_path() == fs::path("atlas/alpha") ? 1 : 0;
+        ASSERT_TRUE(fs::exists(memory->dir / "tiles" / rel)) << rel;
+        EXPECT_TRUE(readFile(e.path()) == readFile(memory->dir / "tiles" / rel)) << rel << " differs";
+    }
+    size_t memory_files = 0;
+    for (const auto& e : fs::recursive_directory_iterator(memory->dir / "tiles")) memory_files += e.is_regular_file();
+    EXPECT_EQ(memory_files, files);
+    EXPECT_GT(alpha_atlases, 0u) << "the town has no alpha layer to hand over";
+}
+
 // Originals that vanish between the atlas and the tiles stage (a network share
 // going away): each is a counted warning, the leaves keep their atlases, and a
 // block left with nothing readable is not written, so every block in the index
