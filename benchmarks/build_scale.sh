@@ -4,23 +4,25 @@
 # output bytes by kind, and the size/accuracy trade of the encoders:
 # position bits 11/14/16 (with the per-node error target off, so the bits are
 # exactly those) and BC quality fast/best.
-# Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all]
+# Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all] [TEXTURE_PX=512]
 #   RUNS: all, main, bits, bc, or a comma list of run names
 #   (default, bits11, bits14, bits16, bc-best).
-# Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>.json (one record per run,
+#   The city-scale runs of issue 17: `10000 400 main` and `100000 2000 main 32`.
+# Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>[-<TEXTURE_PX>px].json (one record per run,
 # updated after each run; records of runs not repeated are kept) and prints a
 # table. Every run rebuilds everything (--force), so each record's
 # stage times are complete. The town is made once and not timed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-N="${1:-10000}"; DMIN="${2:-400}"; RUNS="${3:-all}"
+N="${1:-10000}"; DMIN="${2:-400}"; RUNS="${3:-all}"; PX="${4:-512}"
 ./scripts/build > /dev/null
 mkdir -p out/benchmarks
-TOWN="out/benchmarks/synth-$N-512"
+TOWN="out/benchmarks/synth-$N-$PX"
 if [ ! -f "$TOWN/truth.json" ]; then
-  ./build/cli/cityatlas synth --buildings "$N" --texture-size 512 --lod 2 --seed 1 -q --overwrite -o "$TOWN" > /dev/null
+  ./build/cli/cityatlas synth --buildings "$N" --texture-size "$PX" --lod 2 --seed 1 -q --overwrite -o "$TOWN" > /dev/null
 fi
 TAG="$N-${DMIN//\//_}"
+[ "$PX" = 512 ] || TAG="$TAG-${PX}px"
 /usr/bin/python3 - "$TOWN" "$DMIN" "$TAG" "$RUNS" <<'PY'
 import json, os, platform, resource, subprocess, sys, time
 town, dmin, tag, runs = sys.argv[1:5]
@@ -58,7 +60,7 @@ for name, extra in variants:
     kept = [r for r in previous if r["run"] not in {x["run"] for x in records}]
     json.dump({"benchmark": "build", "town": town, "d_min": dmin, "cores": os.cpu_count(), "machine": platform.machine(),
                "runs": kept + records}, open(result, "w"), indent=2)
-    print(f"{name:8s} wall {rec['wall_s']:7.1f} s  read {rec['stages']['read']:6.1f}  atlas {rec['stages']['atlas']:7.1f}  "
+    print(f"{name:8s} wall {rec['wall_s']:7.1f} s  CPU {rec['cpu_s']:7.1f} s ({rec['cpu_s'] / rec['wall_s']:.2f} cores)  read {rec['stages']['read']:6.1f}  atlas {rec['stages']['atlas']:7.1f}  "
           f"tiles {rec['stages']['tiles']:7.1f}  peak {rec['peak_rss_mb']:7.0f} MB  geometry {rep['bytes']['geometry']/1e6:7.2f} MB  "
           f"atlases {rep['bytes']['atlases']/1e6:8.1f} MB  textures {rep['bytes']['textures']/1e6:7.1f} MB  "
           f"pos err {rep['errors']['position_mm_max']:7.2f} mm  PSNR min/mean {rep['errors']['atlas_psnr_db_min']:.2f}/"
