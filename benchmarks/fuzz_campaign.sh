@@ -25,14 +25,19 @@ build="${CITYATLAS_FUZZ_BUILD:-$root/build-fuzz}"
 bin="$build/tests/fuzz/$target"
 [ -x "$bin" ] || { echo "fuzz_campaign: $bin is not built (run scripts/fuzz-smoke 1 first)" >&2; exit 1; }
 
+extra_seed=""
 case "$target" in
-  fuzz_citygml) seed="$root/tests/data/citygml_broken"; max_len=65536 ;;
+  fuzz_citygml) seed="$root/tests/data/citygml_broken"; extra_seed="$root/tests/fuzz/corpus/$target"; max_len=65536 ;;
   fuzz_camera_path) seed="$root/tests/fuzz/corpus/$target"; max_len=8192 ;;
   fuzz_footprint_mapping) seed="$root/tests/fuzz/corpus/$target"; max_len=16384 ;;
   fuzz_tileset_json | fuzz_glb | fuzz_dds | fuzz_texture_blocks | fuzz_feature_table)
     seed="$root/tests/fuzz/corpus/$target"; max_len=65536 ;;
   *) echo "fuzz_campaign: unknown target $target" >&2; exit 2 ;;
 esac
+
+# Seed folders libFuzzer reads besides the working corpus (new finds go to the first folder only).
+seeds=("$seed")
+[ -n "${extra_seed:-}" ] && [ -d "$extra_seed" ] && seeds+=("$extra_seed")
 
 work="$root/out/fuzz-campaign/$target"
 mkdir -p "$work/corpus" "$work/artifacts" "$root/out/benchmarks"
@@ -44,7 +49,7 @@ export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
 TIMEFORMAT='%U %S'
 rc=0
-{ time (cd "$work" && "$bin" "$work/corpus" "$seed" -max_total_time="$seconds" -timeout=60 -rss_limit_mb=2048 \
+{ time (cd "$work" && "$bin" "$work/corpus" "${seeds[@]}" -max_total_time="$seconds" -timeout=60 -rss_limit_mb=2048 \
      -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$work/artifacts/" > "$log" 2>&1) || rc=$?; } 2> "$work/cpu.txt"
 read -r user sys < "$work/cpu.txt"
 cpu=$(python3 -c "print(round($user + $sys))")
