@@ -50,6 +50,7 @@ inline constexpr const char* kGeoreferenceMissing = "georeference_missing";  // 
 inline constexpr const char* kCityGmlNoNamespace = "citygml_no_namespace";    // <CityModel> root in no namespace
 inline constexpr const char* kCityGmlMemberMissing = "citygml_member_missing";  // object not in a cityObjectMember
 inline constexpr const char* kAdeIgnored = "ade_ignored";                    // ADE element in a city object: ignored
+inline constexpr const char* kXmlNamespaceError = "xml_namespace_error";    // e.g. an undeclared prefix: read as in no namespace
 inline constexpr const char* kInputsOverlap = "inputs_overlap";              // two inputs share most buildings
 inline constexpr const char* kCrsNotGeoreferenced = "crs_not_georeferenced";  // local engineering CRS
 inline constexpr const char* kCrsVerticalIgnored = "crs_vertical_ignored";    // unusable height part of a compound CRS

@@ -4,13 +4,135 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
 namespace cityatlas {
 namespace fs = std::filesystem;
+namespace {
+
+bool isRemote(const std::string& uri) { return uri.find("://") != std::string::npos; }
+
+fs::path localPath(const fs::path& base_dir, const std::string& uri) {
+    return (base_dir / fs::path(uri)).lexically_normal();
+}
+
+ImageHeader readHeader(const fs::path& path) {
+    ImageHeader h;
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) return h;  // Missing
+    auto in = OIIO::ImageInput::open(path.string());
+    if (!in) {
+        OIIO::geterror();  // clear this thread's OIIO error state
+        h.kind = ImageHeader::Kind::Unreadable;
+        return h;
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    h.kind = ImageHeader::Kind::Ok;
+    h.width_px = spec.width;
+    h.height_px = spec.height;
+    h.channels = spec.nchannels;
+    in->close();
+    return h;
+}
+
+}  // namespace
+
+// One worker reads headers in the order they were asked for; resolve() takes
+// a finished one, waits for the one being read, or reads a still-queued one
+// itself (so it never waits behind the queue).
+struct TextureResolver::Prefetcher {
+    enum class State { Queued, Reading, Done, Claimed };
+    struct Entry {
+        State state = State::Queued;
+        ImageHeader header;
+    };
+    std::mutex mutex;
+    std::condition_variable done;
+    std::condition_variable work;
+    std::deque<std::string> queue;
+    std::unordered_map<std::string, Entry> entries;
+    bool stop = false;
+    std::thread worker;
+
+    Prefetcher() : worker([this] { run(); }) {}
+    ~Prefetcher() {
+        {
+            std::lock_guard lock(mutex);
+            stop = true;
+        }
+        work.notify_all();
+        worker.join();
+    }
+
+    void add(const std::string& path) {
+        {
+            std::lock_guard lock(mutex);
+            if (entries.size() >= kMaxPrefetched || !entries.try_emplace(path).second) return;
+            queue.push_back(path);
+        }
+        work.notify_one();
+    }
+
+    // The header of `path`, from the worker when it was asked for.
+    ImageHeader take(const std::string& path) {
+        std::unique_lock lock(mutex);
+        auto it = entries.find(path);
+        if (it == entries.end()) {
+            lock.unlock();
+            return readHeader(path);
+        }
+        if (it->second.state == State::Queued) {
+            it->second.state = State::Claimed;  // the worker skips it
+            lock.unlock();
+            const ImageHeader h = readHeader(path);
+            lock.lock();
+            entries.erase(path);
+            return h;
+        }
+        done.wait(lock, [&] { return it->second.state == State::Done; });
+        const ImageHeader h = it->second.header;
+        entries.erase(it);
+        return h;
+    }
+
+    void run() {
+        std::unique_lock lock(mutex);
+        for (;;) {
+            work.wait(lock, [&] { return stop || !queue.empty(); });
+            if (stop) return;
+            const std::string path = std::move(queue.front());
+            queue.pop_front();
+            auto it = entries.find(path);
+            if (it == entries.end() || it->second.state != State::Queued) continue;
+            it->second.state = State::Reading;
+            lock.unlock();
+            const ImageHeader h = readHeader(path);
+            lock.lock();
+            it = entries.find(path);  // rehashing may have moved it
+            it->second.header = h;
+            it->second.state = State::Done;
+            done.notify_all();
+        }
+    }
+};
+
+TextureResolver::TextureResolver(SceneSink& sink, Diagnostics& diagnostics) : sink_(sink), diagnostics_(diagnostics) {}
+
+TextureResolver::~TextureResolver() = default;
+
+void TextureResolver::prefetch(const fs::path& base_dir, const std::string& uri) {
+    if (isRemote(uri)) return;
+    if (!prefetcher_) prefetcher_ = std::make_unique<Prefetcher>();
+    prefetcher_->add(localPath(base_dir, uri).string());
+}
 
 int32_t TextureResolver::resolve(const fs::path& base_dir, const std::string& uri, WrapMode wrap,
                                  const DiagnosticExample& where) {
-    const bool remote = uri.find("://") != std::string::npos;
-    const fs::path path = remote ? fs::path() : (base_dir / fs::path(uri)).lexically_normal();
+    const bool remote = isRemote(uri);
+    const fs::path path = remote ? fs::path() : localPath(base_dir, uri);
     const std::string key = (remote ? uri : path.string()) + "#" + std::to_string(static_cast<int>(wrap));
     if (auto it = cache_.find(key); it != cache_.end()) return it->second;
 
@@ -20,25 +142,24 @@ int32_t TextureResolver::resolve(const fs::path& base_dir, const std::string& ur
         ex.detail = std::move(detail);
         diagnostics_.warn(code, std::move(ex));
     };
-    std::error_code ec;
     if (remote) {
         fail(warn::kTextureMissing, fmt::format("{}: remote images are not fetched", uri));
-    } else if (!fs::is_regular_file(path, ec)) {
-        fail(warn::kTextureMissing, fmt::format("{}: no such file", path.string()));
-    } else if (auto in = OIIO::ImageInput::open(path.string()); !in) {
-        OIIO::geterror();  // clear OIIO's error state
-        fail(warn::kTextureUnreadable, fmt::format("{}: not a readable image", path.string()));
     } else {
-        const OIIO::ImageSpec& spec = in->spec();
-        TextureRef ref;
-        ref.path = path.string();
-        ref.width_px = spec.width;
-        ref.height_px = spec.height;
-        ref.channels = spec.nchannels;
-        ref.wrap = wrap;
-        in->close();
-        index = sink_.addTexture(ref);
-        refs_[index] = ref;
+        const ImageHeader h = prefetcher_ ? prefetcher_->take(path.string()) : readHeader(path);
+        if (h.kind == ImageHeader::Kind::Missing) {
+            fail(warn::kTextureMissing, fmt::format("{}: no such file", path.string()));
+        } else if (h.kind == ImageHeader::Kind::Unreadable) {
+            fail(warn::kTextureUnreadable, fmt::format("{}: not a readable image", path.string()));
+        } else {
+            TextureRef ref;
+            ref.path = path.string();
+            ref.width_px = h.width_px;
+            ref.height_px = h.height_px;
+            ref.channels = h.channels;
+            ref.wrap = wrap;
+            index = sink_.addTexture(ref);
+            refs_[index] = ref;
+        }
     }
     (index >= 0 ? ok_ : failed_)++;
     cache_[key] = index;

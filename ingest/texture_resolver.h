@@ -4,8 +4,16 @@
 /// the path against the referencing file's folder, reads only the image
 /// header (OpenImageIO) for size and channels, never fetches remote URIs, and
 /// warns once per image that is missing or unreadable. Caches by path.
+///
+/// Reading headers is a file open per image (10,000 images: ~0.4 s, 14 % of
+/// ingesting the 10,000-building town), so a reader that knows the images
+/// before it needs them (the CityGML reader's index pass) can prefetch():
+/// one background thread reads the headers while the reader parses, and
+/// resolve() takes the result. Indices, warnings and their order stay those
+/// of the resolve() calls, so the Scene is the same with or without prefetch.
 
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <unordered_map>
 
@@ -14,15 +22,28 @@
 
 namespace cityatlas {
 
+/// What an image's header said, read once per path.
+struct ImageHeader {
+    enum class Kind { Ok, Missing, Unreadable };
+    Kind kind = Kind::Missing;
+    int width_px = 0, height_px = 0, channels = 0;
+};
+
 class TextureResolver {
 public:
-    TextureResolver(SceneSink& sink, Diagnostics& diagnostics) : sink_(sink), diagnostics_(diagnostics) {}
+    TextureResolver(SceneSink& sink, Diagnostics& diagnostics);
+    ~TextureResolver();
+    TextureResolver(const TextureResolver&) = delete;
+    TextureResolver& operator=(const TextureResolver&) = delete;
 
     /// Scene texture index for `uri` (relative to `base_dir`, or absolute), or
     /// -1 when it cannot be used (warned: texture_missing / texture_unreadable,
     /// with `where` as the example's place).
     int32_t resolve(const std::filesystem::path& base_dir, const std::string& uri, WrapMode wrap,
                     const DiagnosticExample& where);
+    /// Starts reading the header of `uri` in the background (at most
+    /// kMaxPrefetched waiting at a time; beyond that resolve() reads inline).
+    void prefetch(const std::filesystem::path& base_dir, const std::string& uri);
     /// The image behind an index resolve() returned (path, size), or null.
     const TextureRef* info(int32_t index) const {
         auto it = refs_.find(index);
@@ -31,9 +52,13 @@ public:
     uint64_t resolved() const { return ok_; }
     uint64_t failed() const { return failed_; }
 
+    static constexpr size_t kMaxPrefetched = size_t{1} << 18;  // ~40 MB of paths at most
+
 private:
+    struct Prefetcher;
     SceneSink& sink_;
     Diagnostics& diagnostics_;
+    std::unique_ptr<Prefetcher> prefetcher_;
     std::unordered_map<std::string, int32_t> cache_;
     std::unordered_map<int32_t, TextureRef> refs_;
     uint64_t ok_ = 0, failed_ = 0;

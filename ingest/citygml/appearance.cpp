@@ -190,4 +190,15 @@ void ThemeCatalogue::note(xmlNodePtr appearance) {
     }
 }
 
+std::vector<std::string> textureImageUris(xmlNodePtr appearance, std::string* theme) {
+    *theme = themeOf(appearance);
+    std::vector<std::string> uris;
+    for (xmlNodePtr member = firstChild(appearance); member; member = nextSibling(member))
+        if (isNamed(member, "surfaceDataMember"))
+            if (xmlNodePtr d = firstChild(member);
+                d && (isNamed(d, "ParameterizedTexture") || isNamed(d, "GeoreferencedTexture")))
+                if (xmlNodePtr uri = child(d, "imageURI")) uris.push_back(text(uri));
+    return uris;
+}
+
 }  // namespace cityatlas::citygml

@@ -87,4 +87,8 @@ struct ThemeCatalogue {
     void note(xmlNodePtr appearance);
 };
 
+/// The imageURI of every texture (parameterized or georeferenced) in an
+/// appearance, as written, and the appearance's theme ("" when it has none).
+std::vector<std::string> textureImageUris(xmlNodePtr appearance, std::string* theme);
+
 }  // namespace cityatlas::citygml

@@ -14,6 +14,7 @@
 
 #include "ingest/citygml/appearance.h"
 #include "ingest/citygml/xml_input.h"
+#include "ingest/citygml/xml_scan.h"
 #include "ingest/image_georeference.h"
 #include "ingest/texture_resolver.h"
 #include "ingest/triangulate.h"
@@ -188,6 +189,9 @@ private:
         if (Status s = in.open(file_); !s.ok()) return s;
         std::string name, ns;
         if (Status s = in.rootElement(&name, &ns); !s.ok()) return s;
+        return checkRoot(name, ns, report);
+    }
+    Status checkRoot(const std::string& name, const std::string& ns, bool report) {
         const bool city_model = name == "CityModel" && (ns.empty() || isCityGmlNamespace(ns));
         const bool collection = name == "FeatureCollection" && isFeatureCollectionNamespace(ns);
         if (!city_model && !collection)
@@ -216,17 +220,21 @@ private:
     }
 
     // The version of a file whose root does not say it, from its first city object.
-    void noteVersion(xmlNodePtr object) {
-        if (!summary_.citygml_version.empty() || !object || !object->ns || !object->ns->href) return;
-        summary_.citygml_version = versionOf(reinterpret_cast<const char*>(object->ns->href));
+    void noteVersion(const char* object_namespace) {
+        if (!summary_.citygml_version.empty() || !object_namespace || !*object_namespace) return;
+        summary_.citygml_version = versionOf(object_namespace);
     }
 
-    void readEnvelope(xmlNodePtr bounded_by) {
+    // `inherited_dimension`: srsDimension of boundedBy's ancestors (not in a captured subtree).
+    void readEnvelope(xmlNodePtr bounded_by, int inherited_dimension) {
         xmlNodePtr env = child(bounded_by, "Envelope");
         if (!env) return;
         if (srs_name_.empty()) srs_name_ = attribute(env, "srsName");
         xmlNodePtr lo = child(env, "lowerCorner"), hi = child(env, "upperCorner");
-        if (!file_dimension_) file_dimension_ = declaredDimension(lo ? lo : env);
+        if (!file_dimension_) {
+            const int declared = declaredDimension(lo ? lo : env);
+            file_dimension_ = declared ? declared : inherited_dimension;
+        }
         std::vector<double> a, b;
         const std::string ta = lo ? text(lo) : "", tb = hi ? text(hi) : "";
         if (lo && hi && parseDoubles(ta.data(), ta.data() + ta.size(), &a) &&
@@ -246,64 +254,102 @@ private:
         return false;
     }
 
-    void indexMember(xmlNodePtr node, uint32_t member) {
-        for (xmlNodePtr c = firstChild(node); c; c = nextSibling(c)) {
-            const char* n = localName(c);
-            if (std::strcmp(n, "appearance") == 0) {
-                theme_catalogue_.note(firstChild(c) ? firstChild(c) : c);
-                continue;
+    // The texture images the read pass will resolve, read in the background
+    // meanwhile (only the theme asked for, when one is).
+    void prefetchImages(xmlNodePtr appearance) {
+        std::string theme;
+        const std::vector<std::string> uris = textureImageUris(appearance, &theme);
+        if (!state_.options.theme.empty() && theme != state_.options.theme) return;
+        for (const std::string& uri : uris) textures_.prefetch(file_.parent_path(), uri);
+    }
+
+    // The index pass as a SAX scan (no DOM but for the envelope, appearances
+    // and the first coordinates): per city object, the ids of its geometry
+    // and the xlinks it makes; the file's srsName, dimension, first point,
+    // themes and global appearances.
+    struct IndexScan : ScanHandler {
+        FileReader& r;
+        RootChild current = RootChild::Other;  // the root child being scanned
+        bool object_seen = false;              // its first element (the city object) met
+        uint32_t member = 0, members = 0;
+        explicit IndexScan(FileReader& reader) : r(reader) {}
+        Status root(const ScanElement& e) override { return r.checkRoot(e.local_name, e.ns, true); }
+        bool element(const ScanElement& e) override { return r.indexElement(e, *this); }
+        void captured(xmlNodePtr n, int depth, int dimension, int64_t) override { r.indexCaptured(n, depth, dimension); }
+        void namespaceError(int64_t line, const std::string& message) override {
+            r.warn(warn::kXmlNamespaceError, line, "", message + "; read as in no namespace");
+        }
+        void progress(uint64_t done) override {
+            if (r.state_.progress) r.state_.progress("index", done, r.summary_.bytes);
+        }
+    };
+
+    static constexpr const char* kGmlNamespace = "http://www.opengis.net/gml";
+    static constexpr const char* kXlinkNamespace = "http://www.w3.org/1999/xlink";
+
+    // True for the subtrees indexCaptured() reads.
+    bool indexElement(const ScanElement& e, IndexScan& scan) {
+        const char* n = e.local_name;
+        if (e.depth == 1) {
+            scan.current = classify(n);
+            scan.object_seen = false;
+            if (scan.current == RootChild::Other)
+                return std::strcmp(n, "boundedBy") == 0 || std::strcmp(n, "appearanceMember") == 0;
+            scan.member = scan.members++;
+            if (scan.current == RootChild::BareObject) {
+                warn(warn::kCityGmlMemberMissing, e.line, e.attribute("id", kGmlNamespace),
+                     "a <Building> directly under the root, not inside a <cityObjectMember>; read all the same");
+                noteVersion(e.ns);
+                scan.object_seen = true;
             }
-            if (srs_name_.empty()) {
-                const std::string srs = attribute(c, "srsName");
-                if (!srs.empty()) srs_name_ = srs;
+            return false;
+        }
+        if (scan.current == RootChild::Other) return false;
+        if (!scan.object_seen) {  // a member's first element: its city object
+            noteVersion(e.ns);
+            scan.object_seen = true;
+        }
+        if (std::strcmp(n, "appearance") == 0) return true;
+        if (srs_name_.empty()) {
+            std::string srs = e.attribute("srsName");
+            if (!srs.empty()) srs_name_ = std::move(srs);
+        }
+        if (isGeometryElement(n)) {
+            const std::string id = e.attribute("id", kGmlNamespace);
+            if (!id.empty()) id_owner_.emplace_back(std::hash<std::string>{}(id), scan.member);
+        }
+        const std::string href = e.attribute("href", kXlinkNamespace);
+        if (!href.empty())
+            href_user_.emplace_back(std::hash<std::string>{}(href[0] == '#' ? href.substr(1) : href), scan.member);
+        return !first_point_ && (std::strcmp(n, "posList") == 0 || std::strcmp(n, "pos") == 0);
+    }
+
+    void indexCaptured(xmlNodePtr n, int depth, int dimension) {
+        if (depth == 1 && isNamed(n, "boundedBy")) {
+            readEnvelope(n, dimension);
+        } else if (depth == 1) {  // appearanceMember
+            if (xmlNodePtr a = firstChild(n)) {
+                theme_catalogue_.note(a);
+                prefetchImages(a);
+                global_appearances_.addAppearance(a);
+                warnUnsupported(global_appearances_);
             }
-            if (!first_point_ && (std::strcmp(n, "posList") == 0 || std::strcmp(n, "pos") == 0)) {
-                std::vector<double> v;
-                const std::string t = text(c);
-                if (parseDoubles(t.data(), t.data() + t.size(), &v) && v.size() >= 2)
-                    first_point_ = Vec3d{v[0], v[1], v.size() >= 3 && declaredDimension(c) != 2 ? v[2] : 0.0};
-            }
-            if (isGeometryElement(n)) {
-                const std::string id = gmlId(c);
-                if (!id.empty()) id_owner_.emplace_back(std::hash<std::string>{}(id), member);
-            }
-            const std::string href = xlinkHref(c);
-            if (!href.empty()) href_user_.emplace_back(std::hash<std::string>{}(href), member);
-            indexMember(c, member);
+        } else if (isNamed(n, "appearance")) {
+            theme_catalogue_.note(firstChild(n) ? firstChild(n) : n);
+            if (xmlNodePtr a = firstChild(n)) prefetchImages(a);
+        } else {  // the first posList or pos
+            std::vector<double> v;
+            const std::string t = text(n);
+            if (parseDoubles(t.data(), t.data() + t.size(), &v) && v.size() >= 2)
+                first_point_ = Vec3d{v[0], v[1], v.size() >= 3 && dimension != 2 ? v[2] : 0.0};
         }
     }
 
     Status indexPass() {
-        XmlInput in;
-        if (Status s = openRoot(in, true); !s.ok()) return s;
         summary_.path = file_.string();
-        summary_.bytes = in.fileSize();
-        uint32_t member = 0;
-        while (in.nextChild()) {
-            const std::string name = in.currentLocalName();
-            if (name == "boundedBy") {
-                if (xmlNodePtr n = in.expand()) readEnvelope(n);
-            } else if (const RootChild kind = classify(name); kind != RootChild::Other) {
-                if (xmlNodePtr n = in.expand()) {
-                    if (kind == RootChild::BareObject)
-                        warn(warn::kCityGmlMemberMissing, lineOf(n), gmlId(n),
-                             "a <Building> directly under the root, not inside a <cityObjectMember>; read all the same");
-                    noteVersion(objectOf(n, kind));
-                    indexMember(n, member);
-                }
-                ++member;
-            } else if (name == "appearanceMember") {
-                if (xmlNodePtr n = in.expand())
-                    if (xmlNodePtr a = firstChild(n)) {
-                        theme_catalogue_.note(a);
-                        global_appearances_.addAppearance(a);
-                        warnUnsupported(global_appearances_);
-                    }
-            }
-            if ((member & 255) == 0) progress("index", in);
-        }
-        if (!in.status().ok()) return in.status();
-        progress("index", in);
+        IndexScan scan(*this);
+        if (Status s = scanXml(file_, scan, &summary_.bytes); !s.ok()) return s;
+        if (state_.progress) state_.progress("index", summary_.bytes, summary_.bytes);
 
         // References whose target lives in another city object.
         std::sort(id_owner_.begin(), id_owner_.end());

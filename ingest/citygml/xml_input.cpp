@@ -24,7 +24,9 @@ xmlParserInputPtr refuseExternalEntity(const char* url, const char*, xmlParserCt
     return nullptr;
 }
 
-void installGuards() {
+}  // namespace
+
+void installXmlGuards() {
     static std::once_flag once;
     std::call_once(once, [] {
         xmlInitParser();
@@ -32,15 +34,13 @@ void installGuards() {
     });
 }
 
-}  // namespace
-
 struct XmlInput::Impl {
     xmlTextReaderPtr reader = nullptr;
     std::string first_error;
     int64_t first_error_line = 0;
 };
 
-XmlInput::XmlInput() : impl_(new Impl) { installGuards(); }
+XmlInput::XmlInput() : impl_(new Impl) { installXmlGuards(); }
 
 XmlInput::~XmlInput() {
     if (impl_->reader) xmlFreeTextReader(impl_->reader);
@@ -59,49 +59,50 @@ void XmlInput::fail(const char* code, int64_t line, const std::string& message) 
 static void collectError(void* arg, xmlErrorPtr error) {
     auto* impl = static_cast<XmlInput::Impl*>(arg);
     if (!error || error->level < XML_ERR_ERROR || !impl->first_error.empty()) return;
+    // Namespace errors (an undeclared prefix) do not stop libxml2; the index
+    // pass (xml_scan) has warned about each.
+    if (error->domain == XML_FROM_NAMESPACE) return;
     std::string m = error->message ? error->message : "parse error";
     while (!m.empty() && std::isspace(static_cast<unsigned char>(m.back()))) m.pop_back();
     impl->first_error = m;
     impl->first_error_line = error->line;
 }
 
-Status XmlInput::open(const std::filesystem::path& file) {
-    file_ = file;
+Status sniffXmlFile(const std::filesystem::path& file, uint64_t* file_size) {
+    auto fail = [&](const char* code, const std::string& message) {
+        return Status::Fail(std::strcmp(code, fatal::kIoError) == 0 ? StatusCode::kIo : StatusCode::kInvalidInput,
+                            fmt::format("{}: {}: {}", code, file.string(), message));
+    };
     std::FILE* f = std::fopen(file.string().c_str(), "rb");
-    if (!f) {
-        fail(fatal::kIoError, 0, std::strerror(errno));
-        return status_;
-    }
+    if (!f) return fail(fatal::kIoError, std::strerror(errno));
     // Sniff the start: empty, whitespace only, or not XML at all (binary,
     // plain text) get their own clear message instead of a parser's.
     unsigned char head[512];
     const size_t n = std::fread(head, 1, sizeof head, f);
     std::fseek(f, 0, SEEK_END);
-    file_size_ = static_cast<uint64_t>(std::ftell(f));
+    *file_size = static_cast<uint64_t>(std::ftell(f));
     std::fclose(f);
-    if (file_size_ == 0) {
-        fail(fatal::kEmptyFile, 0, "the file is empty");
-        return status_;
-    }
+    if (*file_size == 0) return fail(fatal::kEmptyFile, "the file is empty");
     size_t i = 0;
     if (n >= 3 && head[0] == 0xEF && head[1] == 0xBB && head[2] == 0xBF) i = 3;  // UTF-8 BOM
     while (i < n && std::isspace(head[i])) ++i;
-    if (i == n && file_size_ == n) {
-        fail(fatal::kEmptyFile, 0, "the file holds only whitespace");
-        return status_;
-    }
+    if (i == n && *file_size == n) return fail(fatal::kEmptyFile, "the file holds only whitespace");
     const bool utf16 = n >= 2 && ((head[0] == 0xFF && head[1] == 0xFE) || (head[0] == 0xFE && head[1] == 0xFF));
     if (!utf16 && (i >= n || head[i] != '<')) {
         bool binary = false;
         for (size_t k = 0; k < n; ++k) binary |= head[k] == 0;
-        fail(fatal::kNotXml, 0, binary ? "binary data, not an XML (CityGML) file" : "text that is not XML (CityGML)");
+        return fail(fatal::kNotXml, binary ? "binary data, not an XML (CityGML) file" : "text that is not XML (CityGML)");
+    }
+    return Status::Ok();
+}
+
+Status XmlInput::open(const std::filesystem::path& file) {
+    file_ = file;
+    if (Status s = sniffXmlFile(file, &file_size_); !s.ok()) {
+        status_ = s;
         return status_;
     }
-    // No NOENT (no entity substitution), no DTDLOAD/DTDATTR, NONET; BIG_LINES
-    // keeps line numbers right past 65535; HUGE is NOT set, so libxml2's own
-    // limits on text nodes and entity amplification stay on.
-    const int options = XML_PARSE_NONET | XML_PARSE_BIG_LINES | XML_PARSE_NOCDATA | XML_PARSE_COMPACT;
-    impl_->reader = xmlReaderForFile(file.string().c_str(), nullptr, options);
+    impl_->reader = xmlReaderForFile(file.string().c_str(), nullptr, kXmlParseOptions);
     if (!impl_->reader) {
         fail(fatal::kIoError, 0, "cannot open for reading");
         return status_;
@@ -114,9 +115,7 @@ bool XmlInput::readNode() {
     const int r = xmlTextReaderRead(impl_->reader);
     if (r == 1) {
         if (xmlTextReaderNodeType(impl_->reader) == XML_READER_TYPE_DOCUMENT_TYPE) {
-            fail(fatal::kDoctypeForbidden, xmlTextReaderGetParserLineNumber(impl_->reader),
-                 "DOCTYPE declarations are refused (CityGML needs none; they carry external-entity and "
-                 "entity-expansion attacks)");
+            fail(fatal::kDoctypeForbidden, xmlTextReaderGetParserLineNumber(impl_->reader), kDoctypeRefused);
             return false;
         }
         return true;

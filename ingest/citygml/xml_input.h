@@ -10,6 +10,7 @@
 // children; expand() gives the DOM subtree of the current child, valid until
 // the next nextChild() call (memory stays at one city object).
 
+#include <libxml/parser.h>
 #include <libxml/tree.h>
 
 #include <cstdint>
@@ -19,6 +20,23 @@
 #include "core/status.h"
 
 namespace cityatlas::citygml {
+
+/// libxml2 options for every CityGML parse: no NOENT (no entity
+/// substitution), no DTDLOAD/DTDATTR, NONET; BIG_LINES keeps line numbers
+/// right past 65535; HUGE is NOT set, so libxml2's own limits on text nodes
+/// and entity amplification stay on.
+inline constexpr int kXmlParseOptions = XML_PARSE_NONET | XML_PARSE_BIG_LINES | XML_PARSE_NOCDATA | XML_PARSE_COMPACT;
+
+inline constexpr const char* kDoctypeRefused =
+    "DOCTYPE declarations are refused (CityGML needs none; they carry external-entity and entity-expansion attacks)";
+
+/// Once per process: libxml2 initialised and every external entity refused.
+void installXmlGuards();
+
+/// The checks before any parse: the file opens; it is not empty, whitespace
+/// only, binary or plain text ("io_error: ...", "empty_file: ...",
+/// "not_xml: ..."). Gives the file's size.
+Status sniffXmlFile(const std::filesystem::path& file, uint64_t* file_size);
 
 class XmlInput {
 public:

@@ -266,6 +266,22 @@ TEST(CityGmlReader, CityGml1NamespaceAndPosElementsAnd2dCoordinates) {
     EXPECT_EQ(r->state.diagnostics.count(warn::kCoordinates2d), 1u);
 }
 
+// An undeclared namespace prefix is an error libxml2 reads past; so must we:
+// a counted warning, and every building after it read (the xmlTextReader
+// walk stopped there, exit 0, 1 building of 3).
+TEST(CityGmlReader, UndeclaredPrefixIsAWarningAndTheRestIsRead) {
+    std::string body;
+    for (int i = 0; i < 3; ++i)
+        body += "<core:cityObjectMember><bldg:Building gml:id=\"b" + std::to_string(i) + "\">" +
+                (i == 0 ? "<uro:buildingID>x</uro:buildingID>" : "") +
+                "<bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>" + square("p" + std::to_string(i), i) +
+                "</gml:surfaceMember></gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>\n";
+    const auto r = ingest(writeDoc("undeclared_prefix", body));
+    ASSERT_TRUE(r->status.ok()) << r->status.error;
+    EXPECT_EQ(r->scene.features.size(), 3u);
+    EXPECT_EQ(r->state.diagnostics.count("xml_namespace_error"), 1u);
+}
+
 TEST(CityGmlReader, FatalErrorsNameTheFile) {
     const fs::path nocrs = writeDoc("nocrs", "", R"(<?xml version="1.0"?>
 <core:CityModel xmlns:core="http://www.opengis.net/citygml/2.0">
@@ -284,6 +300,13 @@ TEST(CityGmlReader, FatalErrorsNameTheFile) {
     EXPECT_FALSE(t->status.ok());
     EXPECT_EQ(t->status.error.rfind("xml_malformed", 0), 0u) << t->status.error;
     EXPECT_TRUE(t->scene.triangles.empty()) << "nothing is emitted from a file that is not well-formed";
+
+    // A root that is never closed is a truncated file too.
+    const fs::path open_root = writeDoc("open_root", "", R"(<?xml version="1.0"?>
+<core:CityModel xmlns:core="http://www.opengis.net/citygml/2.0">
+)", "");
+    const auto o = ingest(open_root, with_crs);
+    EXPECT_EQ(o->status.error.rfind("xml_malformed", 0), 0u) << o->status.error;
 }
 
 }  // namespace

@@ -83,6 +83,13 @@ ade = ade.replace("</bldg:lod2MultiSurface>\n        </bldg:WallSurface>",
                   "</bldg:lod2MultiSurface>\n          <xyz:uValue>1.2</xyz:uValue>\n        </bldg:WallSurface>", 1)
 write("ade_inside_building.gml", ade, "ADE elements (one holding a polygon) in the building and in a wall")
 
+# An element whose prefix is never declared (hand-edited files, a producer
+# that forgot one xmlns): libxml2 reads on with the element in no namespace;
+# warned xml_namespace_error, then skipped as an element the reader does not
+# use (tests/ingest/test_citygml_reader.cpp checks that what follows is read).
+undeclared = B.replace("<bldg:boundedBy>", "<uro:buildingID>13101-bldg-1</uro:buildingID>\n      <bldg:boundedBy>", 1)
+write("undeclared_prefix.gml", undeclared, "an element with an undeclared namespace prefix (uro:) inside the building")
+
 # A WFS 2.0 response (3DCityDB WFS): wfs:FeatureCollection of wfs:member.
 wfs = B.replace("<CityModel ", '<wfs:FeatureCollection xmlns:wfs="http://www.opengis.net/wfs/2.0" ', 1)
 wfs = wfs.replace("</CityModel>", "</wfs:FeatureCollection>").replace("cityObjectMember>", "wfs:member>")
