@@ -3,6 +3,9 @@
 
 find_package(PkgConfig REQUIRED)
 find_package(Threads REQUIRED)
+if(CITYATLAS_MIMALLOC)
+  find_package(mimalloc CONFIG REQUIRED)  # Debian: libmimalloc-dev (mimalloc 2.0)
+endif()
 
 # The client and the format library need only what follows the pipeline's
 # block; CITYATLAS_PIPELINE=OFF skips the pipeline's (GDAL, PROJ, CGAL, ...).
