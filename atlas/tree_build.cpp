@@ -451,7 +451,8 @@ struct Flattener {
 
 Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::path& output_dir,
                       Diagnostics& diagnostics, const AtlasProgressFn& progress, AtlasTree* tree,
-                      const AtlasImageSink& sink) {
+                      const AtlasImageSink& sink,
+                      std::vector<Triangle>* consume_triangles) {
     if (Status s = validateParams(params); !s.ok()) return s;
     *tree = AtlasTree{};
     tree->params = params;
@@ -516,7 +517,9 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
         stats.d_first_upsampled_m = hi;
     }
 
-    std::vector<Triangle> tris = scene.triangles;
+    std::vector<Triangle> tris;
+    if (consume_triangles == &scene.triangles) tris = std::move(*consume_triangles);
+    else tris = scene.triangles;
     std::vector<uint32_t> sources;
     const CriticalResult critical =
         resolveCriticalTriangles(tris, sources, stats.d_min_requested_m, ppm, params.atlas_size_px, params.border_px,
@@ -611,6 +614,15 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
                                                  flat.forced, flat.smallest_shrink)});
     }
     step("order");
+    // The images need the tree and the scene only: what the structure was
+    // built from goes before they start (at 100,000 buildings, 2.2 M
+    // triangles: about 230 bytes each).
+    flat.build_of = {};
+    root = BuildNode{};
+    std::vector<Triangle>().swap(tris);
+    std::vector<uint32_t>().swap(sources);
+    std::vector<TriangleInfo>().swap(info);
+    std::vector<double>().swap(weight);
 
     if (!params.render_images) return Status::Ok();
     RenderResult rendered;

@@ -227,6 +227,10 @@ int runBuild(const BuildCliOptions& opt_in) {
         fs::remove_all(tmp, ignored);
         return fail(progress, s);
     };
+    // The atlas stage takes the scene's triangles (the tree holds them from
+    // then on, with their original uvs); the tiles and the 3D Tiles export
+    // read the scene's textures, materials and features only.
+    const size_t scene_triangles = scene.triangles.size();
     // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
     // round trip); the 3D Tiles export still reads PNGs, so it gets them too.
     atlas::AtlasTree tree;
@@ -237,7 +241,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         [&](const char* step, uint64_t done, uint64_t total) {
             progress.update(fmt::format("atlas: {}", step).c_str(), done, total);
         },
-        &tree, hand_off.sink());
+        &tree, hand_off.sink(), &scene.triangles);
     if (!built.ok()) return abandon(built);
     const tiles::EncodedAtlases encoded = hand_off.take(tree.nodes.size());
     endStage("atlas");
@@ -276,7 +280,7 @@ int runBuild(const BuildCliOptions& opt_in) {
                              {"inputs", toJson(input_digests)},
                              {"textures", toJson(texture_digests)}};
     report["counts"] = {{"features", scene.features.size()},
-                        {"triangles", scene.triangles.size()},
+                        {"triangles", scene_triangles},
                         {"textured_triangles", scene_stats.textured_triangles},
                         {"textures", scene.textures.size()},
                         {"nodes", ts.nodes},

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
-#include <unordered_map>
 
 #include "tiles/simplify.h"
 
@@ -36,7 +35,10 @@ struct VertexHash {
     }
 };
 
-// Accumulates triangles into a welded TileMesh.
+// Accumulates triangles into a welded TileMesh. The weld table is open
+// addressing over vertex numbers (4 bytes a slot, at most half full) and
+// compares against the mesh's own arrays: the merges near the root weld
+// millions of vertices, and a node-based map cost ~100 bytes each on top.
 class MeshBuilder {
 public:
     explicit MeshBuilder(bool with_original_uv) : with_original_uv_(with_original_uv) {}
@@ -44,25 +46,63 @@ public:
     void add(const std::array<Vertex, 3>& tri) {
         for (const Vertex& v : tri) mesh_.indices.push_back(index(v));
     }
-    TileMesh take() { return std::move(mesh_); }
+    // Without the capacity push_back left (up to half of each array): a
+    // node's mesh waits for its siblings' before its parent merges them.
+    TileMesh take() {
+        std::vector<uint32_t>().swap(slots_);
+        for (auto* v : {&mesh_.positions}) v->shrink_to_fit();
+        for (auto* v : {&mesh_.uv_original, &mesh_.uv_atlas}) v->shrink_to_fit();
+        for (auto* v : {&mesh_.feature_id, &mesh_.indices}) v->shrink_to_fit();
+        for (auto* v : {&mesh_.texture_id, &mesh_.material_id}) v->shrink_to_fit();
+        return std::move(mesh_);
+    }
 
 private:
-    uint32_t index(const Vertex& v) {
-        auto [it, inserted] = index_of_.emplace(v, static_cast<uint32_t>(mesh_.positions.size()));
-        if (inserted) {
-            mesh_.positions.push_back(v.position);
-            mesh_.uv_atlas.push_back(v.uv_atlas);
-            if (with_original_uv_) mesh_.uv_original.push_back(v.uv_original);
-            mesh_.feature_id.push_back(v.feature);
-            mesh_.texture_id.push_back(v.texture);
-            mesh_.material_id.push_back(v.material);
-        }
-        return it->second;
+    static constexpr uint32_t kEmpty = UINT32_MAX;
+
+    Vertex stored(uint32_t i) const {
+        Vertex v;
+        v.position = mesh_.positions[i];
+        if (with_original_uv_) v.uv_original = mesh_.uv_original[i];
+        v.uv_atlas = mesh_.uv_atlas[i];
+        v.feature = mesh_.feature_id[i];
+        v.texture = mesh_.texture_id[i];
+        v.material = mesh_.material_id[i];
+        return v;
+    }
+    void grow() {
+        std::vector<uint32_t> old;
+        old.swap(slots_);
+        slots_.assign(std::max<size_t>(64, old.size() * 2), kEmpty);
+        for (uint32_t i : old)
+            if (i != kEmpty) slots_[free_slot(VertexHash{}(stored(i)))] = i;
+    }
+    size_t free_slot(size_t h) const {
+        const size_t mask = slots_.size() - 1;
+        for (size_t k = h & mask;; k = (k + 1) & mask)
+            if (slots_[k] == kEmpty) return k;
+    }
+    uint32_t index(Vertex v) {
+        if (!with_original_uv_) v.uv_original = {};  // not stored, so not part of the key
+        if (2 * (mesh_.positions.size() + 1) > slots_.size()) grow();
+        const size_t mask = slots_.size() - 1;
+        size_t k = VertexHash{}(v) & mask;
+        for (; slots_[k] != kEmpty; k = (k + 1) & mask)
+            if (stored(slots_[k]) == v) return slots_[k];
+        const auto i = static_cast<uint32_t>(mesh_.positions.size());
+        slots_[k] = i;
+        mesh_.positions.push_back(v.position);
+        mesh_.uv_atlas.push_back(v.uv_atlas);
+        if (with_original_uv_) mesh_.uv_original.push_back(v.uv_original);
+        mesh_.feature_id.push_back(v.feature);
+        mesh_.texture_id.push_back(v.texture);
+        mesh_.material_id.push_back(v.material);
+        return i;
     }
 
     bool with_original_uv_;
     TileMesh mesh_;
-    std::unordered_map<Vertex, uint32_t, VertexHash> index_of_;
+    std::vector<uint32_t> slots_;  // vertex numbers; kEmpty where free
 };
 
 Vertex vertexOf(const TileMesh& m, uint32_t i) {
@@ -127,14 +167,14 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
 }
 
 NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
-                           const std::array<const NodeGeometry*, 4>& children, size_t budget, double world_texel_m) {
+                           std::array<std::unique_ptr<NodeGeometry>, 4> children, size_t budget, double world_texel_m) {
     const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
     NodeGeometry g;
     MeshBuilder b(false);
     double child_error = 0;
     size_t merged = 0;
     for (size_t q = 0; q < 4; ++q) {
-        const NodeGeometry* c = children[q];
+        const NodeGeometry* c = children[q].get();
         if (c == nullptr || c->empty()) continue;
         const atlas::AtlasNode& cn = tree.nodes[static_cast<size_t>(n.children[q])];
         const atlas::NodeLayer& pl = n.layers[static_cast<size_t>(layer)];
@@ -160,18 +200,24 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
             }
             b.add(tri);
         }
+        children[q].reset();
     }
     g.mesh = b.take();
     g.geometric_error_m = child_error;
     if (merged <= budget || g.mesh.indices.empty()) return g;
 
+    // The mesh's own arrays are lent to the simplifier, not copied (the
+    // merges near the root are the build's largest meshes), and come back.
     SimplifyInput in;
-    in.positions = g.mesh.positions;
-    in.indices = g.mesh.indices;
-    in.feature_id = g.mesh.feature_id;
+    in.positions = std::move(g.mesh.positions);
+    in.indices = std::move(g.mesh.indices);
+    in.feature_id = std::move(g.mesh.feature_id);
     in.keep_attribute_seams = true;  // corners keep their atlas uvs and ids
     const double bound = std::max(0.0, world_texel_m - child_error);
     const SimplifyResult r = simplifyMesh(in, budget, bound);
+    g.mesh.positions = std::move(in.positions);
+    g.mesh.indices = std::move(in.indices);
+    g.mesh.feature_id = std::move(in.feature_id);
     if (r.triangles_out < r.triangles_in) {
         g.mesh = compactMesh(g.mesh, r.indices);
         g.simplified = true;

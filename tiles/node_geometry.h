@@ -16,6 +16,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "atlas/atlas_tree.h"
@@ -47,10 +48,11 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
 /// The node's children's geometry of one layer (null: no child there, or an
 /// empty layer), merged into this node's atlas space and simplified to
 /// `budget` triangles when larger, at a bound of `world_texel_m` minus the
-/// children's error. uv_original is dropped.
+/// children's error. uv_original is dropped. The children's geometry is
+/// taken and freed once merged, before the simplification (near the root
+/// they are the build's largest meshes).
 NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
-                           const std::array<const NodeGeometry*, 4>& children, size_t budget, double world_texel_m);
-
+                           std::array<std::unique_ptr<NodeGeometry>, 4> children, size_t budget, double world_texel_m);
 /// Distinct feature ids of a mesh, ascending.
 std::vector<uint32_t> distinctFeatures(const TileMesh& mesh);
 

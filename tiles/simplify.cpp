@@ -17,6 +17,7 @@
 #include <meshoptimizer.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 namespace cityatlas::tiles {
 namespace {
@@ -200,14 +201,16 @@ private:
 // point is farther than `cap` (the caller only needs to know the attempt
 // failed). The maximum does not depend on the order TBB visits points in, so
 // the value is deterministic.
-double maxDistance(const std::vector<Vec3d>& points, const TriangleGrid& grid, double cap) {
+// `point(i)` gives point i of `count`.
+template <typename PointAt>
+double maxDistance(size_t count, const PointAt& point, const TriangleGrid& grid, double cap) {
     std::atomic<double> worst{0.0};
     std::atomic<bool> over{false};
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 512), [&](const tbb::blocked_range<size_t>& r) {
         double local = 0;
         for (size_t i = r.begin(); i != r.end(); ++i) {
             if (over.load(std::memory_order_relaxed)) return;
-            const double d = grid.distance(points[i], cap);
+            const double d = grid.distance(point(i), cap);
             if (!(d <= cap)) {
                 over.store(true, std::memory_order_relaxed);
                 return;
@@ -301,6 +304,9 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
         fpos[3 * v + 1] = static_cast<float>(centred[v].y);
         fpos[3 * v + 2] = static_cast<float>(centred[v].z);
     }
+    const size_t n_local = local_pos.size();
+    std::vector<Vec3d>().swap(local_pos);  // centred stands for it from here
+    std::vector<uint8_t>().swap(used);
 
     std::vector<uint32_t> chosen;
     double chosen_error = 0;
@@ -311,24 +317,32 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
         auto measure = [&](const std::vector<uint32_t>& out) {
             if (out.empty()) return kInf;
             const TriangleGrid out_grid(centred, out);
-            const double to_output = maxDistance(centred, out_grid, bound);
+            const double to_output = maxDistance(centred.size(), [&](size_t i) { return centred[i]; }, out_grid, bound);
             if (!(to_output <= bound)) return kInf;
-            std::vector<Vec3d> samples;
-            samples.reserve(out.size() / 3 * 7);
-            for (size_t t = 0; t < out.size(); t += 3) {
+            // Seven samples per output triangle (corners, edge midpoints,
+            // centroid), made as they are measured.
+            auto sample = [&](size_t i) {
+                const size_t t = 3 * (i / 7);
                 const Vec3d& a = centred[out[t]];
                 const Vec3d& b = centred[out[t + 1]];
                 const Vec3d& c = centred[out[t + 2]];
-                samples.insert(samples.end(), {a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a),
-                                               (1.0 / 3.0) * (a + b + c)});
-            }
-            return std::max(to_output, maxDistance(samples, input_grid, bound));
+                switch (i % 7) {
+                    case 0: return a;
+                    case 1: return b;
+                    case 2: return c;
+                    case 3: return 0.5 * (a + b);
+                    case 4: return 0.5 * (b + c);
+                    case 5: return 0.5 * (c + a);
+                    default: return (1.0 / 3.0) * (a + b + c);
+                }
+            };
+            return std::max(to_output, maxDistance(out.size() / 3 * 7, sample, input_grid, bound));
         };
 
         const size_t target_indices = std::min(target_triangles, (std::numeric_limits<size_t>::max() / 3) - 1) * 3;
         // meshopt's target_error is relative to the mesh extent; the scale is
         // the one meshopt derives from the same buffer (its largest side).
-        const float scale = meshopt_simplifyScale(fpos.data(), local_pos.size(), sizeof(float) * 3);
+        const float scale = meshopt_simplifyScale(fpos.data(), n_local, sizeof(float) * 3);
         // Capped at 16 extents (everything can collapse long before), which
         // also keeps log2 finite for an infinite bound.
         const double rel0 = scale > 0 ? std::min(bound / static_cast<double>(scale), 16.0) : 0.0;
@@ -336,14 +350,14 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
         // The error of the welded input itself: 0, but for vertices that only
         // zero-area triangles used (they are not on the kept surface).
         auto identityError = [&] {
-            std::vector<uint8_t> on_kept(local_pos.size(), 0);
+            std::vector<uint8_t> on_kept(n_local, 0);
             for (uint32_t v : kept) on_kept[v] = 1;
             std::vector<Vec3d> loose;
-            for (size_t v = 0; v < local_pos.size(); ++v)
+            for (size_t v = 0; v < n_local; ++v)
                 if (!on_kept[v]) loose.push_back(centred[v]);
             if (loose.empty()) return 0.0;
             const TriangleGrid kept_grid(centred, kept);
-            return maxDistance(loose, kept_grid, kInf);
+            return maxDistance(loose.size(), [&](size_t i) { return loose[i]; }, kept_grid, kInf);
         };
 
         // Why a ladder and a measurement per rung: meshopt's error is an
@@ -380,23 +394,40 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
 
         std::optional<std::vector<uint32_t>> best;
         double best_error = kInf;
-        std::vector<uint32_t> out(kept.size());
-        for (const double rel : ladder) {
-            const size_t n = meshopt_simplify(out.data(), kept.data(), kept.size(), fpos.data(), local_pos.size(),
-                                              sizeof(float) * 3, target_indices, static_cast<float>(rel), 0, nullptr);
-            const bool identity = n == kept.size() && std::equal(kept.begin(), kept.end(), out.begin());
-            // An empty result fits no finite bound (its error is infinite);
-            // at an infinite bound it would, but a node must show something.
-            if (n > 0 && (!best || n < best->size())) {
-                const std::vector<uint32_t> attempt(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n));
-                const double error = identity ? identityError() : measure(attempt);
-                if (error <= bound) {
-                    best = attempt;
-                    best_error = error;
-                    if (n <= target_indices) break;
+        // meshopt runs one thread per call, and near the root of a large
+        // tree one merge is all the work left: the rungs' meshopt runs go in
+        // batches, side by side, and the scan above goes over each batch's
+        // results in ladder order, so the result is the one-at-a-time
+        // result for any batch size; a batch costs at most its size - 1
+        // runs past the stopping rung.
+        const size_t batch = std::clamp<size_t>(static_cast<size_t>(tbb::this_task_arena::max_concurrency()), 1, 8);
+        std::vector<std::vector<uint32_t>> outs(batch, std::vector<uint32_t>(kept.size()));
+        std::vector<size_t> counts(batch);
+        bool stop = false;
+        for (size_t first = 0; first < ladder.size() && !stop; first += batch) {
+            const size_t in_batch = std::min(batch, ladder.size() - first);
+            tbb::parallel_for(size_t{0}, in_batch, [&](size_t b) {
+                counts[b] = meshopt_simplify(outs[b].data(), kept.data(), kept.size(), fpos.data(), n_local,
+                                             sizeof(float) * 3, target_indices, static_cast<float>(ladder[first + b]), 0,
+                                             nullptr);
+            });
+            for (size_t b = 0; b < in_batch && !stop; ++b) {
+                const std::vector<uint32_t>& out = outs[b];
+                const size_t n = counts[b];
+                const bool identity = n == kept.size() && std::equal(kept.begin(), kept.end(), out.begin());
+                // An empty result fits no finite bound (its error is infinite);
+                // at an infinite bound it would, but a node must show something.
+                if (n > 0 && (!best || n < best->size())) {
+                    const std::vector<uint32_t> attempt(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n));
+                    const double error = identity ? identityError() : measure(attempt);
+                    if (error <= bound) {
+                        best = attempt;
+                        best_error = error;
+                        if (n <= target_indices) stop = true;
+                    }
                 }
+                if (identity) stop = true;
             }
-            if (identity) break;
         }
         if (best) {
             chosen = std::move(*best);

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -246,98 +247,99 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     // the texture index, and the textures' parallel work fills the cores the
     // geometry's top levels (a few large merges) leave idle.
     auto runGeometry = [&]() -> Status {
-        // --- Geometry, deepest level first: a node merges its children's geometry.
-        std::vector<std::vector<int32_t>> by_level;
-        for (size_t i = 0; i < n_nodes; ++i) {
-            const auto level = static_cast<size_t>(tree.nodes[i].level);
-            if (by_level.size() <= level) by_level.resize(level + 1);
-            by_level[level].push_back(static_cast<int32_t>(i));
-        }
+        // --- Geometry, children before their parent: a node merges its
+        // children's geometry, which goes as soon as it is merged. Subtrees
+        // run as tasks, so what is alive at once is the nodes waiting for a
+        // sibling (not whole levels of the tree), and a large merge near the
+        // root runs while other subtrees are still busy (no barrier per level).
         std::vector<std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> geometry(n_nodes);
         std::atomic<uint64_t> nodes_done{0};
-        for (size_t level = by_level.size(); level-- > 0;) {
-            const std::vector<int32_t>& ids = by_level[level];
-            arena.execute([&] {
-                tbb::parallel_for(size_t{0}, ids.size(), [&](size_t k) {
-                    const int32_t id = ids[k];
-                    const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
-                    NodeRecord& rec = records[static_cast<size_t>(id)];
-                    const double texel = node.min_distance_m / ppm;
-                    const Vec3d centre = centreOf(node.bounds);
-                    for (int li = 0; li < atlas::kLayerCount; ++li) {
-                        if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
-                        const auto layer = static_cast<Layer>(li);
-                        std::unique_ptr<NodeGeometry> g;
-                        if (node.leaf()) {
-                            g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, blocks.texture_index));
-                        } else {
-                            std::array<const NodeGeometry*, 4> children{};
-                            for (size_t q = 0; q < 4; ++q)
-                                if (node.children[q] >= 0)
-                                    children[q] = geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)].get();
-                            g = std::make_unique<NodeGeometry>(
-                                innerGeometry(tree, id, layer, children, params.node_triangles, texel));
-                        }
-                        if (g->empty()) continue;
-                        TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
-                        if (!node.leaf()) mesh.texture_id.clear();
-                        GlbResult glb;
-                        json extras = {{"cityatlas", {{"node", id},
-                                                      {"layer", std::string(atlas::layerName(layer))},
-                                                      {"centre", {centre.x, centre.y, centre.z}}}}};
-                        DracoSettings draco = params.draco;
-                        const double target = params.position_error_target_m;
-                        if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
-                        const double uv_target = params.uv_original_error_target_texels;
-                        double texels = 0;  // of the leaf's largest texture
-                        if (node.leaf() && !mesh.uv_original.empty())
-                            draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
-                        if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
-                        Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                        // The predictions leave room for float32 rounding; should they not
-                        // suffice, the measurements decide.
-                        while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
-                            ++draco.position_bits;
-                            st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                        }
-                        while (st.ok() && uv_target > 0 && texels > 0 && glb.max_uv_original_error * texels > uv_target &&
-                               draco.uv_original_bits < 30) {
-                            ++draco.uv_original_bits;
-                            st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                        }
-                        if (!st.ok()) {
-                            rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
-                            continue;
-                        }
-                        LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
-                        lr.present = true;
-                        lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
-                        if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
-                            rec.error = w.error;
-                            continue;
-                        }
-                        lr.geometry_bytes = glb.bytes.size();
-                        lr.triangles = glb.triangles;
-                        lr.triangles_source = g->triangles_source;
-                        lr.geometric_error_m = g->geometric_error_m;
-                        lr.simplified = g->simplified;
-                        lr.position_error_m = glb.max_position_error_m;
-                        lr.position_bits = draco.position_bits;
-                        lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
-                                                                                    node.layers[static_cast<size_t>(li)].height);
-                        if (!mesh.uv_original.empty()) {
-                            lr.uv_original_error_texels = glb.max_uv_original_error * texels;
-                            lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
-                        }
-                        rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
-                        geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
-                    }
-                    report("tiles: geometry", ++nodes_done, n_nodes);
-                });
-            });
-            if (level + 1 < by_level.size())
-                for (int32_t id : by_level[level + 1]) geometry[static_cast<size_t>(id)] = {};
-        }
+        auto buildNode = [&](const int32_t id) {
+            const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
+            NodeRecord& rec = records[static_cast<size_t>(id)];
+            const double texel = node.min_distance_m / ppm;
+            const Vec3d centre = centreOf(node.bounds);
+            for (int li = 0; li < atlas::kLayerCount; ++li) {
+                if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
+                const auto layer = static_cast<Layer>(li);
+                std::unique_ptr<NodeGeometry> g;
+                if (node.leaf()) {
+                    g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, blocks.texture_index));
+                } else {
+                    std::array<std::unique_ptr<NodeGeometry>, 4> children{};  // merged, then freed
+                    for (size_t q = 0; q < 4; ++q)
+                        if (node.children[q] >= 0)
+                            children[q] = std::move(geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)]);
+                    g = std::make_unique<NodeGeometry>(
+                        innerGeometry(tree, id, layer, std::move(children), params.node_triangles, texel));
+                }
+                if (g->empty()) continue;
+                TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
+                if (!node.leaf()) mesh.texture_id.clear();
+                GlbResult glb;
+                json extras = {{"cityatlas", {{"node", id},
+                                              {"layer", std::string(atlas::layerName(layer))},
+                                              {"centre", {centre.x, centre.y, centre.z}}}}};
+                DracoSettings draco = params.draco;
+                const double target = params.position_error_target_m;
+                if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
+                const double uv_target = params.uv_original_error_target_texels;
+                double texels = 0;  // of the leaf's largest texture
+                if (node.leaf() && !mesh.uv_original.empty())
+                    draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
+                if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
+                Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                // The predictions leave room for float32 rounding; should they not
+                // suffice, the measurements decide.
+                while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
+                    ++draco.position_bits;
+                    st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                }
+                while (st.ok() && uv_target > 0 && texels > 0 && glb.max_uv_original_error * texels > uv_target &&
+                       draco.uv_original_bits < 30) {
+                    ++draco.uv_original_bits;
+                    st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+                }
+                if (!st.ok()) {
+                    rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
+                    continue;
+                }
+                LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
+                lr.present = true;
+                lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
+                if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
+                    rec.error = w.error;
+                    continue;
+                }
+                lr.geometry_bytes = glb.bytes.size();
+                lr.triangles = glb.triangles;
+                lr.triangles_source = g->triangles_source;
+                lr.geometric_error_m = g->geometric_error_m;
+                lr.simplified = g->simplified;
+                lr.position_error_m = glb.max_position_error_m;
+                lr.position_bits = draco.position_bits;
+                lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
+                                                                            node.layers[static_cast<size_t>(li)].height);
+                if (!mesh.uv_original.empty()) {
+                    lr.uv_original_error_texels = glb.max_uv_original_error * texels;
+                    lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
+                }
+                rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
+                geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
+            }
+            report("tiles: geometry", ++nodes_done, n_nodes);
+        };
+        std::function<void(int32_t)> visit = [&](const int32_t id) {
+            const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
+            tbb::task_group children;
+            for (const int32_t c : node.children)
+                if (c >= 0) children.run([&visit, c] { visit(c); });
+            children.wait();
+            buildNode(id);
+            for (const int32_t c : node.children)
+                if (c >= 0) geometry[static_cast<size_t>(c)] = {};
+        };
+        arena.execute([&] { visit(0); });
         geometry.clear();
         for (const NodeRecord& r : records)
             if (!r.error.empty()) return Status::Io("tiles: " + r.error);

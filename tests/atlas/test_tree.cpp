@@ -1111,5 +1111,50 @@ TEST(AtlasDeterminism, OneAndFourThreadsGiveIdenticalTreesAndImages) {
     fs::remove_all(dir);
 }
 
+// `build` gives the scene's triangles to the atlas stage instead of copying
+// them (memory at city scale): the tree and its images are the same, the
+// vector is empty afterwards, and a vector that is not the scene's own is
+// copied, not taken.
+TEST(AtlasDeterminism, ConsumingTheScenesTrianglesGivesTheSameTree) {
+    const fs::path dir = test::scratchPath("atlas_tree", "consume");
+    synth::TownSettings settings;
+    settings.buildings = 30;
+    settings.seed = 9;
+    settings.texture_size_px = 64;
+    const synth::Town town = synth::generateTown(settings);
+    const Status written = synth::writeTown(town, dir / "town", false, {});
+    ASSERT_TRUE(written.ok()) << written.error;
+    const Scene scene = synth::townToScene(town, dir / "town");
+    const auto copied = build(scene, {}, "copied", dir / "copied");
+    ASSERT_TRUE(copied->status.ok()) << copied->status.error;
+
+    Scene own = scene;
+    Built consumed;
+    consumed.status = buildAtlasTree(own, {}, dir / "consumed", consumed.diagnostics, {}, &consumed.tree, {}, &own.triangles);
+    ASSERT_TRUE(consumed.status.ok()) << consumed.status.error;
+    EXPECT_TRUE(own.triangles.empty());
+    expectSameTree(copied->tree, consumed.tree);
+    EXPECT_EQ(copied->tree.triangles.size(), consumed.tree.triangles.size());
+    for (size_t i = 0; i < copied->tree.triangles.size(); ++i) {
+        const TreeTriangle &a = copied->tree.triangles[i], &b = consumed.tree.triangles[i];
+        ASSERT_EQ(a.source, b.source) << i;
+        ASSERT_EQ(a.tri.position_local, b.tri.position_local) << i;
+        ASSERT_EQ(a.tri.uv, b.tri.uv) << i;
+        ASSERT_EQ(a.atlas_uv, b.atlas_uv) << i;
+    }
+    const std::vector<fs::path> files = filesUnder(dir / "copied");
+    ASSERT_EQ(files, filesUnder(dir / "consumed"));
+    for (const fs::path& f : files) EXPECT_TRUE(readBytes(dir / "copied" / f) == readBytes(dir / "consumed" / f)) << f;
+
+    std::vector<Triangle> other = scene.triangles;  // not the scene's own vector: copied, left alone
+    AtlasParams structure_only;
+    structure_only.render_images = false;
+    Built b3;
+    b3.status = buildAtlasTree(scene, structure_only, {}, b3.diagnostics, {}, &b3.tree, {}, &other);
+    ASSERT_TRUE(b3.status.ok()) << b3.status.error;
+    EXPECT_EQ(other.size(), scene.triangles.size());
+    fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace cityatlas::atlas
