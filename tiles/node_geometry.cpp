@@ -50,10 +50,13 @@ public:
     // node's mesh waits for its siblings' before its parent merges them.
     TileMesh take() {
         std::vector<uint32_t>().swap(slots_);
-        for (auto* v : {&mesh_.positions}) v->shrink_to_fit();
-        for (auto* v : {&mesh_.uv_original, &mesh_.uv_atlas}) v->shrink_to_fit();
-        for (auto* v : {&mesh_.feature_id, &mesh_.indices}) v->shrink_to_fit();
-        for (auto* v : {&mesh_.texture_id, &mesh_.material_id}) v->shrink_to_fit();
+        mesh_.positions.shrink_to_fit();
+        mesh_.uv_original.shrink_to_fit();
+        mesh_.uv_atlas.shrink_to_fit();
+        mesh_.feature_id.shrink_to_fit();
+        mesh_.indices.shrink_to_fit();
+        mesh_.texture_id.shrink_to_fit();
+        mesh_.material_id.shrink_to_fit();
         return std::move(mesh_);
     }
 

@@ -1076,16 +1076,22 @@ void expectSameTree(const AtlasTree& a, const AtlasTree& b) {
     }
 }
 
-TEST(AtlasDeterminism, OneAndFourThreadsGiveIdenticalTreesAndImages) {
-    const fs::path dir = test::scratchPath("atlas_tree", "determinism");
+// A synthetic town written to dir/town (its textures on disk), as a Scene.
+void writtenTownScene(const fs::path& dir, uint32_t buildings, uint64_t seed, int texture_px, Scene* scene) {
     synth::TownSettings settings;
-    settings.buildings = 60;
-    settings.seed = 5;
-    settings.texture_size_px = 128;
+    settings.buildings = buildings;
+    settings.seed = seed;
+    settings.texture_size_px = texture_px;
     const synth::Town town = synth::generateTown(settings);
     const Status written = synth::writeTown(town, dir / "town", false, {});
     ASSERT_TRUE(written.ok()) << written.error;
-    const Scene scene = synth::townToScene(town, dir / "town");
+    *scene = synth::townToScene(town, dir / "town");
+}
+
+TEST(AtlasDeterminism, OneAndFourThreadsGiveIdenticalTreesAndImages) {
+    const fs::path dir = test::scratchPath("atlas_tree", "determinism");
+    Scene scene;
+    ASSERT_NO_FATAL_FAILURE(writtenTownScene(dir, 60, 5, 128, &scene));
 
     std::array<std::unique_ptr<Built>, 2> builds;
     for (int k = 0; k < 2; ++k) {
@@ -1117,14 +1123,8 @@ TEST(AtlasDeterminism, OneAndFourThreadsGiveIdenticalTreesAndImages) {
 // copied, not taken.
 TEST(AtlasDeterminism, ConsumingTheScenesTrianglesGivesTheSameTree) {
     const fs::path dir = test::scratchPath("atlas_tree", "consume");
-    synth::TownSettings settings;
-    settings.buildings = 30;
-    settings.seed = 9;
-    settings.texture_size_px = 64;
-    const synth::Town town = synth::generateTown(settings);
-    const Status written = synth::writeTown(town, dir / "town", false, {});
-    ASSERT_TRUE(written.ok()) << written.error;
-    const Scene scene = synth::townToScene(town, dir / "town");
+    Scene scene;
+    ASSERT_NO_FATAL_FAILURE(writtenTownScene(dir, 30, 9, 64, &scene));
     const auto copied = build(scene, {}, "copied", dir / "copied");
     ASSERT_TRUE(copied->status.ok()) << copied->status.error;
 
