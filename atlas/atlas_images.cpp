@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <fstream>
 #include <list>
 #include <map>
 #include <memory>
@@ -195,13 +196,7 @@ Taps makeTaps(const std::vector<double>& pos, double spacing, int n, WrapMode wr
 
 // A leaf or inner atlas under construction: premultiplied linear RGBA, rows
 // bottom-up (y = v), as atlas texel coordinates are.
-struct Canvas {
-    int w = 0, h = 0;
-    std::vector<float> px;
-    Canvas(int width, int height) : w(width), h(height), px(static_cast<size_t>(width) * height * 4, 0.0f) {}
-    float* at(int x, int y) { return &px[(static_cast<size_t>(y) * w + x) * 4]; }
-    const float* at(int x, int y) const { return &px[(static_cast<size_t>(y) * w + x) * 4]; }
-};
+using Canvas = AtlasCanvas;
 
 // How many halvings of the source each axis needs before less than 2:1
 // minification is left (a texture mipmap's level choice, per axis).
@@ -437,14 +432,14 @@ private:
 class Renderer {
 public:
     Renderer(const Scene& scene, const AtlasTree& tree, const fs::path& out, const AtlasProgressFn& progress,
-             const AtlasImageSink& sink)
-        : scene_(scene), tree_(tree), out_(out), progress_(progress), sink_(sink),
+             const AtlasImageSink& sink, const GivenHalves* given, bool keep_root)
+        : scene_(scene), tree_(tree), out_(out), progress_(progress), sink_(sink), given_(given), keep_root_(keep_root),
           textures_(static_cast<size_t>(tree.params.cache_mb) << 20) {
-        for (const auto& n : tree.nodes)
-            for (const auto& l : n.layers) total_ += l.present() ? 1 : 0;
+        countRendered(0);
     }
     Status run(RenderResult* result) {
-        renderSubtree(0);
+        Halves root = renderSubtree(0);
+        if (keep_root_) result->root_halves = std::move(root);
         result->unreadable_textures = unreadable_;
         result->original_texture_bytes = original_bytes_;
         return first_error_;
@@ -453,7 +448,20 @@ public:
 private:
     using Halves = std::array<std::optional<Canvas>, kLayerCount>;
 
+    bool isGiven(int32_t id) const { return given_ && given_->count(id); }
+
+    // The node layers this renderer draws: none at or below a given node.
+    void countRendered(int32_t id) {
+        if (isGiven(id)) return;
+        const AtlasNode& n = tree_.nodes[static_cast<size_t>(id)];
+        for (const auto& l : n.layers) total_ += l.present() ? 1 : 0;
+        for (int32_t c : n.children)
+            if (c >= 0) countRendered(c);
+    }
+
     Halves renderSubtree(int32_t id) {
+        if (given_)
+            if (auto it = given_->find(id); it != given_->end()) return it->second;
         const AtlasNode& node = tree_.nodes[id];
         std::array<Halves, 4> child_halves;
         if (!node.leaf()) {
@@ -483,7 +491,7 @@ private:
             if (Status s = sink_ ? sink_(id, static_cast<Layer>(l), image) : writeAtlasPng(image, out_ / layer.atlas_path);
                 !s.ok())
                 noteError(s);
-            if (id != 0) mine[l] = halve(canvas);
+            if (id != 0 || keep_root_) mine[l] = halve(canvas);
             report();
         }
         return mine;
@@ -612,6 +620,8 @@ private:
     fs::path out_;
     const AtlasProgressFn& progress_;
     const AtlasImageSink& sink_;
+    const GivenHalves* given_;
+    bool keep_root_;
     DecodedTextures textures_;
     std::mutex mutex_;
     std::set<int32_t> unreadable_, counted_;
@@ -623,15 +633,38 @@ private:
 
 }  // namespace
 
+Status writeCanvas(const AtlasCanvas& c, const fs::path& path) {
+    std::ofstream f(path, std::ios::binary);
+    const int32_t size[2] = {c.w, c.h};
+    f.write(reinterpret_cast<const char*>(size), sizeof size);
+    f.write(reinterpret_cast<const char*>(c.px.data()), static_cast<std::streamsize>(c.px.size() * sizeof(float)));
+    f.close();
+    if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
+    return Status::Ok();
+}
+
+Status readCanvas(const fs::path& path, AtlasCanvas* c) {
+    std::ifstream f(path, std::ios::binary);
+    int32_t size[2] = {0, 0};
+    f.read(reinterpret_cast<char*>(size), sizeof size);
+    if (!f || size[0] <= 0 || size[1] <= 0 || size[0] > 65536 || size[1] > 65536)
+        return Status::Io(fmt::format("{}: not an atlas canvas", path.string()));
+    *c = AtlasCanvas(size[0], size[1]);
+    f.read(reinterpret_cast<char*>(c->px.data()), static_cast<std::streamsize>(c->px.size() * sizeof(float)));
+    if (!f || f.peek() != EOF) return Status::Io(fmt::format("{}: truncated or too long", path.string()));
+    return Status::Ok();
+}
+
 Status renderAtlases(const Scene& scene, const AtlasTree& tree, const fs::path& output_dir,
-                     const AtlasProgressFn& progress, RenderResult* result, const AtlasImageSink& sink) {
+                     const AtlasProgressFn& progress, RenderResult* result, const AtlasImageSink& sink,
+                     const GivenHalves* given, bool keep_root_halves) {
     if (tree.nodes.empty()) return Status::Ok();
     for (Layer l : {Layer::Opaque, Layer::Alpha}) {
         std::error_code ec;
         fs::create_directories(output_dir / "atlas" / layerName(l), ec);
         if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (output_dir / "atlas").string(), ec.message()));
     }
-    Renderer renderer(scene, tree, output_dir, progress, sink);
+    Renderer renderer(scene, tree, output_dir, progress, sink, given, keep_root_halves);
     return renderer.run(result);
 }
 

@@ -6,6 +6,7 @@
 /// Internal to the atlas stage (buildAtlasTree calls it); exposed for tests.
 
 #include <filesystem>
+#include <map>
 #include <set>
 #include <vector>
 
@@ -20,7 +21,13 @@ double srgbFromLinear(double linear);
 struct RenderResult {
     std::set<int32_t> unreadable_textures;  ///< their regions were filled with mid grey
     uint64_t original_texture_bytes = 0;    ///< of the textures read, 8 bits per channel
+    AtlasHalves root_halves;                ///< with keep_root_halves: the root's atlases halved
 };
+
+/// Nodes whose atlases were rendered elsewhere (a sharded build's shard
+/// roots): their halves, by node. renderAtlases places these and does not
+/// descend below them.
+using GivenHalves = std::map<int32_t, AtlasHalves>;
 
 /// Renders and writes `tree`'s atlases (node.layers[l].atlas_path must be set
 /// for every present layer) under `output_dir`, in parallel on the current
@@ -28,6 +35,11 @@ struct RenderResult {
 /// decoded source textures are kept within `params.cache_mb`.
 /// With a `sink`, each image goes there instead of to a PNG file.
 Status renderAtlases(const Scene& scene, const AtlasTree& tree, const std::filesystem::path& output_dir,
-                     const AtlasProgressFn& progress, RenderResult* result, const AtlasImageSink& sink = {});
+                     const AtlasProgressFn& progress, RenderResult* result, const AtlasImageSink& sink = {},
+                     const GivenHalves* given = nullptr, bool keep_root_halves = false);
+
+/// A canvas as a file of its own (little-endian: int32 w, h, then the floats), exact.
+Status writeCanvas(const AtlasCanvas& canvas, const std::filesystem::path& path);
+Status readCanvas(const std::filesystem::path& path, AtlasCanvas* canvas);
 
 }  // namespace cityatlas::atlas

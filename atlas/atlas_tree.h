@@ -95,6 +95,11 @@ struct AtlasParams {
     int threads = 0;                  ///< 0 = all cores
     int cache_mb = 256;               ///< memory for decoded original textures, kept for leaves that share them
     bool render_images = true;        ///< false: structure, ranges and coordinates only (no files)
+    /// The level of this tree's root in the tree it is part of (a shard's
+    /// subtree, cli/shards.h): the depth rules (count-balanced cuts from level
+    /// 16, forced leaves at 31) count from the whole tree's root. Not a user option.
+    int base_level = 0;
+    bool keep_root_halves = false;    ///< keep AtlasTree::root_halves (a shard's root). Not a user option.
 };
 
 /// Checks ranges (A a power of two in range, border < A/4, positive screen and
@@ -262,12 +267,47 @@ struct AtlasStats {
     std::vector<StepStats> steps;
 };
 
+/// What the whole scene decides for every node (buildAtlasTree's first pass):
+/// the scene's extent, d_min as requested and as enlarged for critical
+/// triangles, d_full, and the textures promoted to full resolution. A shard
+/// of a larger build gets the plan's (decideGlobals over the whole input), so
+/// its nodes are the ones the whole tree would give them.
+struct GlobalDecisions {
+    double scene_diagonal_m = 0;
+    DminChoice d_min_choice;
+    double d_min_requested_m = 0, d_min_used_m = 0;
+    double d_full_m = 0, d_first_upsampled_m = 0;
+    uint64_t textured_triangles = 0, degenerate_uv_triangles = 0;
+    uint64_t critical_triangles = 0;  ///< at the requested d_min
+    bool enlarged_for_split_budget = false;
+    std::vector<uint8_t> promote;     ///< per scene texture: held at full resolution (texture_economy.h)
+};
+
+/// The whole scene's GlobalDecisions (the first pass of buildAtlasTree).
+Status decideGlobals(const Scene& scene, const AtlasParams& params, GlobalDecisions* out);
+
+/// An atlas image in linear light, premultiplied RGBA floats, rows bottom-up
+/// (v up): what the renderer composes inner atlases from.
+struct AtlasCanvas {
+    int w = 0, h = 0;
+    std::vector<float> px;  ///< w * h * 4
+    AtlasCanvas() = default;
+    AtlasCanvas(int width, int height) : w(width), h(height), px(static_cast<size_t>(width) * height * 4, 0.0f) {}
+    float* at(int x, int y) { return &px[(static_cast<size_t>(y) * w + x) * 4]; }
+    const float* at(int x, int y) const { return &px[(static_cast<size_t>(y) * w + x) * 4]; }
+};
+/// Per layer, a node's atlas halved: what its parent places (absent: no atlas).
+using AtlasHalves = std::array<std::optional<AtlasCanvas>, 2>;
+
 struct AtlasTree {
     AtlasParams params;          ///< as used
     ProjectionBound projection;
     std::vector<AtlasNode> nodes;            ///< depth-first preorder; nodes[0] is the root
     std::vector<TreeTriangle> triangles;     ///< ordered as the file comment says
     AtlasStats stats;
+    /// With params.keep_root_halves: the root's atlases halved, for the tree
+    /// this one is a shard of (its merge places them in the parent's atlas).
+    AtlasHalves root_halves;
 };
 
 using AtlasProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
@@ -293,9 +333,14 @@ using AtlasImageSink = std::function<Status(int32_t node, Layer layer, const for
 /// `consume_triangles`: the caller's own `scene.triangles`, given up once the
 /// estimate has read them (the tree's working copy takes them instead of a
 /// copy: 136 bytes a triangle less at the stage's peak); empty afterwards.
+///
+/// `globals`: decisions made over a larger scene that `scene` is part of (a
+/// shard): used as given instead of decideGlobals(scene), critical triangles
+/// split at its d_min_used without enlarging it. The stats report them.
 Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const std::filesystem::path& output_dir,
                       Diagnostics& diagnostics, const AtlasProgressFn& progress, AtlasTree* tree,
-                      const AtlasImageSink& sink = {}, std::vector<Triangle>* consume_triangles = nullptr);
+                      const AtlasImageSink& sink = {}, std::vector<Triangle>* consume_triangles = nullptr,
+                      const GlobalDecisions* globals = nullptr);
 
 /// Writes an atlas image as buildAtlasTree does without a sink: PNG, fastest
 /// deflate (an intermediate), sRGB, straight alpha.

@@ -178,9 +178,9 @@ void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, std
 
 }  // namespace
 
-CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
-                                        double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
-                                        int border, double critical_fraction, std::span<const NativeSize> native) {
+CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d_min_requested_m,
+                                double pixels_per_metre_at_1m, int atlas_size, int border, double critical_fraction,
+                                std::span<const NativeSize> native) {
     CriticalResult r;
     r.d_min_used_m = d_min_requested_m;
     // The distance from which each triangle stops being critical: its content
@@ -241,7 +241,14 @@ CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::v
         r.d_min_used_m = hi;
         r.enlarged_for_split_budget = true;
     }
-    const double f = pixels_per_metre_at_1m / r.d_min_used_m;
+    return r;
+}
+
+void splitCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources, double d_min_used_m,
+                            double pixels_per_metre_at_1m, int atlas_size, int border, std::span<const NativeSize> native,
+                            CriticalResult* result) {
+    CriticalResult& r = *result;
+    const double f = pixels_per_metre_at_1m / d_min_used_m;
     std::vector<Triangle> out;
     std::vector<uint32_t> out_sources;
     out.reserve(triangles.size());
@@ -260,6 +267,14 @@ CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::v
     }
     triangles = std::move(out);
     sources = std::move(out_sources);
+}
+
+CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
+                                        double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
+                                        int border, double critical_fraction, std::span<const NativeSize> native) {
+    CriticalResult r = criticalDistance(triangles, d_min_requested_m, pixels_per_metre_at_1m, atlas_size, border,
+                                        critical_fraction, native);
+    splitCriticalTriangles(triangles, sources, r.d_min_used_m, pixels_per_metre_at_1m, atlas_size, border, native, &r);
     return r;
 }
 

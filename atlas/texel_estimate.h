@@ -79,6 +79,16 @@ struct CriticalResult {
 /// in the input. `native` (per scene texture, may be empty) caps a triangle's
 /// content at its texture's own resolution: a triangle that fits at that
 /// resolution is never critical.
+/// The two halves of resolveCriticalTriangles: the distance (and the counts
+/// at the requested one) from every triangle, read only; then the split at a
+/// distance already decided (critical_after_enlarge and the split counts), so a
+/// shard splits its own triangles at the distance its plan chose for all.
+CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d_min_requested_m,
+                                double pixels_per_metre_at_1m, int atlas_size, int border, double critical_fraction,
+                                std::span<const NativeSize> native = {});
+void splitCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources, double d_min_used_m,
+                            double pixels_per_metre_at_1m, int atlas_size, int border, std::span<const NativeSize> native,
+                            CriticalResult* result);
 CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
                                         double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
                                         int border, double critical_fraction,

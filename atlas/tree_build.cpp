@@ -449,10 +449,78 @@ struct Flattener {
 
 }  // namespace
 
+Status decideGlobals(const Scene& scene, const AtlasParams& params, GlobalDecisions* out) {
+    if (Status s = validateParams(params); !s.ok()) return s;
+    GlobalDecisions g;
+    const int threads = params.threads > 0 ? params.threads : static_cast<int>(tbb::info::default_concurrency());
+    tbb::task_arena arena(threads);
+    // d_min: given, chosen from the data, or the papers' fraction of the scene diagonal.
+    Box3d box;
+    for (const Triangle& t : scene.triangles)
+        for (const Vec3d& p : t.position_local) box.extend(p);
+    g.scene_diagonal_m = length(box.max - box.min);
+    const double ppm = projectionBound(params).pixelsPerMetreAt1m();
+    const std::vector<NativeSize> native = nativeSizes(scene);
+    // Every texture's economy, scene-wide: for the default d_min and the promotions.
+    std::vector<TextureModel> models;
+    arena.execute([&] { models = modelTextures(scene, ppm, params); });
+    if (params.d_min_m) {
+        g.d_min_requested_m = *params.d_min_m;
+        g.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
+    } else if (params.d_min_from_data) {
+        arena.execute([&] {
+            g.d_min_choice = chooseDefaultDmin(models, g.scene_diagonal_m, params, &g.d_min_requested_m);
+        });
+    } else {
+        g.d_min_requested_m = g.scene_diagonal_m * params.d_min_diagonal_fraction;
+        g.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", g.scene_diagonal_m,
+                                                          1.0 / params.d_min_diagonal_fraction), 0, 0, {}};
+    }
+    if (!(g.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
+
+    // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
+    // exactly its original resolution on its more demanding axis.
+    {
+        std::vector<double> native_distance(scene.textures.size(), 0);
+        std::vector<double> s_max(scene.textures.size(), 0), t_max(scene.textures.size(), 0);
+        for (const Triangle& t : scene.triangles) {
+            if (t.texture < 0) continue;
+            const TexelDensity d = texelDensity(t);
+            s_max[t.texture] = std::max(s_max[t.texture], d.s_world);
+            t_max[t.texture] = std::max(t_max[t.texture], d.t_world);
+            g.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
+            ++g.textured_triangles;
+        }
+        double lo = 1e300, hi = 0;
+        for (size_t i = 0; i < scene.textures.size(); ++i) {
+            const TextureRef& r = scene.textures[i];
+            if (r.width_px > 0) native_distance[i] = std::max(native_distance[i], s_max[i] * ppm / r.width_px);
+            if (r.height_px > 0) native_distance[i] = std::max(native_distance[i], t_max[i] * ppm / r.height_px);
+            if (native_distance[i] > 0) lo = std::min(lo, native_distance[i]), hi = std::max(hi, native_distance[i]);
+        }
+        g.d_full_m = lo < 1e300 ? lo : 0;
+        g.d_first_upsampled_m = hi;
+    }
+    const CriticalResult critical = criticalDistance(scene.triangles, g.d_min_requested_m, ppm, params.atlas_size_px,
+                                                     params.border_px, params.critical_fraction, native);
+    g.d_min_used_m = critical.d_min_used_m;
+    g.critical_triangles = critical.critical_at_requested;
+    g.enlarged_for_split_budget = critical.enlarged_for_split_budget;
+    // Textures whose full resolution costs less than their original (texture_economy.h).
+    g.promote.assign(scene.textures.size(), 0);
+    arena.execute([&] {
+        tbb::parallel_for(size_t{0}, models.size(), [&](size_t i) {
+            g.promote[i] = planTexture(models[i], params, g.d_min_used_m).promoted ? 1 : 0;
+        });
+    });
+    *out = std::move(g);
+    return Status::Ok();
+}
+
 Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::path& output_dir,
                       Diagnostics& diagnostics, const AtlasProgressFn& progress, AtlasTree* tree,
-                      const AtlasImageSink& sink,
-                      std::vector<Triangle>* consume_triangles) {
+                      const AtlasImageSink& sink, std::vector<Triangle>* consume_triangles,
+                      const GlobalDecisions* given) {
     if (Status s = validateParams(params); !s.ok()) return s;
     *tree = AtlasTree{};
     tree->params = params;
@@ -467,67 +535,35 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
 
     const int threads = params.threads > 0 ? params.threads : static_cast<int>(tbb::info::default_concurrency());
     tbb::task_arena arena(threads);
-
-    // d_min: given, chosen from the data, or the papers' fraction of the scene diagonal.
-    Box3d box;
-    for (const Triangle& t : scene.triangles)
-        for (const Vec3d& p : t.position_local) box.extend(p);
-    stats.scene_diagonal_m = length(box.max - box.min);
     const double ppm = tree->projection.pixelsPerMetreAt1m();
     const std::vector<NativeSize> native = nativeSizes(scene);
-    // Every texture's economy, scene-wide: for the default d_min and the promotions.
-    std::vector<TextureModel> models;
-    arena.execute([&] { models = modelTextures(scene, ppm, params); });
-    if (params.d_min_m) {
-        stats.d_min_requested_m = *params.d_min_m;
-        stats.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
-    } else if (params.d_min_from_data) {
-        arena.execute([&] {
-            stats.d_min_choice = chooseDefaultDmin(models, stats.scene_diagonal_m, params, &stats.d_min_requested_m);
-        });
-    } else {
-        stats.d_min_requested_m = stats.scene_diagonal_m * params.d_min_diagonal_fraction;
-        stats.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", stats.scene_diagonal_m,
-                                                              1.0 / params.d_min_diagonal_fraction), 0, 0, {}};
+    GlobalDecisions own;
+    if (!given) {
+        if (Status s = decideGlobals(scene, params, &own); !s.ok()) return s;
     }
-    if (!(stats.d_min_requested_m > 0))
-        return Status::Usage("the scene has zero extent: give --d-min in metres");
-
-    // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
-    // exactly its original resolution on its more demanding axis.
-    std::vector<double> native_distance(scene.textures.size(), 0);
-    {
-        std::vector<double> s_max(scene.textures.size(), 0), t_max(scene.textures.size(), 0);
-        for (const Triangle& t : scene.triangles) {
-            if (t.texture < 0) continue;
-            const TexelDensity d = texelDensity(t);
-            s_max[t.texture] = std::max(s_max[t.texture], d.s_world);
-            t_max[t.texture] = std::max(t_max[t.texture], d.t_world);
-            stats.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
-            ++stats.textured_triangles;
-        }
-        double lo = 1e300, hi = 0;
-        for (size_t i = 0; i < scene.textures.size(); ++i) {
-            const TextureRef& r = scene.textures[i];
-            if (r.width_px > 0) native_distance[i] = std::max(native_distance[i], s_max[i] * ppm / r.width_px);
-            if (r.height_px > 0) native_distance[i] = std::max(native_distance[i], t_max[i] * ppm / r.height_px);
-            if (native_distance[i] > 0) lo = std::min(lo, native_distance[i]), hi = std::max(hi, native_distance[i]);
-        }
-        stats.d_full_m = lo < 1e300 ? lo : 0;
-        stats.d_first_upsampled_m = hi;
-    }
+    const GlobalDecisions& globals = given ? *given : own;
+    if (globals.promote.size() != scene.textures.size())
+        return Status::Invalid("atlas: the global decisions are for another scene (texture count differs)");
+    stats.scene_diagonal_m = globals.scene_diagonal_m;
+    stats.d_min_choice = globals.d_min_choice;
+    stats.d_min_requested_m = globals.d_min_requested_m;
+    stats.d_min_used_m = globals.d_min_used_m;
+    stats.d_full_m = globals.d_full_m;
+    stats.d_first_upsampled_m = globals.d_first_upsampled_m;
+    stats.degenerate_uv_triangles = globals.degenerate_uv_triangles;
+    stats.textured_triangles = globals.textured_triangles;
+    stats.critical_triangles = globals.critical_triangles;
+    stats.enlarged_for_split_budget = globals.enlarged_for_split_budget;
+    const std::vector<uint8_t>& promote = globals.promote;
 
     std::vector<Triangle> tris;
     if (consume_triangles == &scene.triangles) tris = std::move(*consume_triangles);
     else tris = scene.triangles;
     std::vector<uint32_t> sources;
-    const CriticalResult critical =
-        resolveCriticalTriangles(tris, sources, stats.d_min_requested_m, ppm, params.atlas_size_px, params.border_px,
-                                 params.critical_fraction, native);
-    stats.d_min_used_m = critical.d_min_used_m;
-    stats.critical_triangles = critical.critical_at_requested;
+    CriticalResult critical;
+    splitCriticalTriangles(tris, sources, globals.d_min_used_m, ppm, params.atlas_size_px, params.border_px, native,
+                           &critical);
     stats.critical_after_enlarge = critical.critical_after_enlarge;
-    stats.enlarged_for_split_budget = critical.enlarged_for_split_budget;
     stats.triangles_split = critical.triangles_split;
     stats.triangles_added_by_split = critical.triangles_added;
 
@@ -555,15 +591,6 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
             });
         g.wait();
     });
-    // Textures whose full resolution costs less than their original (texture_economy.h).
-    std::vector<uint8_t> promote(scene.textures.size(), 0);
-    {
-        arena.execute([&] {
-            tbb::parallel_for(size_t{0}, models.size(), [&](size_t i) {
-                promote[i] = planTexture(models[i], params, stats.d_min_used_m).promoted ? 1 : 0;
-            });
-        });
-    }
     step("estimate");
     if (progress) progress("splitting nodes", 0, 0);
 
@@ -572,7 +599,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
         std::vector<uint32_t> all(tris.size());
         for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
         StructureBuilder builder(tris, info, weight, params, ppm, stats.d_min_used_m, native, promote);
-        arena.execute([&] { builder.build(root, std::move(all), 0); });
+        arena.execute([&] { builder.build(root, std::move(all), params.base_level); });
     }
     step("structure");
 
@@ -627,7 +654,10 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     if (!params.render_images) return Status::Ok();
     RenderResult rendered;
     Status s;
-    arena.execute([&] { s = renderAtlases(scene, *tree, output_dir, progress, &rendered, sink); });
+    arena.execute([&] {
+        s = renderAtlases(scene, *tree, output_dir, progress, &rendered, sink, nullptr, params.keep_root_halves);
+    });
+    tree->root_halves = std::move(rendered.root_halves);
     if (!s.ok()) return s;
     stats.original_texture_bytes = rendered.original_texture_bytes;
     stats.textures_unreadable = rendered.unreadable_textures.size();
