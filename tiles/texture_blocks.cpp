@@ -72,70 +72,92 @@ bool readImage8(const std::string& path, int channels, Image8* out, std::string*
     return true;
 }
 
+std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used) {
+    std::vector<int32_t> index(used.size(), -1);
+    int32_t next = 0;
+    for (size_t t = 0; t < used.size(); ++t)
+        if (used[t]) index[t] = next++;
+    return index;
+}
+
+std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree) {
+    std::vector<std::vector<int32_t>> used(tree.nodes.size());
+    for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
+        const atlas::AtlasNode& node = tree.nodes[ni];
+        if (!node.leaf()) continue;
+        for (const atlas::NodeLayer& layer : node.layers)
+            for (uint32_t i = layer.range.first; i < layer.range.first + layer.range.count; ++i)
+                if (const int32_t st = tree.triangles[i].tri.texture; st >= 0) used[ni].push_back(st);
+        std::sort(used[ni].begin(), used[ni].end());
+        used[ni].erase(std::unique(used[ni].begin(), used[ni].end()), used[ni].end());
+    }
+    return used;
+}
+
 TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all) {
+    std::vector<uint8_t> used(scene.textures.size(), 0);
+    for (const atlas::TreeTriangle& t : tree.triangles)
+        if (t.tri.texture >= 0) used[static_cast<size_t>(t.tri.texture)] = 1;
+    return planTextureBlocks(scene, tree, all, tilesetTextureIndex(used), leafTextures(tree));
+}
+
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all,
+                                const std::vector<int32_t>& texture_index,
+                                const std::vector<std::vector<int32_t>>& leaf_textures) {
     TextureBlocks b;
-    b.texture_index.assign(scene.textures.size(), -1);
+    b.texture_index = texture_index;
     b.node_blocks.resize(tree.nodes.size());
     b.node_textures.resize(tree.nodes.size());
     const uint64_t block_texels = static_cast<uint64_t>(tree.params.atlas_size_px) * tree.params.atlas_size_px;
     uint64_t current_texels = 0;
     int32_t current = -1;
-    auto entryOf = [&](int32_t st) {
-        const TextureRef& ref = scene.textures[static_cast<size_t>(st)];
-        TextureEntry e;
-        e.scene_texture = st;
+    // Every used texture has its entry (the leaves' geometry names them by
+    // their rank among the used ones); exact until some leaf needs its original.
+    for (size_t st = 0; st < texture_index.size(); ++st) {
+        const int32_t ti = texture_index[st];
+        if (ti < 0) continue;
+        if (b.textures.size() <= static_cast<size_t>(ti)) b.textures.resize(static_cast<size_t>(ti) + 1);
+        const TextureRef& ref = scene.textures[st];
+        TextureEntry& e = b.textures[static_cast<size_t>(ti)];
+        e.scene_texture = static_cast<int32_t>(st);
         e.width = ref.width_px;
         e.height = ref.height_px;
         e.channels = ref.channels == 4 ? 4 : 3;
         e.wrap = ref.wrap;
-        return e;
-    };
-    // Nodes are in depth-first preorder, so leaves come in depth-first order.
+        e.exact = true;
+    }
+    // Nodes are in depth-first preorder, so leaves come in depth-first order:
+    // a block holds the originals of neighbouring leaves.
     for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
         const atlas::AtlasNode& node = tree.nodes[ni];
         if (!node.leaf()) continue;
         std::vector<uint32_t>& mine = b.node_blocks[ni];
-        for (const atlas::NodeLayer& layer : node.layers) {
-            for (uint32_t i = layer.range.first; i < layer.range.first + layer.range.count; ++i) {
-                const int32_t st = tree.triangles[i].tri.texture;
-                if (st < 0) continue;
-                if (!all && !std::binary_search(node.originals.begin(), node.originals.end(), st)) continue;
-                int32_t& ti = b.texture_index[static_cast<size_t>(st)];
-                if (ti < 0) {
-                    TextureEntry e = entryOf(st);
-                    const uint64_t texels = static_cast<uint64_t>(std::max(e.width, 1)) * std::max(e.height, 1);
-                    if (texels >= block_texels) {
-                        e.block = static_cast<int32_t>(b.block_bytes.size());  // a block of its own
+        const std::vector<int32_t>& needed = all ? leaf_textures[ni] : node.originals;
+        for (const int32_t st : needed) {
+            const int32_t ti = texture_index[static_cast<size_t>(st)];
+            if (ti < 0) continue;
+            TextureEntry& e = b.textures[static_cast<size_t>(ti)];
+            if (e.exact) {
+                e.exact = false;
+                const uint64_t texels = static_cast<uint64_t>(std::max(e.width, 1)) * std::max(e.height, 1);
+                if (texels >= block_texels) {
+                    e.block = static_cast<int32_t>(b.block_bytes.size());  // a block of its own
+                    b.block_bytes.push_back(0);
+                } else {
+                    if (current < 0 || current_texels + texels > block_texels) {
+                        current = static_cast<int32_t>(b.block_bytes.size());
                         b.block_bytes.push_back(0);
-                    } else {
-                        if (current < 0 || current_texels + texels > block_texels) {
-                            current = static_cast<int32_t>(b.block_bytes.size());
-                            b.block_bytes.push_back(0);
-                            current_texels = 0;
-                        }
-                        current_texels += texels;
-                        e.block = current;
+                        current_texels = 0;
                     }
-                    ti = static_cast<int32_t>(b.textures.size());
-                    b.textures.push_back(e);
+                    current_texels += texels;
+                    e.block = current;
                 }
-                const auto blk = static_cast<uint32_t>(b.textures[static_cast<size_t>(ti)].block);
-                if (std::find(mine.begin(), mine.end(), blk) == mine.end()) mine.push_back(blk);
-                std::vector<int32_t>& needs = b.node_textures[ni];
-                if (std::find(needs.begin(), needs.end(), ti) == needs.end()) needs.push_back(ti);
             }
+            const auto blk = static_cast<uint32_t>(e.block);
+            if (std::find(mine.begin(), mine.end(), blk) == mine.end()) mine.push_back(blk);
+            b.node_textures[ni].push_back(ti);
         }
         std::sort(mine.begin(), mine.end());
-    }
-    // Textures the atlases hold exactly everywhere: an entry (leaf geometry
-    // names them) without an original.
-    for (const atlas::TreeTriangle& t : tree.triangles) {
-        const int32_t st = t.tri.texture;
-        if (st < 0 || b.texture_index[static_cast<size_t>(st)] >= 0) continue;
-        TextureEntry e = entryOf(st);
-        e.exact = true;
-        b.texture_index[static_cast<size_t>(st)] = static_cast<int32_t>(b.textures.size());
-        b.textures.push_back(e);
     }
     return b;
 }

@@ -43,9 +43,25 @@ struct TextureBlocks {
 
 /// Plans the blocks from the texture sizes recorded at ingest (nothing is
 /// decoded). Each leaf gets the originals it needs (AtlasNode::originals), or
-/// with `all` every texture it uses; the textures no leaf needs get entries
-/// marked exact (no block), after the others.
+/// with `all` every texture it uses; every used texture has an entry, in
+/// scene order (tilesetTextureIndex); those no leaf needs are marked exact
+/// (no block).
 TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false);
+
+/// The same for a tree without its triangles (a sharded build's merge):
+/// `texture_index` (scene texture -> tileset texture, -1 unused;
+/// tilesetTextureIndex) and, for `all`, the scene textures each leaf uses,
+/// ascending (leafTextures).
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all,
+                                const std::vector<int32_t>& texture_index,
+                                const std::vector<std::vector<int32_t>>& leaf_textures);
+
+/// Tileset texture numbers: each used scene texture's rank among the used
+/// ones, so a shard of a larger build numbers its leaves' textures as the
+/// whole build does without seeing the other shards.
+std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used);
+/// Per node (leaves only; others empty): the scene textures its triangles use, ascending.
+std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree);
 
 /// Reads, encodes and writes every planned block to `out_dir/textures/`;
 /// fills offsets and sizes. An unreadable texture is a counted warning

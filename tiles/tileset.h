@@ -43,6 +43,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -54,13 +55,14 @@
 #include "ingest/scene.h"
 #include "core/status.h"
 #include "tiles/glb_writer.h"
+#include "tiles/node_geometry.h"
 #include "tiles/texture_codec.h"
 
 namespace cityatlas::tiles {
 
 /// Bumped whenever the writer's output changes for the same inputs and
 /// parameters, so `cityatlas build` does not take an older folder as up to date.
-inline constexpr int kWriterRevision = 5;  // 5: texture blocks keep straight alpha
+inline constexpr int kWriterRevision = 6;  // 6: tileset textures numbered by scene order; GLB extras without the node id
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default
@@ -169,6 +171,60 @@ private:
     std::map<int32_t, std::array<EncodedAtlas, atlas::kLayerCount>> by_node_;
 };
 
+/// What the tileset records of one layer of one node (tileset.json fields, before the index is written).
+struct LayerRecord {
+    bool present = false;
+    size_t triangles = 0, triangles_source = 0;
+    std::string geometry_uri;
+    uint64_t geometry_bytes = 0;
+    double geometric_error_m = 0, position_error_m = 0, uv_atlas_error_texels = 0;
+    double uv_original_error_texels = -1;  // -1: no original uvs (inner nodes)
+    int position_bits = 0, uv_original_bits = 0;
+    bool simplified = false;
+    std::string atlas_uri;  // empty: no atlas
+    uint64_t atlas_bytes = 0;
+    int atlas_mips = 0;
+    double atlas_psnr_db = 0;
+    double atlas_encode_seconds = 0;
+    uint64_t atlas_texels = 0;  // all mip levels
+};
+
+struct NodeRecord {
+    std::array<LayerRecord, atlas::kLayerCount> layers;
+    std::vector<uint32_t> features;  // in the geometry, after encoding
+    std::vector<uint32_t> dropped;
+    std::string error;               ///< first failure in this node
+};
+
+/// A shard's part of the tiles stage (cli/shards.h): its subtree's files and
+/// what the levels above it need from it.
+struct SubtreeFiles {
+    std::vector<NodeRecord> records;  ///< per node of the subtree
+    std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount> root_geometry;  ///< the root's, per layer
+    std::vector<uint32_t> root_subtree_features;  ///< every feature of the subtree, ascending
+};
+
+/// Writes the geometry and atlas files of every node of `tree` (the shard's
+/// subtree, numbered from 0 at its root) into out_dir, naming tileset
+/// textures through `texture_index` (the whole build's); no index, no feature
+/// tables, no original textures: the merge writes those.
+Status writeSubtreeFiles(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
+                         const TilesParams& params, const std::vector<int32_t>& texture_index,
+                         const std::filesystem::path& out_dir, const TilesProgressFn& progress,
+                         const EncodedAtlases* encoded, SubtreeFiles* out);
+
+/// The parts of a tree whose files shards wrote (cli/shards.h): writeTileset
+/// then builds only the nodes above them, from their root geometry, and
+/// indexes everything.
+struct BuiltSubtrees {
+    std::vector<uint8_t> built;                  ///< per node: 1 when a shard wrote its files
+    std::vector<NodeRecord> records;             ///< per node; those of built nodes as the shards wrote them
+    std::map<int32_t, std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> root_geometry;  ///< by shard root
+    std::map<int32_t, std::vector<uint32_t>> subtree_features;  ///< by shard root
+    std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's)
+    std::vector<std::vector<int32_t>> leaf_textures;  ///< per node, for --originals all (texture_blocks.h)
+};
+
 /// asset.tilesetVersion. An original texture that cannot be read is a counted
 /// warning (its entry gets block -1); any write failure is an error naming the
 /// file. Deterministic for any thread count.
@@ -179,7 +235,7 @@ private:
 Status writeTileset(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
                     const TilesParams& params, const std::filesystem::path& out_dir, const std::string& build_hash,
                     Diagnostics& diagnostics, const TilesProgressFn& progress, TilesStats* stats,
-                    const EncodedAtlases* encoded = nullptr);
+                    const EncodedAtlases* encoded = nullptr, BuiltSubtrees* built = nullptr);
 
 /// The schema of tileset.json (schemas/tileset.schema.json, compiled in).
 const nlohmann::json& tilesetSchema();

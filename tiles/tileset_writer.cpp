@@ -62,31 +62,6 @@ std::vector<uint32_t> unionOf(const std::vector<uint32_t>& a, const std::vector<
     return u;
 }
 
-// What the tileset records of one layer of one node.
-struct LayerRecord {
-    bool present = false;
-    size_t triangles = 0, triangles_source = 0;
-    std::string geometry_uri;
-    uint64_t geometry_bytes = 0;
-    double geometric_error_m = 0, position_error_m = 0, uv_atlas_error_texels = 0;
-    double uv_original_error_texels = -1;  // -1: no original uvs (inner nodes)
-    int position_bits = 0, uv_original_bits = 0;
-    bool simplified = false;
-    std::string atlas_uri;  // empty: no atlas
-    uint64_t atlas_bytes = 0;
-    int atlas_mips = 0;
-    double atlas_psnr_db = 0;
-    double atlas_encode_seconds = 0;
-    uint64_t atlas_texels = 0;  // all mip levels
-};
-
-struct NodeRecord {
-    std::array<LayerRecord, atlas::kLayerCount> layers;
-    std::vector<uint32_t> features;  // in the geometry, after encoding
-    std::vector<uint32_t> dropped;
-    std::string error;               // first failure in this node
-};
-
 // The fewest quantization bits whose worst-case error over the mesh's
 // extent (sqrt(3) half steps) stays within 90 % of `target` metres.
 int bitsFor(const TileMesh& m, const Vec3d& centre, double target) {
@@ -211,182 +186,164 @@ EncodedAtlases AtlasHandOff::take(size_t nodes) {
     return encoded;
 }
 
-Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
-                    const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
-                    const TilesProgressFn& progress, TilesStats* stats_out, const EncodedAtlases* encoded) {
-    TilesStats stats;
+namespace {
+
+// The geometry and atlas files of every node of `tree` that `built` does not
+// hold, and every node's features and dropped features: the part of the
+// tiles stage a shard runs on its own subtree.
+Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
+                      const std::vector<int32_t>& texture_index, const fs::path& out_dir, const EncodedAtlases* encoded,
+                      BuiltSubtrees* built, const std::function<void(const char*, uint64_t, uint64_t)>& report,
+                      tbb::task_arena& arena, std::vector<NodeRecord>& records, SubtreeFiles* root_out) {
     const size_t n_nodes = tree.nodes.size();
-    if (n_nodes == 0) return Status::Io("tiles: the atlas tree has no nodes");
-    const double focal = tree.projection.focal_px;
     const double ppm = tree.projection.pixelsPerMetreAt1m();
-    const int A = tree.params.atlas_size_px;
-    std::mutex progress_mutex;
-    auto report = [&](const char* step, uint64_t done, uint64_t total) {
-        if (!progress) return;
-        std::lock_guard lock(progress_mutex);
-        progress(step, done, total);
-    };
-    StageClock clock;
-    auto endStep = [&](const char* name) {
-        const StageCost c = clock.lap();
-        stats.steps.push_back({name, c.seconds, c.peak_rss_mb, c.cpu_seconds});
-    };
     std::error_code ec;
-    for (const char* dir : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha", "features"}) {
+    for (const char* dir : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha"}) {
         fs::create_directories(out_dir / dir, ec);
         if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / dir).string(), ec.message()));
     }
+    auto isBuilt = [&](size_t id) { return built && id < built->built.size() && built->built[id]; };
+    const std::vector<double> texture_sizes = textureSizes(scene, texture_index);
 
-    TextureBlocks blocks = planTextureBlocks(scene, tree, params.all_originals);
-    const std::vector<double> texture_sizes = textureSizes(scene, blocks.texture_index);
-    std::vector<NodeRecord> records(n_nodes);
-    tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
-
-    // --- Geometry (deepest level first: a node merges its children's geometry)
-    // and the leaves' original textures, side by side: they share nothing but
-    // the texture index, and the textures' parallel work fills the cores the
-    // geometry's top levels (a few large merges) leave idle.
-    auto runGeometry = [&]() -> Status {
-        // --- Geometry, children before their parent: a node merges its
-        // children's geometry, which goes as soon as it is merged. Subtrees
-        // run as tasks, so what is alive at once is the nodes waiting for a
-        // sibling (not whole levels of the tree), and a large merge near the
-        // root runs while other subtrees are still busy (no barrier per level).
-        std::vector<std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> geometry(n_nodes);
-        std::atomic<uint64_t> nodes_done{0};
-        auto buildNode = [&](const int32_t id) {
-            const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
-            NodeRecord& rec = records[static_cast<size_t>(id)];
-            const double texel = node.min_distance_m / ppm;
-            const Vec3d centre = centreOf(node.bounds);
-            for (int li = 0; li < atlas::kLayerCount; ++li) {
-                if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
-                const auto layer = static_cast<Layer>(li);
-                std::unique_ptr<NodeGeometry> g;
-                if (node.leaf()) {
-                    g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, blocks.texture_index));
-                } else {
-                    std::array<std::unique_ptr<NodeGeometry>, 4> children{};  // merged, then freed
-                    for (size_t q = 0; q < 4; ++q)
-                        if (node.children[q] >= 0)
-                            children[q] = std::move(geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)]);
-                    g = std::make_unique<NodeGeometry>(
-                        innerGeometry(tree, id, layer, std::move(children), params.node_triangles, texel));
-                }
-                if (g->empty()) continue;
-                TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
-                if (!node.leaf()) mesh.texture_id.clear();
-                GlbResult glb;
-                json extras = {{"cityatlas", {{"node", id},
-                                              {"layer", std::string(atlas::layerName(layer))},
-                                              {"centre", {centre.x, centre.y, centre.z}}}}};
-                DracoSettings draco = params.draco;
-                const double target = params.position_error_target_m;
-                if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
-                const double uv_target = params.uv_original_error_target_texels;
-                double texels = 0;  // of the leaf's largest texture
-                if (node.leaf() && !mesh.uv_original.empty())
-                    draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
-                if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
-                Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                // The predictions leave room for float32 rounding; should they not
-                // suffice, the measurements decide.
-                while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
-                    ++draco.position_bits;
-                    st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                }
-                while (st.ok() && uv_target > 0 && texels > 0 && glb.max_uv_original_error * texels > uv_target &&
-                       draco.uv_original_bits < 30) {
-                    ++draco.uv_original_bits;
-                    st = encodeTileGlb(mesh, centre, draco, &glb, extras);
-                }
-                if (!st.ok()) {
-                    rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
-                    continue;
-                }
-                LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
-                lr.present = true;
-                lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
-                if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
-                    rec.error = w.error;
-                    continue;
-                }
-                lr.geometry_bytes = glb.bytes.size();
-                lr.triangles = glb.triangles;
-                lr.triangles_source = g->triangles_source;
-                lr.geometric_error_m = g->geometric_error_m;
-                lr.simplified = g->simplified;
-                lr.position_error_m = glb.max_position_error_m;
-                lr.position_bits = draco.position_bits;
-                lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
-                                                                            node.layers[static_cast<size_t>(li)].height);
-                if (!mesh.uv_original.empty()) {
-                    lr.uv_original_error_texels = glb.max_uv_original_error * texels;
-                    lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
-                }
-                rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
-                geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
+    // --- Geometry, children before their parent: a node merges its
+    // children's geometry, which goes as soon as it is merged. Subtrees
+    // run as tasks, so what is alive at once is the nodes waiting for a
+    // sibling (not whole levels of the tree), and a large merge near the
+    // root runs while other subtrees are still busy (no barrier per level).
+    // A node a shard built hands over its root geometry instead.
+    std::vector<std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> geometry(n_nodes);
+    std::atomic<uint64_t> nodes_done{0};
+    auto buildNode = [&](const int32_t id) {
+        const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
+        NodeRecord& rec = records[static_cast<size_t>(id)];
+        const double texel = node.min_distance_m / ppm;
+        const Vec3d centre = centreOf(node.bounds);
+        for (int li = 0; li < atlas::kLayerCount; ++li) {
+            if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
+            const auto layer = static_cast<Layer>(li);
+            std::unique_ptr<NodeGeometry> g;
+            if (node.leaf()) {
+                g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, texture_index));
+            } else {
+                std::array<std::unique_ptr<NodeGeometry>, 4> children{};  // merged, then freed
+                for (size_t q = 0; q < 4; ++q)
+                    if (node.children[q] >= 0)
+                        children[q] = std::move(geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)]);
+                g = std::make_unique<NodeGeometry>(
+                    innerGeometry(tree, id, layer, std::move(children), params.node_triangles, texel));
             }
-            report("tiles: geometry", ++nodes_done, n_nodes);
-        };
-        std::function<void(int32_t)> visit = [&](const int32_t id) {
-            const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
-            tbb::task_group children;
-            for (const int32_t c : node.children)
-                if (c >= 0) children.run([&visit, c] { visit(c); });
-            children.wait();
-            buildNode(id);
-            for (const int32_t c : node.children)
-                if (c >= 0) geometry[static_cast<size_t>(c)] = {};
-        };
-        arena.execute([&] { visit(0); });
-        geometry.clear();
-        for (const NodeRecord& r : records)
-            if (!r.error.empty()) return Status::Io("tiles: " + r.error);
-
-        // Subtree features (both layers), for the dropped lists: bottom-up unions.
-        {
-            std::vector<std::vector<uint32_t>> subtree(n_nodes);
-            for (size_t i = n_nodes; i-- > 0;) {
-                const AtlasNode& node = tree.nodes[i];
-                std::vector<uint32_t>& s = subtree[i];
-                if (node.leaf()) {
-                    for (const auto& layer : node.layers)
-                        for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
-                            s.push_back(tree.triangles[t].tri.feature);
-                    std::sort(s.begin(), s.end());
-                    s.erase(std::unique(s.begin(), s.end()), s.end());
-                } else {
-                    for (int32_t c : node.children)
-                        if (c >= 0) s = unionOf(s, subtree[static_cast<size_t>(c)]);
-                }
-                std::set_difference(s.begin(), s.end(), records[i].features.begin(), records[i].features.end(),
-                                    std::back_inserter(records[i].dropped));
-                for (int32_t c : node.children)
-                    if (c >= 0) subtree[static_cast<size_t>(c)].clear();
+            if (g->empty()) continue;
+            TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
+            if (!node.leaf()) mesh.texture_id.clear();
+            GlbResult glb;
+            json extras = {{"cityatlas", {{"layer", std::string(atlas::layerName(layer))},
+                                          {"centre", {centre.x, centre.y, centre.z}}}}};
+            DracoSettings draco = params.draco;
+            const double target = params.position_error_target_m;
+            if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
+            const double uv_target = params.uv_original_error_target_texels;
+            double texels = 0;  // of the leaf's largest texture
+            if (node.leaf() && !mesh.uv_original.empty())
+                draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
+            if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
+            Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+            // The predictions leave room for float32 rounding; should they not
+            // suffice, the measurements decide.
+            while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
+                ++draco.position_bits;
+                st = encodeTileGlb(mesh, centre, draco, &glb, extras);
             }
+            while (st.ok() && uv_target > 0 && texels > 0 && glb.max_uv_original_error * texels > uv_target &&
+                   draco.uv_original_bits < 30) {
+                ++draco.uv_original_bits;
+                st = encodeTileGlb(mesh, centre, draco, &glb, extras);
+            }
+            if (!st.ok()) {
+                rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
+                continue;
+            }
+            LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
+            lr.present = true;
+            lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
+            if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
+                rec.error = w.error;
+                continue;
+            }
+            lr.geometry_bytes = glb.bytes.size();
+            lr.triangles = glb.triangles;
+            lr.triangles_source = g->triangles_source;
+            lr.geometric_error_m = g->geometric_error_m;
+            lr.simplified = g->simplified;
+            lr.position_error_m = glb.max_position_error_m;
+            lr.position_bits = draco.position_bits;
+            lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
+                                                                        node.layers[static_cast<size_t>(li)].height);
+            if (!mesh.uv_original.empty()) {
+                lr.uv_original_error_texels = glb.max_uv_original_error * texels;
+                lr.uv_original_bits = draco.uv_original_bits > 0 ? draco.uv_original_bits : draco.uv_bits;
+            }
+            rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
+            geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
         }
-        return Status::Ok();
+        report("tiles: geometry", ++nodes_done, n_nodes);
     };
-    Status geometry_status = Status::Ok(), tex_status = Status::Ok();
-    arena.execute([&] {
-        tbb::task_group side;
-        side.run([&] {
-            tex_status = writeTextureBlocks(scene, params.bc_quality, out_dir, diagnostics,
-                                            [&](uint64_t d, uint64_t t) { report("tiles: textures", d, t); }, &blocks);
-        });
-        geometry_status = runGeometry();
-        side.wait();
-    });
-    if (!geometry_status.ok()) return geometry_status;
-    if (!tex_status.ok()) return tex_status;
-    endStep("geometry and textures");
+    std::function<void(int32_t)> visit = [&](const int32_t id) {
+        if (isBuilt(static_cast<size_t>(id))) {
+            if (auto it = built->root_geometry.find(id); it != built->root_geometry.end())
+                geometry[static_cast<size_t>(id)] = std::move(it->second);
+            return;
+        }
+        const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
+        tbb::task_group children;
+        for (const int32_t c : node.children)
+            if (c >= 0) children.run([&visit, c] { visit(c); });
+        children.wait();
+        buildNode(id);
+        if (id == 0 && root_out) return;  // the shard's root geometry goes to its merge
+        for (const int32_t c : node.children)
+            if (c >= 0) geometry[static_cast<size_t>(c)] = {};
+    };
+    arena.execute([&] { visit(0); });
+    if (root_out) root_out->root_geometry = std::move(geometry[0]);
+    geometry.clear();
+    for (const NodeRecord& r : records)
+        if (!r.error.empty()) return Status::Io("tiles: " + r.error);
+
+    // Subtree features (both layers), for the dropped lists: bottom-up unions.
+    {
+        std::vector<std::vector<uint32_t>> subtree(n_nodes);
+        for (size_t i = n_nodes; i-- > 0;) {
+            const AtlasNode& node = tree.nodes[i];
+            std::vector<uint32_t>& s = subtree[i];
+            if (isBuilt(i)) {
+                if (auto it = built->subtree_features.find(static_cast<int32_t>(i)); it != built->subtree_features.end())
+                    s = std::move(it->second);
+                continue;  // its records came with it
+            }
+            if (node.leaf()) {
+                for (const auto& layer : node.layers)
+                    for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
+                        s.push_back(tree.triangles[t].tri.feature);
+                std::sort(s.begin(), s.end());
+                s.erase(std::unique(s.begin(), s.end()), s.end());
+            } else {
+                for (int32_t c : node.children)
+                    if (c >= 0) s = unionOf(s, subtree[static_cast<size_t>(c)]);
+            }
+            std::set_difference(s.begin(), s.end(), records[i].features.begin(), records[i].features.end(),
+                                std::back_inserter(records[i].dropped));
+            for (int32_t c : node.children)
+                if (c >= 0) subtree[static_cast<size_t>(c)].clear();
+        }
+        if (root_out) root_out->root_subtree_features = std::move(subtree[0]);
+    }
 
     // --- Atlases: encoded during the atlas stage, or PNG from it -> DDS with its mip chain.
     std::vector<std::pair<int32_t, int>> atlas_jobs;
     for (size_t i = 0; i < n_nodes; ++i)
         for (int li = 0; li < atlas::kLayerCount; ++li)
-            if (tree.nodes[i].layers[static_cast<size_t>(li)].present() && records[i].layers[static_cast<size_t>(li)].present)
+            if (!isBuilt(i) && tree.nodes[i].layers[static_cast<size_t>(li)].present() &&
+                records[i].layers[static_cast<size_t>(li)].present)
                 atlas_jobs.emplace_back(static_cast<int32_t>(i), li);
     std::vector<std::string> atlas_errors(atlas_jobs.size());
     std::vector<EncodedAtlas> atlases(atlas_jobs.size());
@@ -402,7 +359,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         // Atlases of layers whose geometry came out empty (every triangle degenerate in float32) go.
         for (size_t i = 0; i < encoded->size() && i < n_nodes; ++i)
             for (int li = 0; li < atlas::kLayerCount; ++li)
-                if (!(*encoded)[i][static_cast<size_t>(li)].uri.empty() && !records[i].layers[static_cast<size_t>(li)].present)
+                if (!isBuilt(i) && !(*encoded)[i][static_cast<size_t>(li)].uri.empty() &&
+                    !records[i].layers[static_cast<size_t>(li)].present)
                     fs::remove(out_dir / (*encoded)[i][static_cast<size_t>(li)].uri, ec);
     } else {
         std::atomic<uint64_t> atlases_done{0};
@@ -435,8 +393,76 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         lr.atlas_encode_seconds = atlases[k].encode_seconds;
         lr.atlas_texels = atlases[k].texels;
     }
-    endStep("atlases");
+    return Status::Ok();
+}
 
+}  // namespace
+
+Status writeSubtreeFiles(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
+                         const std::vector<int32_t>& texture_index, const fs::path& out_dir,
+                         const TilesProgressFn& progress, const EncodedAtlases* encoded, SubtreeFiles* out) {
+    if (tree.nodes.empty()) return Status::Io("tiles: the atlas tree has no nodes");
+    std::mutex progress_mutex;
+    auto report = [&](const char* step, uint64_t done, uint64_t total) {
+        if (!progress) return;
+        std::lock_guard lock(progress_mutex);
+        progress(step, done, total);
+    };
+    tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+    out->records.assign(tree.nodes.size(), {});
+    return writeNodeFiles(scene, tree, atlas_dir, params, texture_index, out_dir, encoded, nullptr, report, arena,
+                          out->records, out);
+}
+
+Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
+                    const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
+                    const TilesProgressFn& progress, TilesStats* stats_out, const EncodedAtlases* encoded,
+                    BuiltSubtrees* built) {
+    TilesStats stats;
+    const size_t n_nodes = tree.nodes.size();
+    if (n_nodes == 0) return Status::Io("tiles: the atlas tree has no nodes");
+    const double focal = tree.projection.focal_px;
+    const double ppm = tree.projection.pixelsPerMetreAt1m();
+    const int A = tree.params.atlas_size_px;
+    std::mutex progress_mutex;
+    auto report = [&](const char* step, uint64_t done, uint64_t total) {
+        if (!progress) return;
+        std::lock_guard lock(progress_mutex);
+        progress(step, done, total);
+    };
+    StageClock clock;
+    auto endStep = [&](const char* name) {
+        const StageCost c = clock.lap();
+        stats.steps.push_back({name, c.seconds, c.peak_rss_mb, c.cpu_seconds});
+    };
+    std::error_code ec;
+    fs::create_directories(out_dir / "features", ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "features").string(), ec.message()));
+
+    TextureBlocks blocks = built ? planTextureBlocks(scene, tree, params.all_originals, built->texture_index,
+                                                     built->leaf_textures)
+                                 : planTextureBlocks(scene, tree, params.all_originals);
+    std::vector<NodeRecord> records = built ? std::move(built->records) : std::vector<NodeRecord>();
+    records.resize(n_nodes);
+    tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+
+    // --- Node files and the leaves' original textures, side by side: they
+    // share nothing but the texture index, and the textures' parallel work
+    // fills the cores the geometry's top levels (a few large merges) leave idle.
+    Status geometry_status = Status::Ok(), tex_status = Status::Ok();
+    arena.execute([&] {
+        tbb::task_group side;
+        side.run([&] {
+            tex_status = writeTextureBlocks(scene, params.bc_quality, out_dir, diagnostics,
+                                            [&](uint64_t d, uint64_t t) { report("tiles: textures", d, t); }, &blocks);
+        });
+        geometry_status = writeNodeFiles(scene, tree, atlas_dir, params, blocks.texture_index, out_dir, encoded, built,
+                                         report, arena, records, nullptr);
+        side.wait();
+    });
+    if (!geometry_status.ok()) return geometry_status;
+    if (!tex_status.ok()) return tex_status;
+    endStep("geometry, atlases and textures");
 
     // --- Feature tables.
     format::TilesetDocument doc;
