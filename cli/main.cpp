@@ -28,6 +28,8 @@ int main(int argc, char** argv) {
     commands.emplace_back("ingest", addIngestCommand(app));
     commands.emplace_back("atlas", addAtlasCommand(app));
     commands.emplace_back("build", addBuildCommand(app));
+    commands.emplace_back("shard", addShardCommand(app));
+    commands.emplace_back("merge", addMergeCommand(app));
     commands.emplace_back("inspect", addInspectCommand(app));
 #endif
     commands.emplace_back("render", addRenderCommand(app));

@@ -1,0 +1,843 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The plan folder, the shard jobs and the merge of cli/shards.h.
+#include "cli/shards.h"
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <type_traits>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <tbb/info.h>
+
+#include "atlas/atlas_images.h"
+#include "tiles/texture_blocks.h"
+
+extern char** environ;
+
+namespace cityatlas::cli {
+namespace fs = std::filesystem;
+using nlohmann::json;
+using atlas::Layer;
+using format::TileMesh;
+
+namespace {
+
+constexpr int kPlanFormat = 1;
+static_assert(std::is_trivially_copyable_v<Triangle>, "shard files hold triangles as bytes");
+
+// --- Small serialization helpers. JSON numbers round-trip doubles exactly
+// (nlohmann writes the shortest representation that reads back the same);
+// infinities and NaN have no JSON form and are written as null.
+json num(double d) { return std::isfinite(d) ? json(d) : json(nullptr); }
+double numOr(const json& j, double fallback) { return j.is_null() ? fallback : j.get<double>(); }
+
+json vec3(const Vec3d& v) { return json::array({num(v.x), num(v.y), num(v.z)}); }
+Vec3d vec3From(const json& j, double fallback) {
+    return {numOr(j.at(0), fallback), numOr(j.at(1), fallback), numOr(j.at(2), fallback)};
+}
+
+template <typename T>
+void writeVector(std::ofstream& f, const std::vector<T>& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const uint64_t n = v.size();
+    f.write(reinterpret_cast<const char*>(&n), sizeof n);
+    f.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T)));
+}
+template <typename T>
+bool readVector(std::ifstream& f, std::vector<T>* v) {
+    uint64_t n = 0;
+    if (!f.read(reinterpret_cast<char*>(&n), sizeof n) || n > (uint64_t{1} << 34) / sizeof(T)) return false;
+    v->resize(n);
+    return static_cast<bool>(f.read(reinterpret_cast<char*>(v->data()), static_cast<std::streamsize>(n * sizeof(T))));
+}
+
+Status readJson(const fs::path& path, json* out) {
+    std::ifstream f(path);
+    if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
+    try {
+        *out = json::parse(f);
+    } catch (const std::exception& e) {
+        return Status::Io(fmt::format("{}: not valid JSON: {}", path.string(), e.what()));
+    }
+    return Status::Ok();
+}
+
+Status writeJson(const fs::path& path, const json& j) {
+    const std::string text = j.dump(-1, ' ', false, json::error_handler_t::replace);
+    return tiles::writeBytes(path, text.data(), text.size());
+}
+
+// --- Parameters.
+json atlasParamsJson(const atlas::AtlasParams& p) {
+    return {{"d_min_m", p.d_min_m ? json(*p.d_min_m) : json(nullptr)},
+            {"d_min_diagonal_fraction", p.d_min_diagonal_fraction},
+            {"atlas_size_px", p.atlas_size_px},
+            {"border_px", p.border_px},
+            {"screen_width_px", p.screen_width_px},
+            {"screen_height_px", p.screen_height_px},
+            {"vertical_fov_deg", p.vertical_fov_deg},
+            {"d_min_from_data", p.d_min_from_data},
+            {"filter", std::string(atlas::filterName(p.filter))},
+            {"packing", std::string(atlas::packingMethodName(p.packing))},
+            {"critical_fraction", p.critical_fraction},
+            {"cache_mb", p.cache_mb}};
+}
+atlas::AtlasParams atlasParamsFrom(const json& j) {
+    atlas::AtlasParams p;
+    if (!j.at("d_min_m").is_null()) p.d_min_m = j.at("d_min_m").get<double>();
+    p.d_min_diagonal_fraction = j.at("d_min_diagonal_fraction");
+    p.atlas_size_px = j.at("atlas_size_px");
+    p.border_px = j.at("border_px");
+    p.screen_width_px = j.at("screen_width_px");
+    p.screen_height_px = j.at("screen_height_px");
+    p.vertical_fov_deg = j.at("vertical_fov_deg");
+    p.d_min_from_data = j.at("d_min_from_data");
+    p.filter = atlas::filterFromName(j.at("filter").get<std::string>()).value();
+    p.packing = atlas::packingMethodFromName(j.at("packing").get<std::string>()).value();
+    p.critical_fraction = j.at("critical_fraction");
+    p.cache_mb = j.at("cache_mb");
+    return p;
+}
+
+json tilesParamsJson(const tiles::TilesParams& p) {
+    return {{"position_bits", p.draco.position_bits},
+            {"uv_bits", p.draco.uv_bits},
+            {"uv_original_bits", p.draco.uv_original_bits},
+            {"speed", p.draco.speed},
+            {"position_error_target_m", p.position_error_target_m},
+            {"uv_original_error_target_texels", p.uv_original_error_target_texels},
+            {"bc_quality", std::string(tiles::bcQualityName(p.bc_quality))},
+            {"node_triangles", p.node_triangles},
+            {"feature_block_size", p.feature_block_size},
+            {"all_originals", p.all_originals}};
+}
+tiles::TilesParams tilesParamsFrom(const json& j) {
+    tiles::TilesParams p;
+    p.draco.position_bits = j.at("position_bits");
+    p.draco.uv_bits = j.at("uv_bits");
+    p.draco.uv_original_bits = j.at("uv_original_bits");
+    p.draco.speed = j.at("speed");
+    p.position_error_target_m = j.at("position_error_target_m");
+    p.uv_original_error_target_texels = j.at("uv_original_error_target_texels");
+    p.bc_quality = tiles::bcQualityFromName(j.at("bc_quality").get<std::string>()).value();
+    p.node_triangles = j.at("node_triangles");
+    p.feature_block_size = j.at("feature_block_size");
+    p.all_originals = j.at("all_originals");
+    return p;
+}
+
+json globalsJson(const atlas::GlobalDecisions& g) {
+    json candidates = json::array();
+    for (const auto& c : g.d_min_choice.candidates) candidates.push_back({c.d_m, c.ratio, c.originals_within_mb});
+    return {{"scene_diagonal_m", g.scene_diagonal_m},
+            {"d_min_choice", {{"rule", g.d_min_choice.rule},
+                              {"reason", g.d_min_choice.reason},
+                              {"estimated_ratio", g.d_min_choice.estimated_ratio},
+                              {"originals_within_m_mb", g.d_min_choice.originals_within_m_mb},
+                              {"candidates", candidates}}},
+            {"d_min_requested_m", g.d_min_requested_m},
+            {"d_min_used_m", g.d_min_used_m},
+            {"d_full_m", g.d_full_m},
+            {"d_first_upsampled_m", g.d_first_upsampled_m},
+            {"textured_triangles", g.textured_triangles},
+            {"degenerate_uv_triangles", g.degenerate_uv_triangles},
+            {"critical_triangles", g.critical_triangles},
+            {"enlarged_for_split_budget", g.enlarged_for_split_budget},
+            {"promote", g.promote}};
+}
+atlas::GlobalDecisions globalsFrom(const json& j) {
+    atlas::GlobalDecisions g;
+    g.scene_diagonal_m = j.at("scene_diagonal_m");
+    const json& c = j.at("d_min_choice");
+    g.d_min_choice.rule = c.at("rule");
+    g.d_min_choice.reason = c.at("reason");
+    g.d_min_choice.estimated_ratio = c.at("estimated_ratio");
+    g.d_min_choice.originals_within_m_mb = c.at("originals_within_m_mb");
+    for (const json& k : c.at("candidates")) g.d_min_choice.candidates.push_back({k.at(0), k.at(1), k.at(2)});
+    g.d_min_requested_m = j.at("d_min_requested_m");
+    g.d_min_used_m = j.at("d_min_used_m");
+    g.d_full_m = j.at("d_full_m");
+    g.d_first_upsampled_m = j.at("d_first_upsampled_m");
+    g.textured_triangles = j.at("textured_triangles");
+    g.degenerate_uv_triangles = j.at("degenerate_uv_triangles");
+    g.critical_triangles = j.at("critical_triangles");
+    g.enlarged_for_split_budget = j.at("enlarged_for_split_budget");
+    g.promote = j.at("promote").get<std::vector<uint8_t>>();
+    return g;
+}
+
+// --- Scene tables.
+json tablesJson(const Scene& s) {
+    json textures = json::array(), materials = json::array(), features = json::array();
+    for (const TextureRef& t : s.textures)
+        textures.push_back({t.path, t.width_px, t.height_px, t.channels, static_cast<int>(t.wrap)});
+    for (const Material& m : s.materials) materials.push_back({m.diffuse[0], m.diffuse[1], m.diffuse[2], m.transparency});
+    for (const Feature& f : s.features)
+        features.push_back({f.gml_id, f.name, f.source_file, f.parent, f.lod,
+                            f.measured_height_m ? json(*f.measured_height_m) : json(nullptr), f.roof_type, f.function,
+                            f.attributes});
+    const Georeference& g = s.georef;
+    json georef = {{"source_crs", g.source_crs},
+                   {"origin_source", vec3(g.origin_source)},
+                   {"grid_frame", g.grid_frame},
+                   {"local_to_ecef", g.local_to_ecef ? json(*g.local_to_ecef) : json(nullptr)},
+                   {"enu_to_ecef", g.enu_to_ecef ? json(*g.enu_to_ecef) : json(nullptr)}};
+    return {{"textures", textures}, {"materials", materials}, {"features", features}, {"georef", georef}};
+}
+void tablesFrom(const json& j, Scene* s, bool with_features) {
+    for (const json& t : j.at("textures"))
+        s->textures.push_back({t.at(0), t.at(1), t.at(2), t.at(3), static_cast<WrapMode>(t.at(4).get<int>())});
+    for (const json& m : j.at("materials")) s->materials.push_back({{m.at(0), m.at(1), m.at(2)}, m.at(3)});
+    if (with_features)
+        for (const json& f : j.at("features")) {
+            Feature x;
+            x.gml_id = f.at(0), x.name = f.at(1), x.source_file = f.at(2), x.parent = f.at(3), x.lod = f.at(4);
+            if (!f.at(5).is_null()) x.measured_height_m = f.at(5).get<double>();
+            x.roof_type = f.at(6), x.function = f.at(7);
+            x.attributes = f.at(8).get<std::map<std::string, std::string>>();
+            s->features.push_back(std::move(x));
+        }
+    const json& g = j.at("georef");
+    s->georef.source_crs = g.at("source_crs");
+    s->georef.origin_source = vec3From(g.at("origin_source"), 0);
+    s->georef.grid_frame = g.at("grid_frame");
+    if (!g.at("local_to_ecef").is_null()) s->georef.local_to_ecef = g.at("local_to_ecef").get<std::array<double, 16>>();
+    if (!g.at("enu_to_ecef").is_null()) s->georef.enu_to_ecef = g.at("enu_to_ecef").get<std::array<double, 16>>();
+}
+
+// --- A shard's nodes and records (what the merge needs of them).
+json nodeJson(const atlas::AtlasNode& n) {
+    json layers = json::array();
+    for (const atlas::NodeLayer& l : n.layers)
+        layers.push_back({{"count", l.range.count}, {"atlas", !l.atlas_path.empty()}, {"width", l.width},
+                          {"height", l.height}});
+    return {{"parent", n.parent},
+            {"children", n.children},
+            {"level", n.level},
+            {"bounds", n.bounds.empty() ? json(nullptr) : json::array({vec3(n.bounds.min), vec3(n.bounds.max)})},
+            {"min_distance_m", n.min_distance_m},
+            {"sharp_from_m", n.sharp_from_m},
+            {"layers", layers},
+            {"originals", n.originals}};
+}
+atlas::AtlasNode nodeFrom(const json& j) {
+    atlas::AtlasNode n;
+    n.parent = j.at("parent");
+    n.children = j.at("children").get<std::array<int32_t, 4>>();
+    n.level = j.at("level");
+    if (!j.at("bounds").is_null()) {
+        n.bounds.extend(vec3From(j.at("bounds").at(0), 0));
+        n.bounds.extend(vec3From(j.at("bounds").at(1), 0));
+    }
+    n.min_distance_m = j.at("min_distance_m");
+    n.sharp_from_m = j.at("sharp_from_m");
+    for (size_t l = 0; l < atlas::kLayerCount; ++l) {
+        const json& x = j.at("layers").at(l);
+        n.layers[l].range.count = x.at("count");
+        if (x.at("atlas").get<bool>()) n.layers[l].atlas_path = "atlas";  // named again by assembleTree
+        n.layers[l].width = x.at("width");
+        n.layers[l].height = x.at("height");
+    }
+    n.originals = j.at("originals").get<std::vector<int32_t>>();
+    return n;
+}
+
+json recordJson(const tiles::NodeRecord& r) {
+    json layers = json::array();
+    for (const tiles::LayerRecord& l : r.layers)
+        layers.push_back({{"present", l.present},
+                          {"triangles", l.triangles},
+                          {"triangles_source", l.triangles_source},
+                          {"geometry_uri", l.geometry_uri},
+                          {"geometry_bytes", l.geometry_bytes},
+                          {"geometric_error_m", num(l.geometric_error_m)},
+                          {"position_error_m", num(l.position_error_m)},
+                          {"uv_atlas_error_texels", num(l.uv_atlas_error_texels)},
+                          {"uv_original_error_texels", num(l.uv_original_error_texels)},
+                          {"position_bits", l.position_bits},
+                          {"uv_original_bits", l.uv_original_bits},
+                          {"simplified", l.simplified},
+                          {"atlas_uri", l.atlas_uri},
+                          {"atlas_bytes", l.atlas_bytes},
+                          {"atlas_mips", l.atlas_mips},
+                          {"atlas_psnr_db", num(l.atlas_psnr_db)},
+                          {"atlas_encode_seconds", l.atlas_encode_seconds},
+                          {"atlas_texels", l.atlas_texels}});
+    return {{"layers", layers}, {"features", r.features}, {"dropped", r.dropped}};
+}
+tiles::NodeRecord recordFrom(const json& j) {
+    tiles::NodeRecord r;
+    const double inf = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < atlas::kLayerCount; ++k) {
+        const json& x = j.at("layers").at(k);
+        tiles::LayerRecord& l = r.layers[k];
+        l.present = x.at("present");
+        l.triangles = x.at("triangles");
+        l.triangles_source = x.at("triangles_source");
+        l.geometry_uri = x.at("geometry_uri");
+        l.geometry_bytes = x.at("geometry_bytes");
+        l.geometric_error_m = numOr(x.at("geometric_error_m"), inf);
+        l.position_error_m = numOr(x.at("position_error_m"), inf);
+        l.uv_atlas_error_texels = numOr(x.at("uv_atlas_error_texels"), inf);
+        l.uv_original_error_texels = numOr(x.at("uv_original_error_texels"), inf);
+        l.position_bits = x.at("position_bits");
+        l.uv_original_bits = x.at("uv_original_bits");
+        l.simplified = x.at("simplified");
+        l.atlas_uri = x.at("atlas_uri");
+        l.atlas_bytes = x.at("atlas_bytes");
+        l.atlas_mips = x.at("atlas_mips");
+        l.atlas_psnr_db = numOr(x.at("atlas_psnr_db"), inf);  // +inf: BC reproduced the atlas exactly
+        l.atlas_encode_seconds = x.at("atlas_encode_seconds");
+        l.atlas_texels = x.at("atlas_texels");
+    }
+    r.features = j.at("features").get<std::vector<uint32_t>>();
+    r.dropped = j.at("dropped").get<std::vector<uint32_t>>();
+    return r;
+}
+
+Status writeMesh(const fs::path& path, const TileMesh& m, double geometric_error_m, size_t triangles_source,
+                 bool simplified) {
+    std::ofstream f(path, std::ios::binary);
+    const double head[3] = {geometric_error_m, static_cast<double>(triangles_source), simplified ? 1.0 : 0.0};
+    f.write(reinterpret_cast<const char*>(head), sizeof head);
+    writeVector(f, m.positions);
+    writeVector(f, m.uv_original);
+    writeVector(f, m.uv_atlas);
+    writeVector(f, m.feature_id);
+    writeVector(f, m.texture_id);
+    writeVector(f, m.material_id);
+    writeVector(f, m.indices);
+    f.close();
+    if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
+    return Status::Ok();
+}
+Status readMesh(const fs::path& path, tiles::NodeGeometry* g) {
+    std::ifstream f(path, std::ios::binary);
+    double head[3] = {0, 0, 0};
+    TileMesh& m = g->mesh;
+    const bool ok = f.read(reinterpret_cast<char*>(head), sizeof head) && readVector(f, &m.positions) &&
+                    readVector(f, &m.uv_original) && readVector(f, &m.uv_atlas) && readVector(f, &m.feature_id) &&
+                    readVector(f, &m.texture_id) && readVector(f, &m.material_id) && readVector(f, &m.indices);
+    if (!ok) return Status::Io(fmt::format("{}: not a shard root mesh (truncated?)", path.string()));
+    g->geometric_error_m = head[0];
+    g->triangles_source = static_cast<size_t>(head[1]);
+    g->simplified = head[2] != 0;
+    return Status::Ok();
+}
+
+json statsJson(const atlas::AtlasStats& s) {
+    return {{"atlases", s.atlases},
+            {"critical_after_enlarge", s.critical_after_enlarge},
+            {"triangles_split", s.triangles_split},
+            {"triangles_added_by_split", s.triangles_added_by_split},
+            {"packed_texels", s.packed_texels},
+            {"leaf_atlas_texels", s.leaf_atlas_texels},
+            {"original_texture_bytes", s.original_texture_bytes},
+            {"atlas_texture_bytes", s.atlas_texture_bytes},
+            {"leaves_below_resolution", s.leaves_below_resolution},
+            {"textures_upsampled", s.textures_upsampled},
+            {"textures_exact", s.textures_exact},
+            {"textures_needing_originals", s.textures_needing_originals},
+            {"texels", {s.texels.content_required, s.texels.content_native, s.texels.repeats, s.texels.borders,
+                        s.texels.rounding, s.texels.empty, s.texels.inner}},
+            {"bytes", {s.bytes.atlases, s.bytes.originals_used, s.bytes.originals_needed}}};
+}
+void addStats(const json& j, atlas::AtlasStats* s) {
+    s->atlases += j.at("atlases").get<uint64_t>();
+    s->critical_after_enlarge += j.at("critical_after_enlarge").get<uint64_t>();
+    s->triangles_split += j.at("triangles_split").get<uint64_t>();
+    s->triangles_added_by_split += j.at("triangles_added_by_split").get<uint64_t>();
+    s->packed_texels += j.at("packed_texels").get<uint64_t>();
+    s->leaf_atlas_texels += j.at("leaf_atlas_texels").get<uint64_t>();
+    s->original_texture_bytes += j.at("original_texture_bytes").get<uint64_t>();
+    s->atlas_texture_bytes += j.at("atlas_texture_bytes").get<uint64_t>();
+    s->leaves_below_resolution += j.at("leaves_below_resolution").get<uint64_t>();
+    s->textures_upsampled += j.at("textures_upsampled").get<uint64_t>();
+    s->textures_exact += j.at("textures_exact").get<uint64_t>();
+    s->textures_needing_originals += j.at("textures_needing_originals").get<uint64_t>();
+    const json& t = j.at("texels");
+    s->texels.content_required += t.at(0).get<uint64_t>();
+    s->texels.content_native += t.at(1).get<uint64_t>();
+    s->texels.repeats += t.at(2).get<uint64_t>();
+    s->texels.borders += t.at(3).get<uint64_t>();
+    s->texels.rounding += t.at(4).get<uint64_t>();
+    s->texels.empty += t.at(5).get<uint64_t>();
+    s->texels.inner += t.at(6).get<uint64_t>();
+    const json& b = j.at("bytes");
+    s->bytes.atlases += b.at(0).get<uint64_t>();
+    s->bytes.originals_used += b.at(1).get<uint64_t>();
+    s->bytes.originals_needed += b.at(2).get<uint64_t>();
+}
+
+std::string shardName(int k) { return fmt::format("shard-{}", k); }
+std::string layerFile(const char* what, int l) {
+    return fmt::format("{}-{}.bin", what, atlas::layerName(static_cast<Layer>(l)));
+}
+
+}  // namespace
+
+nlohmann::json diagnosticsToJson(const Diagnostics& d) {
+    json w = json::array();
+    for (const auto& [code, e] : d.entries()) {
+        json examples = json::array();
+        for (const DiagnosticExample& x : e.examples) examples.push_back({x.file, x.line, x.gml_id, x.detail});
+        w.push_back({{"code", code}, {"count", e.count}, {"examples", examples}});
+    }
+    return w;
+}
+// The shard's warnings into the build's: the counts add up, the first examples are kept.
+void addDiagnostics(const nlohmann::json& w, Diagnostics& d) {
+    for (const json& e : w) {
+        const std::string code = e.at("code");
+        const auto& examples = e.at("examples");
+        const uint64_t count = e.at("count");
+        for (uint64_t k = 0; k < count; ++k) {
+            DiagnosticExample x;
+            if (k < examples.size()) {
+                const json& ex = examples.at(k);
+                x = {ex.at(0), ex.at(1), ex.at(2), ex.at(3)};
+            }
+            d.warn(code.c_str(), x);
+        }
+    }
+}
+
+Status writePlan(const fs::path& dir, Scene& scene, const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
+                 const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
+    std::vector<uint8_t> used(scene.textures.size(), 0);
+    for (const Triangle& t : scene.triangles)
+        if (t.texture >= 0) used[static_cast<size_t>(t.texture)] = 1;
+    json top = json::array();
+    for (const atlas::PlanNode& n : plan.nodes)
+        top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
+    const json j = {{"format", kPlanFormat},
+                    {"kind", "cityatlas-shard-plan"},
+                    {"atlas", atlasParamsJson(atlas_params)},
+                    {"tiles", tilesParamsJson(tiles_params)},
+                    {"globals", globalsJson(globals)},
+                    {"texture_index", tiles::tilesetTextureIndex(used)},
+                    {"top", top},
+                    {"shard_triangles", plan.shard_triangles},
+                    {"scene_triangles", scene.triangles.size()}};
+    if (Status s = writeJson(dir / "tables.json", tablesJson(scene)); !s.ok()) return s;
+    // Each shard's triangles in scene order, written in one pass over the scene.
+    std::vector<std::ofstream> files(plan.shards());
+    for (size_t k = 0; k < files.size(); ++k) {
+        files[k].open(dir / fmt::format("{}.tri", shardName(static_cast<int>(k))), std::ios::binary);
+        if (!files[k]) return Status::Io(fmt::format("{}: cannot create", (dir / shardName(static_cast<int>(k))).string()));
+    }
+    for (const Triangle& t : scene.triangles) {
+        const int32_t k = plan.shard_of_feature[t.feature];
+        files[static_cast<size_t>(k)].write(reinterpret_cast<const char*>(&t), sizeof t);
+    }
+    for (size_t k = 0; k < files.size(); ++k) {
+        files[k].close();
+        if (!files[k]) return Status::Io(fmt::format("{}.tri: cannot write", (dir / shardName(static_cast<int>(k))).string()));
+    }
+    std::vector<Triangle>().swap(scene.triangles);
+    return writeJson(dir / "plan.json", j);  // last: a plan folder with plan.json is complete
+}
+
+Status runShard(const fs::path& dir, int shard, int threads, const ShardProgressFn& progress) {
+    json plan, tables;
+    if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
+    if (plan.value("format", 0) != kPlanFormat)
+        return Status::Invalid(fmt::format("{}: a plan of another cityatlas version", (dir / "plan.json").string()));
+    const auto shards = plan.at("shard_triangles").size();
+    if (shard < 0 || static_cast<size_t>(shard) >= shards)
+        return Status::Usage(fmt::format("shard {}: the plan has shards 0..{}", shard, shards - 1));
+    if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
+    Scene scene;
+    tablesFrom(tables, &scene, false);
+    {
+        const fs::path tri = dir / fmt::format("{}.tri", shardName(shard));
+        std::ifstream f(tri, std::ios::binary | std::ios::ate);
+        if (!f) return Status::Io(fmt::format("{}: cannot open", tri.string()));
+        const auto bytes = static_cast<uint64_t>(f.tellg());
+        if (bytes % sizeof(Triangle) != 0 ||
+            bytes / sizeof(Triangle) != plan.at("shard_triangles").at(static_cast<size_t>(shard)).get<uint64_t>())
+            return Status::Io(fmt::format("{}: truncated (expected the plan's triangle count)", tri.string()));
+        scene.triangles.resize(bytes / sizeof(Triangle));
+        f.seekg(0);
+        f.read(reinterpret_cast<char*>(scene.triangles.data()), static_cast<std::streamsize>(bytes));
+        if (!f) return Status::Io(fmt::format("{}: cannot read", tri.string()));
+    }
+    // The shard root's level in the whole tree.
+    int level = 0;
+    for (const json& n : plan.at("top"))
+        if (n.at("shard").get<int>() == shard) level = n.at("level");
+    atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
+    ap.threads = threads;
+    ap.base_level = level;
+    ap.keep_root_halves = true;
+    tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
+    tp.threads = threads;
+    const atlas::GlobalDecisions globals = globalsFrom(plan.at("globals"));
+    const std::vector<int32_t> texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
+
+    const fs::path part = dir / (shardName(shard) + ".part"), done = dir / shardName(shard);
+    std::error_code ec;
+    fs::remove_all(part, ec);
+    fs::create_directories(part, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", part.string(), ec.message()));
+    Diagnostics diagnostics;
+    atlas::AtlasTree tree;
+    tiles::AtlasHandOff hand_off(tp.bc_quality, part);
+    const auto report = [&](const char* step, uint64_t d, uint64_t t) {
+        if (progress) progress(step, d, t);
+    };
+    if (Status s = atlas::buildAtlasTree(scene, ap, part, diagnostics, report, &tree, hand_off.sink(),
+                                         &scene.triangles, &globals);
+        !s.ok())
+        return s;
+    const tiles::EncodedAtlases encoded = hand_off.take(tree.nodes.size());
+    tiles::SubtreeFiles files;
+    if (Status s = tiles::writeSubtreeFiles(scene, tree, part, tp, texture_index, part, report, &encoded, &files); !s.ok())
+        return s;
+
+    json nodes = json::array(), records = json::array(), leaf_textures = json::object();
+    const std::vector<std::vector<int32_t>> used = tiles::leafTextures(tree);
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        nodes.push_back(nodeJson(tree.nodes[i]));
+        records.push_back(recordJson(files.records[i]));
+        if (!used[i].empty()) leaf_textures[std::to_string(i)] = used[i];
+    }
+    for (int l = 0; l < atlas::kLayerCount; ++l) {
+        if (const auto& g = files.root_geometry[static_cast<size_t>(l)]; g && !g->empty())
+            if (Status s = writeMesh(part / layerFile("root-geometry", l), g->mesh, g->geometric_error_m,
+                                     g->triangles_source, g->simplified);
+                !s.ok())
+                return s;
+        if (const auto& h = tree.root_halves[static_cast<size_t>(l)])
+            if (Status s = atlas::writeCanvas(*h, part / layerFile("root-halves", l)); !s.ok()) return s;
+    }
+    std::vector<json> steps;
+    for (const auto& s : tree.stats.steps) steps.push_back({s.name, s.seconds, s.cpu_seconds, s.peak_rss_mb});
+    const json manifest = {{"shard", shard},
+                           {"nodes", nodes},
+                           {"records", records},
+                           {"root_subtree_features", files.root_subtree_features},
+                           {"leaf_textures", leaf_textures},
+                           {"stats", statsJson(tree.stats)},
+                           {"steps", steps},
+                           {"warnings", diagnosticsToJson(diagnostics)}};
+    if (Status s = writeJson(part / "manifest.json", manifest); !s.ok()) return s;
+    fs::remove_all(done, ec);
+    fs::rename(part, done, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot rename to {}: {}", part.string(), done.string(), ec.message()));
+    return Status::Ok();
+}
+
+namespace {
+
+// The path of this executable, for worker processes and job scripts.
+Status selfPath(std::string* out) {
+    char self[4096];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0) return Status::Io("cannot find this executable (/proc/self/exe)");
+    self[n] = '\0';
+    *out = self;
+    return Status::Ok();
+}
+
+std::string shellQuote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+}
+
+// Runs a program (no shell), its stdout captured; the status names it.
+Status runCapture(const std::vector<std::string>& args, std::string* out) {
+    int pipe_fd[2];
+    if (pipe(pipe_fd) != 0) return Status::Io(fmt::format("pipe: {}", std::strerror(errno)));
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, pipe_fd[1], STDOUT_FILENO);
+    posix_spawn_file_actions_addclose(&actions, pipe_fd[0]);
+    std::vector<std::string> copy = args;
+    std::vector<char*> argv;
+    for (std::string& a : copy) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    const int e = posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    close(pipe_fd[1]);
+    if (e != 0) {
+        close(pipe_fd[0]);
+        return Status::Io(fmt::format("cannot run {}: {}", args[0], std::strerror(e)));
+    }
+    char buf[4096];
+    ssize_t n;
+    while ((n = read(pipe_fd[0], buf, sizeof buf)) > 0) out->append(buf, static_cast<size_t>(n));
+    close(pipe_fd[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0))
+        return Status::Io(fmt::format("{} {}", args[0], WIFEXITED(status) ? fmt::format("exited with {}", WEXITSTATUS(status))
+                                                                           : fmt::format("was killed by signal {}", WTERMSIG(status))));
+    return Status::Ok();
+}
+
+}  // namespace
+
+Status runShards(const fs::path& dir, int workers, int threads, const ShardProgressFn& progress) {
+    json plan;
+    if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
+    const int shards = static_cast<int>(plan.at("shard_triangles").size());
+    if (workers <= 0) {
+        for (int k = 0; k < shards; ++k) {
+            if (progress) progress("shards", static_cast<uint64_t>(k), static_cast<uint64_t>(shards));
+            if (Status s = runShard(dir, k, threads, {}); !s.ok()) return Status::Io(fmt::format("shard {}: {}", k, s.error));
+        }
+        if (progress) progress("shards", static_cast<uint64_t>(shards), static_cast<uint64_t>(shards));
+        return Status::Ok();
+    }
+    // Worker processes: this executable's `shard` command, each with its share of the cores.
+    const int cores = threads > 0 ? threads : static_cast<int>(tbb::info::default_concurrency());
+    const int running_max = std::max(1, std::min(workers, shards));
+    const int per_worker = std::max(1, cores / running_max);
+    std::string self;
+    if (Status s = selfPath(&self); !s.ok()) return s;
+    std::map<pid_t, int> running;
+    int next = 0, finished = 0;
+    Status first_error = Status::Ok();
+    while (finished < shards) {
+        while (first_error.ok() && next < shards && static_cast<int>(running.size()) < running_max) {
+            std::vector<std::string> args = {self, "shard", dir.string(), "--index", std::to_string(next),
+                                             "--threads", std::to_string(per_worker), "--quiet"};
+            std::vector<char*> argv;
+            for (std::string& a : args) argv.push_back(a.data());
+            argv.push_back(nullptr);
+            pid_t pid = 0;
+            if (const int e = posix_spawn(&pid, self.c_str(), nullptr, nullptr, argv.data(), environ); e != 0)
+                return Status::Io(fmt::format("cannot start a shard worker ({}): {}", self, std::strerror(e)));
+            running[pid] = next++;
+        }
+        if (running.empty()) break;
+        int status = 0;
+        const pid_t pid = waitpid(-1, &status, 0);
+        if (pid < 0) return Status::Io(fmt::format("waiting for shard workers: {}", std::strerror(errno)));
+        const auto it = running.find(pid);
+        if (it == running.end()) continue;
+        const int k = it->second;
+        running.erase(it);
+        ++finished;
+        if (progress) progress("shards", static_cast<uint64_t>(finished), static_cast<uint64_t>(shards));
+        if (first_error.ok() && !(WIFEXITED(status) && WEXITSTATUS(status) == 0))
+            first_error = Status::Io(fmt::format("shard {} of {}: its worker (cityatlas shard) {}", k, shards,
+                                                 WIFEXITED(status) ? fmt::format("exited with {}", WEXITSTATUS(status))
+                                                                   : fmt::format("was killed by signal {}", WTERMSIG(status))));
+        if (!first_error.ok() && next < shards) {
+            // Start no more, stop the others (their work is lost with the build) and wait for them.
+            finished += shards - next, next = shards;
+            for (const auto& [other, _] : running) kill(other, SIGTERM);
+        }
+    }
+    return first_error;
+}
+
+Status submitSlurm(const fs::path& dir, int shards, const std::vector<std::string>& sbatch_args, const fs::path& logs,
+                   bool wait, SlurmJobs* jobs) {
+    std::string self;
+    if (Status s = selfPath(&self); !s.ok()) return s;
+    const fs::path plan = fs::absolute(dir), log_dir = fs::absolute(logs);
+    std::error_code ec;
+    fs::remove_all(log_dir, ec);
+    fs::create_directories(log_dir, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", log_dir.string(), ec.message()));
+    const std::string shard_script = fmt::format(
+        "#!/bin/sh\n# cityatlas: one shard of a sharded build (cli/shards.h)\nexec {} shard {} --index \"$SLURM_ARRAY_TASK_ID\" --quiet\n",
+        shellQuote(self), shellQuote(plan.string()));
+    const std::string merge_script = fmt::format(
+        "#!/bin/sh\n# cityatlas: the merge of a sharded build, after its shards\nexec {} merge {} --quiet\n",
+        shellQuote(self), shellQuote(plan.string()));
+    if (Status s = tiles::writeBytes(plan / "shard.sh", shard_script.data(), shard_script.size()); !s.ok()) return s;
+    if (Status s = tiles::writeBytes(plan / "merge.sh", merge_script.data(), merge_script.size()); !s.ok()) return s;
+    auto jobId = [](const std::string& out) { return out.substr(0, out.find_first_of(";\n")); };
+    std::vector<std::string> a = {"sbatch", "--parsable", "--job-name=cityatlas-shards",
+                                  fmt::format("--array=0-{}", shards - 1),
+                                  fmt::format("--output={}", (log_dir / "shard-%a.log").string())};
+    a.insert(a.end(), sbatch_args.begin(), sbatch_args.end());
+    a.push_back((plan / "shard.sh").string());
+    std::string out;
+    if (Status s = runCapture(a, &out); !s.ok())
+        return Status::Io(fmt::format("--slurm: submitting the shards: {}", s.error));
+    jobs->shards = jobId(out);
+    if (jobs->shards.empty()) return Status::Io("--slurm: sbatch printed no job id for the shards");
+    std::vector<std::string> m = {"sbatch", "--parsable", "--job-name=cityatlas-merge",
+                                  fmt::format("--dependency=afterok:{}", jobs->shards), "--kill-on-invalid-dep=yes",
+                                  fmt::format("--output={}", (log_dir / "merge.log").string())};
+    m.insert(m.end(), sbatch_args.begin(), sbatch_args.end());
+    if (wait) m.push_back("--wait");
+    m.push_back((plan / "merge.sh").string());
+    out.clear();
+    const Status merged = runCapture(m, &out);
+    jobs->merge = jobId(out);
+    if (!merged.ok())
+        return Status::Io(jobs->merge.empty()
+                              ? fmt::format("--slurm: submitting the merge: {}", merged.error)
+                              : fmt::format("--slurm: merge job {} did not succeed ({}); see {}", jobs->merge,
+                                            merged.error, log_dir.string()));
+    if (!wait) return Status::Ok();
+    // sbatch --wait exits 0 for a job cancelled before it ran (a shard failed,
+    // so afterok never held): the job's state says what happened.
+    std::string state;
+    if (Status s = runCapture({"scontrol", "-o", "show", "job", jobs->merge}, &state); !s.ok())
+        return Status::Io(fmt::format("--slurm: cannot ask for merge job {}'s state: {}", jobs->merge, s.error));
+    const auto field = [&](const char* key) {
+        const auto at = state.find(key);
+        if (at == std::string::npos) return std::string("?");
+        const auto from = at + std::strlen(key);
+        return state.substr(from, state.find_first_of(" \n", from) - from);
+    };
+    if (field("JobState=") != "COMPLETED" || field("ExitCode=") != "0:0")
+        return Status::Io(fmt::format("--slurm: merge job {} did not succeed ({}, exit code {}{}); see {}", jobs->merge,
+                                      field("JobState="), field("ExitCode="),
+                                      field("Reason=") != "None" ? ", reason " + field("Reason=") : std::string(),
+                                      log_dir.string()));
+    return Status::Ok();
+}
+
+Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
+                   const ShardProgressFn& progress, MergeResult* result) {
+    json plan, tables;
+    if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
+    if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
+    MergeResult& r = *result;
+    tablesFrom(tables, &r.tables, true);
+    r.scene_triangles = plan.at("scene_triangles");
+    const atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
+    tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
+    const atlas::GlobalDecisions globals = globalsFrom(plan.at("globals"));
+    atlas::ShardPlan sp;
+    for (const json& n : plan.at("top"))
+        sp.nodes.push_back({n.at("parent"), n.at("children").get<std::array<int32_t, 4>>(), n.at("level"), n.at("shard")});
+    sp.shard_triangles = plan.at("shard_triangles").get<std::vector<uint64_t>>();
+    const size_t shards = sp.shards();
+    r.shards = shards;
+
+    std::vector<json> manifests(shards);
+    std::vector<atlas::AtlasTree> trees(shards);
+    for (size_t k = 0; k < shards; ++k) {
+        const fs::path m = dir / shardName(static_cast<int>(k)) / "manifest.json";
+        if (!fs::exists(m)) return Status::Io(fmt::format("{}: shard {} has not finished", m.string(), k));
+        if (Status s = readJson(m, &manifests[k]); !s.ok()) return s;
+        for (const json& n : manifests[k].at("nodes")) trees[k].nodes.push_back(nodeFrom(n));
+    }
+    atlas::AtlasTree& tree = r.tree;
+    std::vector<int32_t> shard_root;
+    tiles::BuiltSubtrees built;
+    atlas::assembleTree(sp, trees, ap, &tree, &shard_root, &built.built);
+    const size_t n_nodes = tree.nodes.size();
+
+    // Every shard file moves to its node's number in the whole tree.
+    built.records.resize(n_nodes);
+    built.leaf_textures.resize(n_nodes);
+    std::error_code ec;
+    for (const char* d : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha"}) {
+        fs::create_directories(out_dir / d, ec);
+        if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / d).string(), ec.message()));
+    }
+    atlas::GivenHalves given;
+    for (size_t k = 0; k < shards; ++k) {
+        const fs::path sd = dir / shardName(static_cast<int>(k));
+        const json& m = manifests[k];
+        const int32_t base = shard_root[k];
+        const json& records = m.at("records");
+        for (size_t i = 0; i < records.size(); ++i) {
+            tiles::NodeRecord rec = recordFrom(records.at(i));
+            const auto g = static_cast<size_t>(base) + i;
+            for (size_t l = 0; l < atlas::kLayerCount; ++l) {
+                tiles::LayerRecord& lr = rec.layers[l];
+                const char* layer = atlas::layerName(static_cast<Layer>(l)).data();
+                for (auto [uri, kind, ext] : {std::tuple{&lr.geometry_uri, "geometry", "glb"}, std::tuple{&lr.atlas_uri, "atlas", "dds"}}) {
+                    if (uri->empty()) continue;
+                    const std::string to = fmt::format("{}/{}/{}.{}", kind, layer, g, ext);
+                    fs::rename(sd / *uri, out_dir / to, ec);
+                    if (ec) return Status::Io(fmt::format("{}: cannot move to {}: {}", (sd / *uri).string(), (out_dir / to).string(), ec.message()));
+                    *uri = to;
+                }
+            }
+            built.records[g] = std::move(rec);
+        }
+        for (const auto& [node, list] : m.at("leaf_textures").items())
+            built.leaf_textures[static_cast<size_t>(base) + std::stoul(node)] = list.get<std::vector<int32_t>>();
+        built.subtree_features[base] = m.at("root_subtree_features").get<std::vector<uint32_t>>();
+        atlas::AtlasHalves halves;
+        for (int l = 0; l < atlas::kLayerCount; ++l) {
+            if (fs::exists(sd / layerFile("root-geometry", l))) {
+                auto geo = std::make_unique<tiles::NodeGeometry>();
+                if (Status s = readMesh(sd / layerFile("root-geometry", l), geo.get()); !s.ok()) return s;
+                built.root_geometry[base][static_cast<size_t>(l)] = std::move(geo);
+            }
+            if (fs::exists(sd / layerFile("root-halves", l))) {
+                atlas::AtlasCanvas c;
+                if (Status s = atlas::readCanvas(sd / layerFile("root-halves", l), &c); !s.ok()) return s;
+                halves[static_cast<size_t>(l)] = std::move(c);
+            }
+        }
+        given[base] = std::move(halves);
+        for (const json& step : m.at("steps")) {
+            r.shard_cost.seconds += step.at(1).get<double>();
+            r.shard_cost.cpu_seconds += step.at(2).get<double>();
+            r.shard_cost.peak_rss_mb = std::max(r.shard_cost.peak_rss_mb, step.at(3).get<double>());
+        }
+        addStats(m.at("stats"), &tree.stats);
+        addDiagnostics(m.at("warnings"), diagnostics);
+    }
+    built.texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
+
+    // The stats of the whole tree: the plan's decisions, the shards' sums.
+    atlas::AtlasStats& st = tree.stats;
+    st.scene_diagonal_m = globals.scene_diagonal_m;
+    st.d_min_choice = globals.d_min_choice;
+    st.d_min_requested_m = globals.d_min_requested_m;
+    st.d_min_used_m = globals.d_min_used_m;
+    st.d_full_m = globals.d_full_m;
+    st.d_first_upsampled_m = globals.d_first_upsampled_m;
+    st.textured_triangles = globals.textured_triangles;
+    st.degenerate_uv_triangles = globals.degenerate_uv_triangles;
+    st.critical_triangles = globals.critical_triangles;
+    st.enlarged_for_split_budget = globals.enlarged_for_split_budget;
+
+    // The top's atlases: the shard roots' halves placed, encoded as they are composed.
+    tiles::AtlasHandOff hand_off(tp.bc_quality, out_dir);
+    {
+        atlas::RenderResult rendered;
+        const auto report = [&](const char* step, uint64_t d, uint64_t t) {
+            if (progress) progress(fmt::format("merge: {}", step).c_str(), d, t);
+        };
+        if (Status s = atlas::renderAtlases(r.tables, tree, out_dir, report, &rendered, hand_off.sink(), &given); !s.ok())
+            return s;
+        for (size_t i = 0; i < n_nodes; ++i)
+            if (!built.built[i])
+                for (const atlas::NodeLayer& l : tree.nodes[i].layers)
+                    if (l.present()) {
+                        ++st.atlases;
+                        st.texels.inner += static_cast<uint64_t>(l.width) * l.height;
+                        st.bytes.atlases += atlas::bcBytesWithMips(l.width, l.height, &l == &tree.nodes[i].layers[1] ? 4 : 3);
+                    }
+    }
+    const tiles::EncodedAtlases encoded = hand_off.take(n_nodes);
+    return tiles::writeTileset(
+        r.tables, tree, out_dir, tp, out_dir, build_hash, diagnostics,
+        [&](const char* step, uint64_t d, uint64_t t) {
+            if (progress) progress(fmt::format("merge: {}", step).c_str(), d, t);
+        },
+        &r.tiles, &encoded, &built);
+}
+
+}  // namespace cityatlas::cli

@@ -1,0 +1,94 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// A sharded build (issue 17): plan, independent shard jobs, merge.
+///
+/// - **plan** (writePlan): the whole scene's GlobalDecisions (d_min, its
+///   enlargement for critical triangles, promotions), the tileset texture
+///   numbering and the top cuts (atlas/shard_plan.h); writes the plan folder:
+///   `plan.json` (parameters, decisions, the top), `tables.json` (textures,
+///   materials, features, georeference) and `shard-<k>.tri` (the shard's
+///   triangles, in scene order).
+/// - **shard k** (runShard): builds shard k's subtree completely, atlases and
+///   geometry, in `shard-<k>/` (written as `shard-<k>.part/`, renamed when
+///   complete): its node files named by the subtree's own numbering, and
+///   `manifest.json` with its nodes, their tileset records, the root's
+///   geometry and halved atlases for the levels above.
+/// - **merge** (mergeShards): the whole tree from the top and the manifests,
+///   the top's atlases (the shard roots' halves placed) and geometry (merged
+///   and simplified), every shard file renamed to its node's number in the
+///   whole tree, the original-texture blocks, the feature tables and
+///   tileset.json.
+///
+/// Each step reads only what the plan folder holds, so shards can run in
+/// this process, in local worker processes or as cluster jobs, with
+/// byte-identical results.
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "atlas/atlas_tree.h"
+#include "atlas/shard_plan.h"
+#include "core/resource_usage.h"
+#include "core/status.h"
+#include "ingest/diagnostics.h"
+#include "ingest/scene.h"
+#include "tiles/tileset.h"
+
+namespace cityatlas::cli {
+
+using ShardProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
+
+/// Writes the plan folder `dir` (created) for `scene`, whose triangles are
+/// given up (written to the shards' files and freed).
+Status writePlan(const std::filesystem::path& dir, Scene& scene, const atlas::ShardPlan& plan,
+                 const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
+                 const tiles::TilesParams& tiles_params);
+
+/// Builds shard `shard` of the plan in `dir`; `threads` 0 = all cores.
+Status runShard(const std::filesystem::path& dir, int shard, int threads, const ShardProgressFn& progress);
+
+/// Runs every shard of the plan in `dir`: in this process (`workers` 0), or
+/// in up to `workers` worker processes (`cityatlas shard`) side by side, each
+/// with its share of the cores.
+Status runShards(const std::filesystem::path& dir, int workers, int threads, const ShardProgressFn& progress);
+
+struct MergeResult {
+    Scene tables;               ///< textures, materials, features, georeference (no triangles)
+    uint64_t scene_triangles = 0;
+    atlas::AtlasTree tree;      ///< the whole tree, without triangles; stats summed over the shards
+    tiles::TilesStats tiles;
+    uint64_t shards = 0;
+    /// The shards' own costs: wall and CPU seconds summed over them (their
+    /// work, wherever it ran), peak memory the largest shard's.
+    StageCost shard_cost;
+};
+
+/// Merges the finished shards of the plan in `dir` into the tile folder `out_dir`.
+Status mergeShards(const std::filesystem::path& dir, const std::filesystem::path& out_dir,
+                   const std::string& build_hash, Diagnostics& diagnostics, const ShardProgressFn& progress,
+                   MergeResult* result);
+
+struct SlurmJobs {
+    std::string shards, merge;  ///< job ids
+};
+
+/// Submits the plan in `dir` to Slurm: the shards as one job array (each task
+/// `cityatlas shard DIR --index $SLURM_ARRAY_TASK_ID`), the merge as a job that
+/// runs after every task succeeded (`cityatlas merge DIR`; cancelled when one
+/// fails). `sbatch_args` go to both sbatch calls; logs to `logs`. With
+/// `wait`, returns when the merge job ends, an error when it failed.
+Status submitSlurm(const std::filesystem::path& dir, int shards, const std::vector<std::string>& sbatch_args,
+                   const std::filesystem::path& logs, bool wait, SlurmJobs* jobs);
+
+/// Counted warnings as JSON (code, count, first examples), and back: the
+/// counts add up into `diagnostics`, the examples kept are the first.
+nlohmann::json diagnosticsToJson(const Diagnostics& diagnostics);
+void addDiagnostics(const nlohmann::json& warnings, Diagnostics& diagnostics);
+
+}  // namespace cityatlas::cli
