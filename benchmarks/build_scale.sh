@@ -55,13 +55,15 @@ for name, extra in variants:
            "stages": {s["name"]: round(s["seconds"], 2) for s in rep["stages"]},
            "stage_peak_rss_mb": {s["name"]: round(s["peak_rss_mb"], 1) for s in rep["stages"] if ":" not in s["name"]},
            "bytes": rep["bytes"], "counts": rep["counts"], "errors": rep["errors"], "encoding": rep["encoding"],
-           "d_min": rep["d_min"], "root": {"features": rep["root"]["features"], "dropped": len(rep["root"]["features_dropped"])}}
+           "d_min": rep["d_min"], "root": {"features": rep["root"]["features"], "dropped": len(rep["root"]["features_dropped"])},
+           "shards": {k: v for k, v in rep.get("shards", {}).items() if k not in ("keys", "shard_features")}}
     records.append(rec)
     kept = [r for r in previous if r["run"] not in {x["run"] for x in records}]
     json.dump({"benchmark": "build", "town": town, "d_min": dmin, "cores": os.cpu_count(), "machine": platform.machine(),
                "runs": kept + records}, open(result, "w"), indent=2)
-    print(f"{name:8s} wall {rec['wall_s']:7.1f} s  CPU {rec['cpu_s']:7.1f} s ({rec['cpu_s'] / rec['wall_s']:.2f} cores)  read {rec['stages']['read']:6.1f}  atlas {rec['stages']['atlas']:7.1f}  "
-          f"tiles {rec['stages']['tiles']:7.1f}  peak {rec['peak_rss_mb']:7.0f} MB  geometry {rep['bytes']['geometry']/1e6:7.2f} MB  "
+    top_stages = "  ".join(f"{k} {v:6.1f}" for k, v in rec["stages"].items() if ":" not in k)  # read/atlas/tiles or read/plan/shards/merge
+    print(f"{name:8s} wall {rec['wall_s']:7.1f} s  CPU {rec['cpu_s']:7.1f} s ({rec['cpu_s'] / rec['wall_s']:.2f} cores)  {top_stages}  "
+          f"shards {rep.get('shards', {}).get('count', 1)}  peak {rec['peak_rss_mb']:7.0f} MB  geometry {rep['bytes']['geometry']/1e6:7.2f} MB  "
           f"atlases {rep['bytes']['atlases']/1e6:8.1f} MB  textures {rep['bytes']['textures']/1e6:7.1f} MB  "
           f"pos err {rep['errors']['position_mm_max']:7.2f} mm  PSNR min/mean {rep['errors']['atlas_psnr_db_min']:.2f}/"
           f"{rep['errors']['atlas_psnr_db_mean']:.2f} dB  BC {rep['encoding']['atlas_mpix_per_s']:.1f} MP/s", flush=True)

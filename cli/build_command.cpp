@@ -222,10 +222,21 @@ void addShardCost(const StageCost& c, ordered_json* out) {
 }
 
 ordered_json shardsJson(const atlas::ShardPlan& plan, const BuildCliOptions& opt, bool sharded) {
+    // Which features each shard holds: first, last and how many (feature ids are input order).
+    std::vector<std::array<int64_t, 3>> features(plan.shards(), {-1, -1, 0});
+    for (size_t f = 0; f < plan.shard_of_feature.size(); ++f) {
+        const int32_t k = plan.shard_of_feature[f];
+        if (k < 0) continue;
+        auto& x = features[static_cast<size_t>(k)];
+        if (x[0] < 0) x[0] = static_cast<int64_t>(f);
+        x[1] = static_cast<int64_t>(f);
+        ++x[2];
+    }
     return {{"count", plan.shards()},
             {"triangles_max", opt.shard_triangles},
             {"workers", sharded ? opt.workers : 0},
-            {"shard_triangles", plan.shard_triangles}};
+            {"shard_triangles", plan.shard_triangles},
+            {"shard_features", features}};
 }
 
 // The report, the folder moved into place, the summary on stdout.
@@ -474,7 +485,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     atlas::AtlasTree single_tree;
     MergeResult merged;
     tiles::TilesStats ts;
-    ordered_json shard_cost;
+    ordered_json shard_cost, shard_reuse;
     const atlas::ShardPlan shard_plan = atlas::planShards(scene, opt.shard_triangles);
     const bool sharded = shard_plan.shards() > 1 || opt.slurm;
     if (sharded) {
@@ -487,7 +498,17 @@ int runBuild(const BuildCliOptions& opt_in) {
         const fs::path plan_dir = tmp / ".plan";
         atlas::GlobalDecisions globals;
         if (Status s = atlas::decideGlobals(scene, params, &globals); !s.ok()) return abandon(s);
-        if (Status s = writePlan(plan_dir, scene, shard_plan, globals, params, opt.tiles); !s.ok()) return abandon(s);
+        std::map<std::string, std::string> digests;
+        for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
+        std::vector<std::string> keys;
+        if (Status s = writePlan(plan_dir, scene, shard_plan, globals, params, opt.tiles, digests, &keys); !s.ok())
+            return abandon(s);
+        // Incremental: the previous folder's shards with unchanged content keys (not with --force).
+        std::vector<int> reused;
+        if (!opt.force)
+            if (Status s = reuseShards(plan_dir, target / kShardCache, &reused); !s.ok()) return abandon(s);
+        shard_reuse = {{"reused", reused.size()}, {"built", shard_plan.shards() - reused.size()}, {"reused_shards", reused},
+                       {"keys", keys}};
         endStage("plan");
         if (opt.slurm) {
             // The shards and the merge as cluster jobs; the merge job finishes the build.
@@ -498,6 +519,7 @@ int runBuild(const BuildCliOptions& opt_in) {
             rec.textures = scene.textures.size();
             rec.started_unix = started_unix;
             rec.shards = shardsJson(shard_plan, opt, sharded);
+            for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
             const std::string text = recordJson(rec, stages, diagnostics).dump(1) + "\n";
             if (Status s = tiles::writeBytes(plan_dir / "build.json", text.data(), text.size()); !s.ok()) return abandon(s);
             fs::remove_all(work, ec);  // the atlas stage's PNG folder, unused by a sharded build
@@ -510,13 +532,14 @@ int runBuild(const BuildCliOptions& opt_in) {
             if (!opt.wait) {
                 std::printf("Submitted to Slurm: shards job %s (%zu tasks), merge job %s (after them); %s appears when "
                             "the merge ends (squeue -j %s; logs in %s)\n",
-                            jobs.shards.c_str(), shard_plan.shards(), jobs.merge.c_str(), target.string().c_str(),
+                            jobs.shards.empty() ? "none" : jobs.shards.c_str(), shard_plan.shards() - reused.size(),
+                            jobs.merge.c_str(), target.string().c_str(),
                             jobs.merge.c_str(), logs.string().c_str());
                 return kExitOk;
             }
             std::printf("Built %s on Slurm: shards job %s (%zu tasks), merge job %s; logs in %s\n",
-                        target.string().c_str(), jobs.shards.c_str(), shard_plan.shards(), jobs.merge.c_str(),
-                        logs.string().c_str());
+                        target.string().c_str(), jobs.shards.empty() ? "none" : jobs.shards.c_str(),
+                        shard_plan.shards() - reused.size(), jobs.merge.c_str(), logs.string().c_str());
             return kExitOk;
         }
         const auto report = [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); };
@@ -572,6 +595,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     rec.started_unix = started_unix;
     rec.shards = shardsJson(shard_plan, opt, sharded);
     if (!shard_cost.is_null()) rec.shards["cost"] = shard_cost;
+    for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
     return finishBuild(rec, tree, ts, t3, diagnostics, stages, progress);
 }
 
@@ -681,7 +705,7 @@ RunFn addBuildCommand(CLI::App& app) {
                     "whole buildings, area-balanced cuts) and a merge of the levels above them; memory follows the "
                     "shard, not the city")
         ->default_val(2'000'000)
-        ->check(CLI::Range(uint64_t{1000}, uint64_t{1} << 40))
+        ->check(CLI::Range(uint64_t{100}, uint64_t{1} << 40))
         ->group(sh);
     cmd->add_option("--workers", opt->workers,
                     "Shards built side by side in worker processes, each with its share of the cores (0: one after "

@@ -13,11 +13,13 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <memory>
 #include <type_traits>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <tbb/info.h>
+#include <xxhash.h>
 
 #include "atlas/atlas_images.h"
 #include "tiles/texture_blocks.h"
@@ -271,7 +273,6 @@ json recordJson(const tiles::NodeRecord& r) {
                           {"atlas_bytes", l.atlas_bytes},
                           {"atlas_mips", l.atlas_mips},
                           {"atlas_psnr_db", num(l.atlas_psnr_db)},
-                          {"atlas_encode_seconds", l.atlas_encode_seconds},
                           {"atlas_texels", l.atlas_texels}});
     return {{"layers", layers}, {"features", r.features}, {"dropped", r.dropped}};
 }
@@ -297,7 +298,6 @@ tiles::NodeRecord recordFrom(const json& j) {
         l.atlas_bytes = x.at("atlas_bytes");
         l.atlas_mips = x.at("atlas_mips");
         l.atlas_psnr_db = numOr(x.at("atlas_psnr_db"), inf);  // +inf: BC reproduced the atlas exactly
-        l.atlas_encode_seconds = x.at("atlas_encode_seconds");
         l.atlas_texels = x.at("atlas_texels");
     }
     r.features = j.at("features").get<std::vector<uint32_t>>();
@@ -412,8 +412,41 @@ void addDiagnostics(const nlohmann::json& w, Diagnostics& d) {
     }
 }
 
+namespace {
+
+// A shard's content key: everything its files depend on (cli/shards.h,
+// "Incremental rebuilds"), hashed field by field (a triangle's padding bytes
+// are not part of it).
+class ShardKey {
+public:
+    ShardKey() : state_(XXH3_createState(), &XXH3_freeState) { XXH3_64bits_reset(state_.get()); }
+    void add(const void* data, size_t n) { XXH3_64bits_update(state_.get(), data, n); }
+    void add(const std::string& s) {
+        const uint64_t n = s.size();
+        add(&n, sizeof n);
+        add(s.data(), s.size());
+    }
+    template <typename T>
+    void addValue(const T& v) {
+        static_assert(std::is_arithmetic_v<T>);
+        add(&v, sizeof v);
+    }
+    void add(const Triangle& t) {
+        for (const Vec3d& p : t.position_local) addValue(p.x), addValue(p.y), addValue(p.z);
+        for (const Vec2d& u : t.uv) addValue(u.x), addValue(u.y);
+        addValue(t.texture), addValue(t.material), addValue(t.feature), addValue(static_cast<uint8_t>(t.semantic));
+    }
+    std::string digest() const { return fmt::format("{:016x}", XXH3_64bits_digest(state_.get())); }
+
+private:
+    std::unique_ptr<XXH3_state_t, decltype(&XXH3_freeState)> state_;
+};
+
+}  // namespace
+
 Status writePlan(const fs::path& dir, Scene& scene, const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
-                 const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params) {
+                 const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params,
+                 const std::map<std::string, std::string>& texture_digests, std::vector<std::string>* keys_out) {
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
@@ -423,7 +456,7 @@ Status writePlan(const fs::path& dir, Scene& scene, const atlas::ShardPlan& plan
     json top = json::array();
     for (const atlas::PlanNode& n : plan.nodes)
         top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
-    const json j = {{"format", kPlanFormat},
+    json j = {{"format", kPlanFormat},
                     {"kind", "cityatlas-shard-plan"},
                     {"atlas", atlasParamsJson(atlas_params)},
                     {"tiles", tilesParamsJson(tiles_params)},
@@ -439,16 +472,74 @@ Status writePlan(const fs::path& dir, Scene& scene, const atlas::ShardPlan& plan
         files[k].open(dir / fmt::format("{}.tri", shardName(static_cast<int>(k))), std::ios::binary);
         if (!files[k]) return Status::Io(fmt::format("{}: cannot create", (dir / shardName(static_cast<int>(k))).string()));
     }
+    std::vector<ShardKey> keys(plan.shards());
+    std::vector<std::vector<uint8_t>> textures_of(plan.shards(), std::vector<uint8_t>(scene.textures.size(), 0));
+    std::vector<std::vector<uint8_t>> materials_of(plan.shards(), std::vector<uint8_t>(scene.materials.size(), 0));
     for (const Triangle& t : scene.triangles) {
-        const int32_t k = plan.shard_of_feature[t.feature];
-        files[static_cast<size_t>(k)].write(reinterpret_cast<const char*>(&t), sizeof t);
+        const auto k = static_cast<size_t>(plan.shard_of_feature[t.feature]);
+        files[k].write(reinterpret_cast<const char*>(&t), sizeof t);
+        keys[k].add(t);
+        if (t.texture >= 0) textures_of[k][static_cast<size_t>(t.texture)] = 1;
+        if (t.material >= 0) materials_of[k][static_cast<size_t>(t.material)] = 1;
     }
     for (size_t k = 0; k < files.size(); ++k) {
         files[k].close();
         if (!files[k]) return Status::Io(fmt::format("{}.tri: cannot write", (dir / shardName(static_cast<int>(k))).string()));
     }
+    // Besides its triangles, a shard depends on the parameters, the distance
+    // every node is built for, its level, and the textures and materials it
+    // uses: their entries, tileset numbers, promotions and file contents.
+    const std::vector<int32_t> texture_index = j.at("texture_index").get<std::vector<int32_t>>();
+    const std::string common = fmt::format("{} {} {} {} writer {}", kPlanFormat, j.at("atlas").dump(), j.at("tiles").dump(),
+                                           globals.d_min_used_m, tiles::kWriterRevision);
+    std::vector<int> level(plan.shards(), 0);
+    for (const atlas::PlanNode& n : plan.nodes)
+        if (n.shard >= 0) level[static_cast<size_t>(n.shard)] = n.level;
+    std::vector<std::string> key_list;
+    for (size_t k = 0; k < keys.size(); ++k) {
+        ShardKey& key = keys[k];
+        key.add(common);
+        key.addValue(level[k]);
+        for (size_t t = 0; t < scene.textures.size(); ++t) {
+            if (!textures_of[k][t]) continue;
+            const TextureRef& r = scene.textures[t];
+            const auto digest = texture_digests.find(r.path);
+            key.add(fmt::format("texture {} {} {} {} {} {} {} {} {}", t, r.path, r.width_px, r.height_px, r.channels,
+                                static_cast<int>(r.wrap), texture_index[t], globals.promote[t],
+                                digest == texture_digests.end() ? "unreadable" : digest->second));
+        }
+        for (size_t m = 0; m < scene.materials.size(); ++m)
+            if (materials_of[k][m])
+                key.add(fmt::format("material {} {} {} {} {}", m, scene.materials[m].diffuse[0], scene.materials[m].diffuse[1],
+                                    scene.materials[m].diffuse[2], scene.materials[m].transparency));
+        key_list.push_back(key.digest());
+    }
+    j["shard_keys"] = key_list;
+    if (keys_out) *keys_out = key_list;
     std::vector<Triangle>().swap(scene.triangles);
     return writeJson(dir / "plan.json", j);  // last: a plan folder with plan.json is complete
+}
+
+Status reuseShards(const fs::path& dir, const fs::path& cache, std::vector<int>* reused) {
+    json plan;
+    if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
+    const auto keys = plan.at("shard_keys").get<std::vector<std::string>>();
+    for (size_t k = 0; k < keys.size(); ++k) {
+        const fs::path from = cache / keys[k];
+        if (!fs::exists(from / "manifest.json")) continue;
+        const fs::path to = dir / shardName(static_cast<int>(k));
+        std::error_code ec;
+        fs::remove_all(to, ec);
+        // Hard links: no bytes copied (the cache sits beside the new folder, on the same filesystem).
+        fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::create_hard_links, ec);
+        if (ec) {
+            fs::remove_all(to, ec);
+            fs::copy(from, to, fs::copy_options::recursive, ec);
+        }
+        if (ec) return Status::Io(fmt::format("{}: cannot reuse it: {}", from.string(), ec.message()));
+        reused->push_back(static_cast<int>(k));
+    }
+    return Status::Ok();
 }
 
 Status runShard(const fs::path& dir, int shard, int threads, const ShardProgressFn& progress) {
@@ -532,9 +623,13 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
                            {"root_subtree_features", files.root_subtree_features},
                            {"leaf_textures", leaf_textures},
                            {"stats", statsJson(tree.stats)},
-                           {"steps", steps},
                            {"warnings", diagnosticsToJson(diagnostics)}};
     if (Status s = writeJson(part / "manifest.json", manifest); !s.ok()) return s;
+    // Timings apart: the manifest stays the same for the same shard, wherever and whenever it ran.
+    json encode = json::array();
+    for (const tiles::NodeRecord& r : files.records)
+        for (const tiles::LayerRecord& l : r.layers) encode.push_back(l.atlas_encode_seconds);
+    if (Status s = writeJson(part / "steps.json", {{"steps", steps}, {"atlas_encode_seconds", encode}}); !s.ok()) return s;
     fs::remove_all(done, ec);
     fs::rename(part, done, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot rename to {}: {}", part.string(), done.string(), ec.message()));
@@ -593,14 +688,28 @@ Status runCapture(const std::vector<std::string>& args, std::string* out) {
 
 }  // namespace
 
+std::vector<int> shardsToBuild(const fs::path& dir) {
+    json plan;
+    std::vector<int> todo;
+    if (!readJson(dir / "plan.json", &plan).ok()) return todo;
+    const int total = static_cast<int>(plan.at("shard_triangles").size());
+    for (int k = 0; k < total; ++k)
+        if (!fs::exists(dir / shardName(k) / "manifest.json")) todo.push_back(k);
+    return todo;
+}
+
 Status runShards(const fs::path& dir, int workers, int threads, const ShardProgressFn& progress) {
     json plan;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
-    const int shards = static_cast<int>(plan.at("shard_triangles").size());
+    const int total = static_cast<int>(plan.at("shard_triangles").size());
+    std::vector<int> todo = shardsToBuild(dir);
+    const int shards = static_cast<int>(todo.size());
     if (workers <= 0) {
-        for (int k = 0; k < shards; ++k) {
-            if (progress) progress("shards", static_cast<uint64_t>(k), static_cast<uint64_t>(shards));
-            if (Status s = runShard(dir, k, threads, {}); !s.ok()) return Status::Io(fmt::format("shard {}: {}", k, s.error));
+        for (int i = 0; i < shards; ++i) {
+            const int k = todo[static_cast<size_t>(i)];
+            if (progress) progress("shards", static_cast<uint64_t>(i), static_cast<uint64_t>(shards));
+            if (Status s = runShard(dir, k, threads, {}); !s.ok())
+                return Status::Io(fmt::format("shard {} of {}: {}", k, total, s.error));
         }
         if (progress) progress("shards", static_cast<uint64_t>(shards), static_cast<uint64_t>(shards));
         return Status::Ok();
@@ -616,7 +725,7 @@ Status runShards(const fs::path& dir, int workers, int threads, const ShardProgr
     Status first_error = Status::Ok();
     while (finished < shards) {
         while (first_error.ok() && next < shards && static_cast<int>(running.size()) < running_max) {
-            std::vector<std::string> args = {self, "shard", dir.string(), "--index", std::to_string(next),
+            std::vector<std::string> args = {self, "shard", dir.string(), "--index", std::to_string(todo[static_cast<size_t>(next)]),
                                              "--threads", std::to_string(per_worker), "--quiet"};
             std::vector<char*> argv;
             for (std::string& a : args) argv.push_back(a.data());
@@ -624,7 +733,7 @@ Status runShards(const fs::path& dir, int workers, int threads, const ShardProgr
             pid_t pid = 0;
             if (const int e = posix_spawn(&pid, self.c_str(), nullptr, nullptr, argv.data(), environ); e != 0)
                 return Status::Io(fmt::format("cannot start a shard worker ({}): {}", self, std::strerror(e)));
-            running[pid] = next++;
+            running[pid] = todo[static_cast<size_t>(next++)];
         }
         if (running.empty()) break;
         int status = 0;
@@ -637,7 +746,7 @@ Status runShards(const fs::path& dir, int workers, int threads, const ShardProgr
         ++finished;
         if (progress) progress("shards", static_cast<uint64_t>(finished), static_cast<uint64_t>(shards));
         if (first_error.ok() && !(WIFEXITED(status) && WEXITSTATUS(status) == 0))
-            first_error = Status::Io(fmt::format("shard {} of {}: its worker (cityatlas shard) {}", k, shards,
+            first_error = Status::Io(fmt::format("shard {} of {}: its worker (cityatlas shard) {}", k, total,
                                                  WIFEXITED(status) ? fmt::format("exited with {}", WEXITSTATUS(status))
                                                                    : fmt::format("was killed by signal {}", WTERMSIG(status))));
         if (!first_error.ok() && next < shards) {
@@ -667,19 +776,28 @@ Status submitSlurm(const fs::path& dir, int shards, const std::vector<std::strin
     if (Status s = tiles::writeBytes(plan / "shard.sh", shard_script.data(), shard_script.size()); !s.ok()) return s;
     if (Status s = tiles::writeBytes(plan / "merge.sh", merge_script.data(), merge_script.size()); !s.ok()) return s;
     auto jobId = [](const std::string& out) { return out.substr(0, out.find_first_of(";\n")); };
-    std::vector<std::string> a = {"sbatch", "--parsable", "--job-name=cityatlas-shards",
-                                  fmt::format("--array=0-{}", shards - 1),
-                                  fmt::format("--output={}", (log_dir / "shard-%a.log").string())};
-    a.insert(a.end(), sbatch_args.begin(), sbatch_args.end());
-    a.push_back((plan / "shard.sh").string());
+    (void)shards;
+    const std::vector<int> todo = shardsToBuild(plan);  // reused ones are there already
     std::string out;
-    if (Status s = runCapture(a, &out); !s.ok())
-        return Status::Io(fmt::format("--slurm: submitting the shards: {}", s.error));
-    jobs->shards = jobId(out);
-    if (jobs->shards.empty()) return Status::Io("--slurm: sbatch printed no job id for the shards");
+    if (!todo.empty()) {
+        std::string indices;
+        for (int k : todo) indices += (indices.empty() ? "" : ",") + std::to_string(k);
+        std::vector<std::string> a = {"sbatch", "--parsable", "--job-name=cityatlas-shards",
+                                      fmt::format("--array={}", indices),
+                                      fmt::format("--output={}", (log_dir / "shard-%a.log").string())};
+        a.insert(a.end(), sbatch_args.begin(), sbatch_args.end());
+        a.push_back((plan / "shard.sh").string());
+        if (Status s = runCapture(a, &out); !s.ok())
+            return Status::Io(fmt::format("--slurm: submitting the shards: {}", s.error));
+        jobs->shards = jobId(out);
+        if (jobs->shards.empty()) return Status::Io("--slurm: sbatch printed no job id for the shards");
+    }
     std::vector<std::string> m = {"sbatch", "--parsable", "--job-name=cityatlas-merge",
-                                  fmt::format("--dependency=afterok:{}", jobs->shards), "--kill-on-invalid-dep=yes",
                                   fmt::format("--output={}", (log_dir / "merge.log").string())};
+    if (!todo.empty()) {
+        m.push_back(fmt::format("--dependency=afterok:{}", jobs->shards));
+        m.push_back("--kill-on-invalid-dep=yes");
+    }
     m.insert(m.end(), sbatch_args.begin(), sbatch_args.end());
     if (wait) m.push_back("--wait");
     m.push_back((plan / "merge.sh").string());
@@ -766,8 +884,10 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
                 for (auto [uri, kind, ext] : {std::tuple{&lr.geometry_uri, "geometry", "glb"}, std::tuple{&lr.atlas_uri, "atlas", "dds"}}) {
                     if (uri->empty()) continue;
                     const std::string to = fmt::format("{}/{}/{}.{}", kind, layer, g, ext);
-                    fs::rename(sd / *uri, out_dir / to, ec);
-                    if (ec) return Status::Io(fmt::format("{}: cannot move to {}: {}", (sd / *uri).string(), (out_dir / to).string(), ec.message()));
+                    // A hard link: the shard keeps its files for the next build to reuse.
+                    fs::create_hard_link(sd / *uri, out_dir / to, ec);
+                    if (ec) fs::copy_file(sd / *uri, out_dir / to, fs::copy_options::overwrite_existing, ec);
+                    if (ec) return Status::Io(fmt::format("{}: cannot link to {}: {}", (sd / *uri).string(), (out_dir / to).string(), ec.message()));
                     *uri = to;
                 }
             }
@@ -790,7 +910,16 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
             }
         }
         given[base] = std::move(halves);
-        for (const json& step : m.at("steps")) {
+        json timing = {{"steps", json::array()}, {"atlas_encode_seconds", json::array()}};  // a reused shard's were spent earlier
+        if (fs::exists(sd / "steps.json"))
+            if (Status s = readJson(sd / "steps.json", &timing); !s.ok()) return s;
+        fs::remove(sd / "steps.json", ec);
+        const json& encode = timing.at("atlas_encode_seconds");
+        for (size_t i = 0; i < records.size() && encode.size() == records.size() * atlas::kLayerCount; ++i)
+            for (size_t l = 0; l < atlas::kLayerCount; ++l)
+                built.records[static_cast<size_t>(base) + i].layers[l].atlas_encode_seconds =
+                    encode.at(i * atlas::kLayerCount + l).get<double>();
+        for (const json& step : timing.at("steps")) {
             r.shard_cost.seconds += step.at(1).get<double>();
             r.shard_cost.cpu_seconds += step.at(2).get<double>();
             r.shard_cost.peak_rss_mb = std::max(r.shard_cost.peak_rss_mb, step.at(3).get<double>());
@@ -799,6 +928,17 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         addDiagnostics(m.at("warnings"), diagnostics);
     }
     built.texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
+    // The shards, by content key, for the next build of this folder (reuseShards).
+    const auto keys = plan.at("shard_keys").get<std::vector<std::string>>();
+    const fs::path cache = out_dir / kShardCache;
+    fs::create_directories(cache, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", cache.string(), ec.message()));
+    for (size_t k = 0; k < shards; ++k) {
+        fs::remove_all(cache / keys[k], ec);
+        fs::rename(dir / shardName(static_cast<int>(k)), cache / keys[k], ec);
+        if (ec) return Status::Io(fmt::format("{}: cannot keep it in {}: {}", (dir / shardName(static_cast<int>(k))).string(),
+                                              cache.string(), ec.message()));
+    }
 
     // The stats of the whole tree: the plan's decisions, the shards' sums.
     atlas::AtlasStats& st = tree.stats;

@@ -14,6 +14,9 @@
 ///   complete): its node files named by the subtree's own numbering, and
 ///   `manifest.json` with its nodes, their tileset records, the root's
 ///   geometry and halved atlases for the levels above.
+/// - **reuse** (reuseShards): a rebuild links in the previous build's shards
+///   whose content key (triangles, parameters, d_min, level, the textures'
+///   and materials' entries and file contents) is unchanged.
 /// - **merge** (mergeShards): the whole tree from the top and the manifests,
 ///   the top's atlases (the shard roots' halves placed) and geometry (merged
 ///   and simplified), every shard file renamed to its node's number in the
@@ -27,6 +30,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -46,9 +50,26 @@ using ShardProgressFn = std::function<void(const char* step, uint64_t done, uint
 
 /// Writes the plan folder `dir` (created) for `scene`, whose triangles are
 /// given up (written to the shards' files and freed).
+/// `texture_digests` (texture path -> xxh3 of the file) enter the shards'
+/// content keys (`keys`, also in plan.json).
 Status writePlan(const std::filesystem::path& dir, Scene& scene, const atlas::ShardPlan& plan,
                  const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
-                 const tiles::TilesParams& tiles_params);
+                 const tiles::TilesParams& tiles_params, const std::map<std::string, std::string>& texture_digests,
+                 std::vector<std::string>* keys);
+
+/// Where a sharded build keeps its shards, by content key, inside its folder
+/// (hard links to the folder's own files, plus each shard's manifest, root
+/// geometry and halved root atlases): the next build of the folder reuses
+/// every shard whose key is unchanged.
+inline constexpr const char* kShardCache = ".cityatlas-cache/shards";
+
+/// Incremental rebuilds: every shard of the plan in `dir` whose key has a
+/// finished shard in `cache` (a previous build's kShardCache) is linked into
+/// place instead of being built again; `reused` lists them.
+Status reuseShards(const std::filesystem::path& dir, const std::filesystem::path& cache, std::vector<int>* reused);
+
+/// The shards of the plan in `dir` not finished yet.
+std::vector<int> shardsToBuild(const std::filesystem::path& dir);
 
 /// Builds shard `shard` of the plan in `dir`; `threads` 0 = all cores.
 Status runShard(const std::filesystem::path& dir, int shard, int threads, const ShardProgressFn& progress);

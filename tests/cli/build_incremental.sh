@@ -1,0 +1,72 @@
+# Incremental rebuilds of a sharded build (cli/shards.h, reuseShards): two
+# towns 3 km apart as two input files, cut into shards; then
+#  1. one building of one town's CityGML moved by 1 m: the rebuild builds
+#     only the shard holding it, reuses the others, and gives the folder a
+#     full build of the new inputs gives, byte for byte;
+#  2. one facade texture's pixels changed (same size): only the shard holding
+#     its building is built again, the rest reused, and again the folder
+#     equals a full build;
+#  3. --force rebuilds every shard and gives the same folder.
+source "$(dirname "$0")/lib.sh" "$@"
+
+synth() {  # synth DIR SEED EAST
+  "$CITYATLAS" synth -q --buildings 30 --seed "$2" --texture-size 64 --origin "$3",5334000 -o "$1" --overwrite > /dev/null
+}
+synth a 5 690000
+synth b 6 693000
+args=(--shard-triangles 300 --d-min 150 -q)
+"$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the first build failed"
+total=$(json out/build_report.json "j['shards']['count']")
+[ "$total" -ge 4 ] || fail "expected at least 4 shards, got $total"
+check_eq "first build: reused" 0 "$(json out/build_report.json "j['shards']['reused']")"
+
+same_as_full() {  # same_as_full WHAT: out equals a full build of the current inputs
+  rm -rf full
+  "$CITYATLAS" build a/town.gml b/town.gml -o full "${args[@]}" > /dev/null || fail "$1: the full build failed"
+  diff -r -q --exclude build_report.json --exclude .cityatlas-cache out full > diff.txt ||
+    { head diff.txt >&2; fail "$1: the incremental build differs from the full build"; }
+  check_eq "$1: shard keys as the full build's" "$(json full/build_report.json "j['shards']['keys']")" \
+    "$(json out/build_report.json "j['shards']['keys']")"
+  echo "ok: $1: the incremental folder equals the full build ($(find out -type f -not -path '*cache*' | wc -l) files)"
+}
+
+# 1. One building of town b moved 1 m east (its areas, and so the cuts, unchanged).
+"$PY" - b/town.gml <<'PYEOF'
+import re, sys
+path = sys.argv[1]
+text = open(path).read()
+start = text.index('<bldg:Building gml:id="bldg_000030">')
+end = text.index('</bldg:Building>', start)
+def shift(m):
+    v = [float(x) for x in m.group(2).split()]
+    for i in range(0, len(v), 3): v[i] += 1.0
+    return m.group(1) + " ".join(repr(x) for x in v) + m.group(3)
+# synth writes gml:posList or gml:pos, by seed: both.
+part, n = re.subn(r'(<gml:pos(?:List)?[^>]*>)([^<]*)(</gml:pos(?:List)?>)', shift, text[start:end])
+if n == 0: sys.exit("no coordinates found in bldg_000030")
+open(path, "w").write(text[:start] + part + text[end:])
+PYEOF
+"$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the rebuild after b changed failed"
+check_eq "b's building moved: shards built (the one holding it)" 1 "$(json out/build_report.json "j['shards']['built']")"
+check_eq "b's building moved: shards reused" "$((total - 1))" "$(json out/build_report.json "j['shards']['reused']")"
+same_as_full "b's building moved"
+
+# 2. One of a's facade textures repainted (same size): only its shards are built.
+tex=$(ls a/textures/*.png | head -1)
+"$PY" - "$tex" <<'PYEOF'
+import struct, sys, zlib
+# A 64 x 64 RGB PNG, one flat colour: same size, other pixels.
+def chunk(t, d): return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+raw = b"".join(b"\x00" + bytes([200, 40, 90]) * 64 for _ in range(64))
+png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 64, 64, 8, 2, 0, 0, 0)) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+open(sys.argv[1], "wb").write(png)
+PYEOF
+"$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the rebuild after a texture changed failed"
+# facade_000001.png is building 1's alone (synth: one facade texture per building).
+check_eq "texture changed: shards built (the one holding its building)" 1 "$(json out/build_report.json "j['shards']['built']")"
+same_as_full "texture changed"
+
+# 3. --force: nothing reused, same folder.
+"$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" --force > /dev/null || fail "--force failed"
+check_eq "--force: shards reused" 0 "$(json out/build_report.json "j['shards']['reused']")"
+same_as_full "--force"
