@@ -54,6 +54,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -285,6 +286,36 @@ struct GlobalDecisions {
 
 /// The whole scene's GlobalDecisions (the first pass of buildAtlasTree).
 Status decideGlobals(const Scene& scene, const AtlasParams& params, GlobalDecisions* out);
+
+class TextureModelBuilder;
+class CriticalDistanceBuilder;
+struct TextureModel;
+
+/// decideGlobals over triangles streamed twice (an input never held whole):
+/// add() every triangle, chooseDistance(), addForCritical() every triangle
+/// again, finish(). Memory: the texture models' 48 bytes a textured triangle
+/// until chooseDistance(), then those models (the promotions need them) and
+/// the critical triangles' distances.
+class GlobalsBuilder {
+public:
+    GlobalsBuilder(const std::vector<TextureRef>& textures, const AtlasParams& params);
+    ~GlobalsBuilder();
+    void add(const Triangle& t);
+    Status chooseDistance();  ///< d_min as requested; an error for a scene of zero extent
+    void addForCritical(const Triangle& t);
+    GlobalDecisions finish();
+
+private:
+    const std::vector<TextureRef>& textures_;
+    AtlasParams params_;
+    double ppm_;
+    Box3d box_;
+    std::unique_ptr<TextureModelBuilder> models_;
+    std::vector<TextureModel> models_done_;
+    std::vector<double> s_max_, t_max_;
+    std::unique_ptr<CriticalDistanceBuilder> critical_;
+    GlobalDecisions g_;
+};
 
 /// An atlas image in linear light, premultiplied RGBA floats, rows bottom-up
 /// (v up): what the renderer composes inner atlases from.

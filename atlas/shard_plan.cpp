@@ -13,30 +13,43 @@
 
 namespace cityatlas::atlas {
 
+void FeatureSummaries::add(const Triangle& t) {
+    const size_t f = t.feature;
+    if (f >= count.size()) {
+        const size_t n = std::max(f + 1, count.size() * 2);
+        count.resize(n, 0), weight.resize(n, 0), area.resize(n, 0), point.resize(n, Vec3d{0, 0, 0});
+    }
+    const double a = triangleArea(t.position_local);
+    const Vec3d c = (1.0 / 3.0) * (t.position_local[0] + t.position_local[1] + t.position_local[2]);
+    ++count[f];
+    // Every triangle places its feature (a zero-area one still counts a little);
+    // only textured area weighs in the cut, as in the tree (tree_build.cpp).
+    const double w = a > 0 ? a : 1e-300;
+    point[f] = point[f] + w * c;
+    area[f] += w;
+    if (t.texture >= 0) weight[f] += a;
+}
+
 ShardPlan planShards(const Scene& scene, uint64_t max_triangles) {
+    FeatureSummaries s;
+    for (const Triangle& t : scene.triangles) s.add(t);
+    return planShards(s, scene.features.size(), max_triangles);
+}
+
+ShardPlan planShards(const FeatureSummaries& summaries, size_t features, uint64_t max_triangles) {
     ShardPlan plan;
-    const size_t nf = scene.features.size();
+    const size_t nf = features;
     std::vector<uint64_t> count(nf, 0);
-    std::vector<double> weight(nf, 0), area(nf, 0);
+    std::vector<double> weight(nf, 0);
     std::vector<Vec3d> point(nf, Vec3d{0, 0, 0});
-    for (const Triangle& t : scene.triangles) {
-        if (t.feature >= nf) continue;
-        const double a = triangleArea(t.position_local);
-        const Vec3d c = (1.0 / 3.0) * (t.position_local[0] + t.position_local[1] + t.position_local[2]);
-        ++count[t.feature];
-        // Every triangle places its feature (a zero-area one still counts a little);
-        // only textured area weighs in the cut, as in the tree (tree_build.cpp).
-        const double w = a > 0 ? a : 1e-300;
-        point[t.feature] = point[t.feature] + w * c;
-        area[t.feature] += w;
-        if (t.texture >= 0) weight[t.feature] += a;
+    for (size_t f = 0; f < std::min(nf, summaries.count.size()); ++f) {
+        count[f] = summaries.count[f];
+        weight[f] = summaries.weight[f];
+        if (count[f] > 0) point[f] = (1.0 / summaries.area[f]) * summaries.point[f];
     }
     std::vector<uint32_t> all;
     for (uint32_t f = 0; f < nf; ++f)
-        if (count[f] > 0) {
-            point[f] = (1.0 / area[f]) * point[f];
-            all.push_back(f);
-        }
+        if (count[f] > 0) all.push_back(f);
     plan.shard_of_feature.assign(nf, -1);
     std::function<int32_t(std::vector<uint32_t>, int32_t, int)> cut = [&](std::vector<uint32_t> ids, int32_t parent,
                                                                           int level) {

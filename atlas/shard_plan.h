@@ -39,9 +39,20 @@ struct ShardPlan {
     size_t shards() const { return shard_triangles.size(); }
 };
 
+/// What the plan needs of each feature, gathered one triangle at a time.
+struct FeatureSummaries {
+    std::vector<uint64_t> count;      ///< triangles
+    std::vector<double> weight;       ///< textured area (the cut's weight)
+    std::vector<double> area;         ///< all area (zero-area triangles a little)
+    std::vector<Vec3d> point;         ///< area-weighted sum of triangle centroids
+    void add(const Triangle& t);
+};
+
 /// Cuts `scene` into shards of at most `max_triangles` triangles (a single
 /// feature larger than that is a shard of its own). Deterministic.
 ShardPlan planShards(const Scene& scene, uint64_t max_triangles);
+/// The same from summaries of `features` features.
+ShardPlan planShards(const FeatureSummaries& summaries, size_t features, uint64_t max_triangles);
 
 /// The whole tree from the plan's top and the shards' trees (each numbered
 /// from 0 at its root, with levels from 0, without triangles): nodes in

@@ -19,9 +19,11 @@ uint64_t bcBytesWithMips(int width, int height, int channels) {
     return bytes;
 }
 
-std::vector<NativeSize> nativeSizes(const Scene& scene) {
-    std::vector<NativeSize> n(scene.textures.size());
-    for (size_t i = 0; i < n.size(); ++i) n[i] = {std::max(0, scene.textures[i].width_px), std::max(0, scene.textures[i].height_px)};
+std::vector<NativeSize> nativeSizes(const Scene& scene) { return nativeSizes(scene.textures); }
+
+std::vector<NativeSize> nativeSizes(const std::vector<TextureRef>& textures) {
+    std::vector<NativeSize> n(textures.size());
+    for (size_t i = 0; i < n.size(); ++i) n[i] = {std::max(0, textures[i].width_px), std::max(0, textures[i].height_px)};
     return n;
 }
 

@@ -178,33 +178,37 @@ void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, std
 
 }  // namespace
 
-CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d_min_requested_m,
-                                double pixels_per_metre_at_1m, int atlas_size, int border, double critical_fraction,
-                                std::span<const NativeSize> native) {
+CriticalDistanceBuilder::CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
+                                                 int border, double critical_fraction, std::vector<NativeSize> native)
+    : d_req_(d_min_requested_m), ppm_(pixels_per_metre_at_1m), room_(atlas_size - 2.0 * border),
+      fraction_(critical_fraction), native_(std::move(native)) {}
+
+// The distance from which each triangle stops being critical: its content
+// is inversely proportional to d_min, the border is not.
+void CriticalDistanceBuilder::add(const Triangle& t) {
+    if (t.texture < 0) return;
+    ++textured_;
+    const TexelDensity d = texelDensity(t);
+    const double f = ppm_ / d_req_;
+    const auto [w, h] = contentTexels(d, f, nativeOf(t, native_));
+    if (std::max(w, h) <= room_) return;
+    // An axis too large even capped fits once the resolution d_min asks for does.
+    const auto [w0, h0] = contentTexels(d, f);
+    fits_from_.push_back(d_req_ * std::max(w > room_ ? w0 : 0.0, h > room_ ? h0 : 0.0) / room_);
+    // At its texture's own resolution a capped axis stops growing with 1/d.
+    const NativeSize n = nativeOf(t, native_);
+    const double cap_w = n.w > 0 ? n.w * (d.uv_max.x - d.uv_min.x) + 2.0 : 1e300;
+    const double cap_h = n.h > 0 ? n.h * (d.uv_max.y - d.uv_min.y) + 2.0 : 1e300;
+    overshoot_cap_.emplace_back(fits_from_.back(), std::max(w > room_ ? cap_w : 0.0, h > room_ ? cap_h : 0.0) / room_);
+}
+
+CriticalResult CriticalDistanceBuilder::finish() {
     CriticalResult r;
-    r.d_min_used_m = d_min_requested_m;
-    // The distance from which each triangle stops being critical: its content
-    // is inversely proportional to d_min, the border is not.
-    const double room = atlas_size - 2.0 * border;
-    std::vector<double> fits_from;
-    std::vector<std::pair<double, double>> overshoot_cap;  // (fits_from, largest capped content / room)
-    uint64_t textured = 0;
-    for (const Triangle& t : triangles) {
-        if (t.texture < 0) continue;
-        ++textured;
-        const TexelDensity d = texelDensity(t);
-        const double f = pixels_per_metre_at_1m / d_min_requested_m;
-        const auto [w, h] = contentTexels(d, f, nativeOf(t, native));
-        if (std::max(w, h) <= room) continue;
-        // An axis too large even capped fits once the resolution d_min asks for does.
-        const auto [w0, h0] = contentTexels(d, f);
-        fits_from.push_back(d_min_requested_m * std::max(w > room ? w0 : 0.0, h > room ? h0 : 0.0) / room);
-        // At its texture's own resolution a capped axis stops growing with 1/d.
-        const NativeSize n = nativeOf(t, native);
-        const double cap_w = n.w > 0 ? n.w * (d.uv_max.x - d.uv_min.x) + 2.0 : 1e300;
-        const double cap_h = n.h > 0 ? n.h * (d.uv_max.y - d.uv_min.y) + 2.0 : 1e300;
-        overshoot_cap.emplace_back(fits_from.back(), std::max(w > room ? cap_w : 0.0, h > room ? cap_h : 0.0) / room);
-    }
+    r.d_min_used_m = d_req_;
+    std::vector<double>& fits_from = fits_from_;
+    std::vector<std::pair<double, double>>& overshoot_cap = overshoot_cap_;  // (fits_from, largest capped content / room)
+    const uint64_t textured = textured_;
+    const double critical_fraction = fraction_;
     r.critical_at_requested = fits_from.size();
     const auto allowed = static_cast<uint64_t>(std::floor(critical_fraction * static_cast<double>(textured)));
     std::sort(fits_from.begin(), fits_from.end(), std::greater<>());
@@ -242,6 +246,15 @@ CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d
         r.enlarged_for_split_budget = true;
     }
     return r;
+}
+
+CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d_min_requested_m,
+                                double pixels_per_metre_at_1m, int atlas_size, int border, double critical_fraction,
+                                std::span<const NativeSize> native) {
+    CriticalDistanceBuilder b(d_min_requested_m, pixels_per_metre_at_1m, atlas_size, border, critical_fraction,
+                              std::vector<NativeSize>(native.begin(), native.end()));
+    for (const Triangle& t : triangles) b.add(t);
+    return b.finish();
 }
 
 void splitCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources, double d_min_used_m,

@@ -83,6 +83,22 @@ struct CriticalResult {
 /// at the requested one) from every triangle, read only; then the split at a
 /// distance already decided (critical_after_enlarge and the split counts), so a
 /// shard splits its own triangles at the distance its plan chose for all.
+/// criticalDistance one triangle at a time (inputs never held whole): its
+/// memory grows with the critical triangles only.
+class CriticalDistanceBuilder {
+public:
+    CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size, int border,
+                            double critical_fraction, std::vector<NativeSize> native);
+    void add(const Triangle& t);
+    CriticalResult finish();
+
+private:
+    double d_req_, ppm_, room_, fraction_;
+    std::vector<NativeSize> native_;
+    std::vector<double> fits_from_;
+    std::vector<std::pair<double, double>> overshoot_cap_;
+    uint64_t textured_ = 0;
+};
 CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d_min_requested_m,
                                 double pixels_per_metre_at_1m, int atlas_size, int border, double critical_fraction,
                                 std::span<const NativeSize> native = {});

@@ -36,18 +36,28 @@ Planned planAt(const TextureModel& t, const AtlasParams& params, double d, bool 
 
 }  // namespace
 
+TextureModelBuilder::TextureModelBuilder(size_t textures, double ppm) : ppm_(ppm), m_(textures), bounds_(textures) {}
+
+void TextureModelBuilder::add(const Triangle& t) {
+    if (t.texture < 0) return;
+    const TexelDensity d = texelDensity(t);
+    TextureModel& tm = m_[static_cast<size_t>(t.texture)];
+    tm.members.push_back({d.uv_min, d.uv_max, d.s_world * ppm_, d.t_world * ppm_});
+    for (const Vec3d& p : t.position_local) bounds_[static_cast<size_t>(t.texture)].extend(p);
+}
+
 std::vector<TextureModel> modelTextures(const Scene& scene, double ppm, const AtlasParams& params) {
-    std::vector<TextureModel> m(scene.textures.size());
-    std::vector<Box3d> bounds(scene.textures.size());
-    for (const Triangle& t : scene.triangles) {
-        if (t.texture < 0) continue;
-        const TexelDensity d = texelDensity(t);
-        TextureModel& tm = m[static_cast<size_t>(t.texture)];
-        tm.members.push_back({d.uv_min, d.uv_max, d.s_world * ppm, d.t_world * ppm});
-        for (const Vec3d& p : t.position_local) bounds[static_cast<size_t>(t.texture)].extend(p);
-    }
+    TextureModelBuilder b(scene.textures.size(), ppm);
+    for (const Triangle& t : scene.triangles) b.add(t);
+    return b.finish(scene.textures, params);
+}
+
+std::vector<TextureModel> TextureModelBuilder::finish(const std::vector<TextureRef>& textures, const AtlasParams& params) {
+    std::vector<TextureModel> m = std::move(m_);
+    std::vector<Box3d> bounds = std::move(bounds_);
+    for (TextureModel& t : m) t.members.shrink_to_fit();
     for (size_t i = 0; i < m.size(); ++i) {
-        const TextureRef& r = scene.textures[i];
+        const TextureRef& r = textures[i];
         m[i].native = {std::max(0, r.width_px), std::max(0, r.height_px)};
         m[i].channels = r.channels == 4 ? 4 : 3;
         m[i].original_bytes =

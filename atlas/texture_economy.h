@@ -29,6 +29,20 @@ struct TextureModel {
 /// full-resolution plan included; in parallel on the current TBB arena.
 std::vector<TextureModel> modelTextures(const Scene& scene, double pixels_per_metre_at_1m, const AtlasParams& params);
 
+/// The same one triangle at a time (inputs never held whole): 48 bytes a
+/// textured triangle until finish().
+class TextureModelBuilder {
+public:
+    TextureModelBuilder(size_t textures, double pixels_per_metre_at_1m);
+    void add(const Triangle& t);
+    std::vector<TextureModel> finish(const std::vector<TextureRef>& textures, const AtlasParams& params);
+
+private:
+    double ppm_;
+    std::vector<TextureModel> m_;
+    std::vector<Box3d> bounds_;
+};
+
 struct TexturePlan {
     double region_texels = 0;  ///< its regions' area at d (promoted: at full resolution)
     bool exact = false;        ///< no original needed: every region capped on both axes, one colour, or promoted

@@ -449,71 +449,91 @@ struct Flattener {
 
 }  // namespace
 
-Status decideGlobals(const Scene& scene, const AtlasParams& params, GlobalDecisions* out) {
-    if (Status s = validateParams(params); !s.ok()) return s;
-    GlobalDecisions g;
-    const int threads = params.threads > 0 ? params.threads : static_cast<int>(tbb::info::default_concurrency());
-    tbb::task_arena arena(threads);
-    // d_min: given, chosen from the data, or the papers' fraction of the scene diagonal.
-    Box3d box;
-    for (const Triangle& t : scene.triangles)
-        for (const Vec3d& p : t.position_local) box.extend(p);
-    g.scene_diagonal_m = length(box.max - box.min);
-    const double ppm = projectionBound(params).pixelsPerMetreAt1m();
-    const std::vector<NativeSize> native = nativeSizes(scene);
-    // Every texture's economy, scene-wide: for the default d_min and the promotions.
-    std::vector<TextureModel> models;
-    arena.execute([&] { models = modelTextures(scene, ppm, params); });
-    if (params.d_min_m) {
-        g.d_min_requested_m = *params.d_min_m;
-        g.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
-    } else if (params.d_min_from_data) {
-        arena.execute([&] {
-            g.d_min_choice = chooseDefaultDmin(models, g.scene_diagonal_m, params, &g.d_min_requested_m);
-        });
-    } else {
-        g.d_min_requested_m = g.scene_diagonal_m * params.d_min_diagonal_fraction;
-        g.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", g.scene_diagonal_m,
-                                                          1.0 / params.d_min_diagonal_fraction), 0, 0, {}};
-    }
-    if (!(g.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
+GlobalsBuilder::GlobalsBuilder(const std::vector<TextureRef>& textures, const AtlasParams& params)
+    : textures_(textures), params_(params), ppm_(projectionBound(params).pixelsPerMetreAt1m()),
+      models_(std::make_unique<TextureModelBuilder>(textures.size(), ppm_)), s_max_(textures.size(), 0),
+      t_max_(textures.size(), 0) {}
 
+GlobalsBuilder::~GlobalsBuilder() = default;
+
+void GlobalsBuilder::add(const Triangle& t) {
+    for (const Vec3d& p : t.position_local) box_.extend(p);
+    models_->add(t);
+    if (t.texture < 0) return;
     // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
     // exactly its original resolution on its more demanding axis.
-    {
-        std::vector<double> native_distance(scene.textures.size(), 0);
-        std::vector<double> s_max(scene.textures.size(), 0), t_max(scene.textures.size(), 0);
-        for (const Triangle& t : scene.triangles) {
-            if (t.texture < 0) continue;
-            const TexelDensity d = texelDensity(t);
-            s_max[t.texture] = std::max(s_max[t.texture], d.s_world);
-            t_max[t.texture] = std::max(t_max[t.texture], d.t_world);
-            g.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
-            ++g.textured_triangles;
-        }
-        double lo = 1e300, hi = 0;
-        for (size_t i = 0; i < scene.textures.size(); ++i) {
-            const TextureRef& r = scene.textures[i];
-            if (r.width_px > 0) native_distance[i] = std::max(native_distance[i], s_max[i] * ppm / r.width_px);
-            if (r.height_px > 0) native_distance[i] = std::max(native_distance[i], t_max[i] * ppm / r.height_px);
-            if (native_distance[i] > 0) lo = std::min(lo, native_distance[i]), hi = std::max(hi, native_distance[i]);
-        }
-        g.d_full_m = lo < 1e300 ? lo : 0;
-        g.d_first_upsampled_m = hi;
+    const TexelDensity d = texelDensity(t);
+    s_max_[t.texture] = std::max(s_max_[t.texture], d.s_world);
+    t_max_[t.texture] = std::max(t_max_[t.texture], d.t_world);
+    g_.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
+    ++g_.textured_triangles;
+}
+
+Status GlobalsBuilder::chooseDistance() {
+    if (Status s = validateParams(params_); !s.ok()) return s;
+    const int threads = params_.threads > 0 ? params_.threads : static_cast<int>(tbb::info::default_concurrency());
+    tbb::task_arena arena(threads);
+    g_.scene_diagonal_m = length(box_.max - box_.min);
+    // Every texture's economy, scene-wide: for the default d_min and the promotions.
+    arena.execute([&] { models_done_ = models_->finish(textures_, params_); });
+    models_.reset();
+    // d_min: given, chosen from the data, or the papers' fraction of the scene diagonal.
+    if (params_.d_min_m) {
+        g_.d_min_requested_m = *params_.d_min_m;
+        g_.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
+    } else if (params_.d_min_from_data) {
+        arena.execute([&] {
+            g_.d_min_choice = chooseDefaultDmin(models_done_, g_.scene_diagonal_m, params_, &g_.d_min_requested_m);
+        });
+    } else {
+        g_.d_min_requested_m = g_.scene_diagonal_m * params_.d_min_diagonal_fraction;
+        g_.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", g_.scene_diagonal_m,
+                                                           1.0 / params_.d_min_diagonal_fraction), 0, 0, {}};
     }
-    const CriticalResult critical = criticalDistance(scene.triangles, g.d_min_requested_m, ppm, params.atlas_size_px,
-                                                     params.border_px, params.critical_fraction, native);
-    g.d_min_used_m = critical.d_min_used_m;
-    g.critical_triangles = critical.critical_at_requested;
-    g.enlarged_for_split_budget = critical.enlarged_for_split_budget;
+    if (!(g_.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
+    double lo = 1e300, hi = 0;
+    for (size_t i = 0; i < textures_.size(); ++i) {
+        const TextureRef& r = textures_[i];
+        double native_distance = 0;
+        if (r.width_px > 0) native_distance = std::max(native_distance, s_max_[i] * ppm_ / r.width_px);
+        if (r.height_px > 0) native_distance = std::max(native_distance, t_max_[i] * ppm_ / r.height_px);
+        if (native_distance > 0) lo = std::min(lo, native_distance), hi = std::max(hi, native_distance);
+    }
+    g_.d_full_m = lo < 1e300 ? lo : 0;
+    g_.d_first_upsampled_m = hi;
+    critical_ = std::make_unique<CriticalDistanceBuilder>(g_.d_min_requested_m, ppm_, params_.atlas_size_px,
+                                                          params_.border_px, params_.critical_fraction,
+                                                          nativeSizes(textures_));
+    return Status::Ok();
+}
+
+void GlobalsBuilder::addForCritical(const Triangle& t) { critical_->add(t); }
+
+GlobalDecisions GlobalsBuilder::finish() {
+    const CriticalResult critical = critical_->finish();
+    critical_.reset();
+    g_.d_min_used_m = critical.d_min_used_m;
+    g_.critical_triangles = critical.critical_at_requested;
+    g_.enlarged_for_split_budget = critical.enlarged_for_split_budget;
     // Textures whose full resolution costs less than their original (texture_economy.h).
-    g.promote.assign(scene.textures.size(), 0);
+    g_.promote.assign(textures_.size(), 0);
+    const int threads = params_.threads > 0 ? params_.threads : static_cast<int>(tbb::info::default_concurrency());
+    tbb::task_arena arena(threads);
     arena.execute([&] {
-        tbb::parallel_for(size_t{0}, models.size(), [&](size_t i) {
-            g.promote[i] = planTexture(models[i], params, g.d_min_used_m).promoted ? 1 : 0;
+        tbb::parallel_for(size_t{0}, models_done_.size(), [&](size_t i) {
+            g_.promote[i] = planTexture(models_done_[i], params_, g_.d_min_used_m).promoted ? 1 : 0;
         });
     });
-    *out = std::move(g);
+    std::vector<TextureModel>().swap(models_done_);
+    return std::move(g_);
+}
+
+Status decideGlobals(const Scene& scene, const AtlasParams& params, GlobalDecisions* out) {
+    GlobalsBuilder b(scene.textures, params);
+    for (const Triangle& t : scene.triangles) b.add(t);
+    if (Status s = b.chooseDistance(); !s.ok()) return s;
+    for (const Triangle& t : scene.triangles) b.addForCritical(t);
+    *out = b.finish();
     return Status::Ok();
 }
 

@@ -444,16 +444,34 @@ int runBuild(const BuildCliOptions& opt_in) {
             note("build", fmt::format("rebuilding {}: {}", target.string(), opt.force ? "--force" : why));
     }
 
+    // --- The working folder, a sibling renamed into place at the end; the
+    // input is read into it (a spill of the triangles: cli/shards.h PlanSink).
+    fs::path tmp;
+    if (const Status st = startWorkingFolder(target, ".atlas-png", &tmp); !st.ok()) return fail(progress, st);
+    const fs::path work = tmp / ".atlas-png";
+    const fs::path plan_dir = tmp / ".plan";
+    auto abandon = [&](const Status& s) {
+        std::error_code ignored;
+        fs::remove_all(tmp, ignored);
+        return fail(progress, s);
+    };
+    fs::create_directories(plan_dir, ec);
+    if (ec) return abandon(Status::Io(fmt::format("{}: cannot create: {}", plan_dir.string(), ec.message())));
+    const fs::path spill = plan_dir / "all.tri";
+
     // --- Read.
     IngestState state;
-    SceneCollector collector;
-    state.sink = &collector;
+    PlanSink sink(spill);
+    state.sink = &sink;
     std::vector<fs::path> read_files;
-    if (Status s = readInputs(opt.input, progress, state, &read_files); !s.ok()) return fail(progress, s);
-    Scene& scene = collector.scene;
-    const SceneStats scene_stats = computeStats(scene);
+    if (Status s = readInputs(opt.input, progress, state, &read_files); !s.ok()) return abandon(s);
+    if (Status s = sink.finish(); !s.ok()) return abandon(s);
+    Scene& scene = sink.tables;
+    SceneStats scene_stats = sink.stats.finish();
+    scene_stats.features = scene.features.size();
+    scene_stats.textures = scene.textures.size();
     attachGeoreference(state, scene_stats.bounds_local, scene.georef, read_files.front());
-    if (scene.triangles.empty()) return fail(progress, Status::Invalid("the inputs hold no triangles: nothing to build"));
+    if (sink.triangles == 0) return abandon(Status::Invalid("the inputs hold no triangles: nothing to build"));
     std::vector<FileDigest> texture_digests;
     {
         std::set<std::string> seen;
@@ -468,25 +486,18 @@ int runBuild(const BuildCliOptions& opt_in) {
     const std::string build_hash = hashStrings(all);
     endStage("read");
 
-    // --- Atlas tree and tiles, into a sibling folder renamed into place at the end.
-    fs::path tmp;
-    if (const Status st = startWorkingFolder(target, ".atlas-png", &tmp); !st.ok()) return fail(progress, st);
-    const fs::path work = tmp / ".atlas-png";
-    auto abandon = [&](const Status& s) {
-        std::error_code ignored;
-        fs::remove_all(tmp, ignored);
-        return fail(progress, s);
-    };
     // The atlas stage takes the scene's triangles (the tree holds them from
     // then on, with their original uvs); the tiles and the 3D Tiles export
     // read the scene's textures, materials and features only.
-    const size_t scene_triangles = scene.triangles.size();
+    const size_t scene_triangles = sink.triangles;
+    const size_t feature_count = scene.features.size();
     Diagnostics& diagnostics = state.diagnostics;
     atlas::AtlasTree single_tree;
     MergeResult merged;
     tiles::TilesStats ts;
     ordered_json shard_cost, shard_reuse;
-    const atlas::ShardPlan shard_plan = atlas::planShards(scene, opt.shard_triangles);
+    const atlas::ShardPlan shard_plan = atlas::planShards(sink.features, scene.features.size(), opt.shard_triangles);
+    sink.features = {};
     const bool sharded = shard_plan.shards() > 1 || opt.slurm;
     if (sharded) {
         // --- Plan, shards, merge (cli/shards.h).
@@ -495,14 +506,23 @@ int runBuild(const BuildCliOptions& opt_in) {
                 "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
                 "give --shard-triangles {} (one shard) or build --format native",
                 opt.format, shard_plan.shards(), opt.shard_triangles, scene_triangles)));
-        const fs::path plan_dir = tmp / ".plan";
+        // The feature tables need nothing of the tree: written first, the
+        // features leave memory before the plan's passes over the triangles.
+        tiles::FeatureTables feature_tables;
+        if (Status s = tiles::writeFeatureTables(scene.features, opt.tiles.feature_block_size, tmp, &feature_tables);
+            !s.ok())
+            return abandon(s);
+        std::vector<Feature>().swap(scene.features);
         atlas::GlobalDecisions globals;
-        if (Status s = atlas::decideGlobals(scene, params, &globals); !s.ok()) return abandon(s);
+        if (Status s = decideGlobalsFromSpill(spill, scene, params, &globals); !s.ok()) return abandon(s);
         std::map<std::string, std::string> digests;
         for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
         std::vector<std::string> keys;
-        if (Status s = writePlan(plan_dir, scene, shard_plan, globals, params, opt.tiles, digests, &keys); !s.ok())
+        if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, digests, feature_tables,
+                                 &keys);
+            !s.ok())
             return abandon(s);
+        fs::remove(spill, ec);
         // Incremental: the previous folder's shards with unchanged content keys (not with --force).
         std::vector<int> reused;
         if (!opt.force)
@@ -513,7 +533,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         if (opt.slurm) {
             // The shards and the merge as cluster jobs; the merge job finishes the build.
             BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
-            rec.features = scene.features.size();
+            rec.features = feature_count;
             rec.triangles = scene_triangles;
             rec.textured_triangles = scene_stats.textured_triangles;
             rec.textures = scene.textures.size();
@@ -551,6 +571,9 @@ int runBuild(const BuildCliOptions& opt_in) {
         fs::remove_all(plan_dir, ec);
         endStage("merge");
     } else {
+        // One shard: the whole tree in this process, from the scene in memory.
+        if (Status s = readSpill(spill, &scene.triangles); !s.ok()) return abandon(s);
+        fs::remove_all(plan_dir, ec);
         // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
         // round trip); the 3D Tiles export still reads PNGs, so it gets them too.
         tiles::AtlasHandOff hand_off(opt.tiles.bc_quality, tmp, opt.format != "native" ? work : fs::path());
@@ -588,7 +611,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     fs::remove_all(work, ec);
 
     BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
-    rec.features = scene.features.size();
+    rec.features = feature_count;
     rec.triangles = scene_triangles;
     rec.textured_triangles = scene_stats.textured_triangles;
     rec.textures = scene.textures.size();

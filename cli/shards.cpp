@@ -180,35 +180,22 @@ atlas::GlobalDecisions globalsFrom(const json& j) {
 
 // --- Scene tables.
 json tablesJson(const Scene& s) {
-    json textures = json::array(), materials = json::array(), features = json::array();
+    json textures = json::array(), materials = json::array();
     for (const TextureRef& t : s.textures)
         textures.push_back({t.path, t.width_px, t.height_px, t.channels, static_cast<int>(t.wrap)});
     for (const Material& m : s.materials) materials.push_back({m.diffuse[0], m.diffuse[1], m.diffuse[2], m.transparency});
-    for (const Feature& f : s.features)
-        features.push_back({f.gml_id, f.name, f.source_file, f.parent, f.lod,
-                            f.measured_height_m ? json(*f.measured_height_m) : json(nullptr), f.roof_type, f.function,
-                            f.attributes});
     const Georeference& g = s.georef;
     json georef = {{"source_crs", g.source_crs},
                    {"origin_source", vec3(g.origin_source)},
                    {"grid_frame", g.grid_frame},
                    {"local_to_ecef", g.local_to_ecef ? json(*g.local_to_ecef) : json(nullptr)},
                    {"enu_to_ecef", g.enu_to_ecef ? json(*g.enu_to_ecef) : json(nullptr)}};
-    return {{"textures", textures}, {"materials", materials}, {"features", features}, {"georef", georef}};
+    return {{"textures", textures}, {"materials", materials}, {"georef", georef}};
 }
-void tablesFrom(const json& j, Scene* s, bool with_features) {
+void tablesFrom(const json& j, Scene* s) {
     for (const json& t : j.at("textures"))
         s->textures.push_back({t.at(0), t.at(1), t.at(2), t.at(3), static_cast<WrapMode>(t.at(4).get<int>())});
     for (const json& m : j.at("materials")) s->materials.push_back({{m.at(0), m.at(1), m.at(2)}, m.at(3)});
-    if (with_features)
-        for (const json& f : j.at("features")) {
-            Feature x;
-            x.gml_id = f.at(0), x.name = f.at(1), x.source_file = f.at(2), x.parent = f.at(3), x.lod = f.at(4);
-            if (!f.at(5).is_null()) x.measured_height_m = f.at(5).get<double>();
-            x.roof_type = f.at(6), x.function = f.at(7);
-            x.attributes = f.at(8).get<std::map<std::string, std::string>>();
-            s->features.push_back(std::move(x));
-        }
     const json& g = j.at("georef");
     s->georef.source_crs = g.at("source_crs");
     s->georef.origin_source = vec3From(g.at("origin_source"), 0);
@@ -444,52 +431,112 @@ private:
 
 }  // namespace
 
-Status writePlan(const fs::path& dir, Scene& scene, const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
-                 const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params,
-                 const std::map<std::string, std::string>& texture_digests, std::vector<std::string>* keys_out) {
+Status forEachSpilled(const fs::path& spill, const std::function<void(const Triangle&)>& fn) {
+    std::ifstream f(spill, std::ios::binary);
+    if (!f) return Status::Io(fmt::format("{}: cannot open", spill.string()));
+    std::vector<Triangle> chunk(1 << 14);
+    while (f) {
+        f.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(chunk.size() * sizeof(Triangle)));
+        const auto got = static_cast<size_t>(f.gcount());
+        if (got % sizeof(Triangle) != 0) return Status::Io(fmt::format("{}: truncated", spill.string()));
+        for (size_t i = 0; i < got / sizeof(Triangle); ++i) fn(chunk[i]);
+    }
+    if (f.bad()) return Status::Io(fmt::format("{}: cannot read", spill.string()));
+    return Status::Ok();
+}
+
+Status readSpill(const fs::path& spill, std::vector<Triangle>* out) {
+    std::error_code ec;
+    const auto bytes = fs::file_size(spill, ec);
+    if (ec || bytes % sizeof(Triangle) != 0) return Status::Io(fmt::format("{}: not a triangle spill file", spill.string()));
+    out->resize(bytes / sizeof(Triangle));
+    std::ifstream f(spill, std::ios::binary);
+    f.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(bytes));
+    if (!f) return Status::Io(fmt::format("{}: cannot read", spill.string()));
+    return Status::Ok();
+}
+
+PlanSink::PlanSink(fs::path spill) : spill_(std::move(spill)), file_(spill_, std::ios::binary) {}
+
+void PlanSink::addTriangles(std::vector<Triangle>& t) {
+    for (const Triangle& tri : t) {
+        stats.add(tri);
+        features.add(tri);
+    }
+    file_.write(reinterpret_cast<const char*>(t.data()), static_cast<std::streamsize>(t.size() * sizeof(Triangle)));
+    triangles += t.size();
+    t.clear();
+}
+
+Status PlanSink::finish() {
+    file_.close();
+    if (!file_) return Status::Io(fmt::format("{}: cannot write (disk full?)", spill_.string()));
+    return Status::Ok();
+}
+
+Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const atlas::AtlasParams& params,
+                              atlas::GlobalDecisions* out) {
+    atlas::GlobalsBuilder b(tables.textures, params);
+    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.add(t); }); !s.ok()) return s;
+    if (Status s = b.chooseDistance(); !s.ok()) return s;
+    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.addForCritical(t); }); !s.ok()) return s;
+    *out = b.finish();
+    return Status::Ok();
+}
+
+Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill, const atlas::ShardPlan& plan,
+                 const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
+                 const tiles::TilesParams& tiles_params, const std::map<std::string, std::string>& texture_digests,
+                 const tiles::FeatureTables& ft, std::vector<std::string>* keys_out) {
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
-    std::vector<uint8_t> used(scene.textures.size(), 0);
-    for (const Triangle& t : scene.triangles)
-        if (t.texture >= 0) used[static_cast<size_t>(t.texture)] = 1;
-    json top = json::array();
-    for (const atlas::PlanNode& n : plan.nodes)
-        top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
-    json j = {{"format", kPlanFormat},
-                    {"kind", "cityatlas-shard-plan"},
-                    {"atlas", atlasParamsJson(atlas_params)},
-                    {"tiles", tilesParamsJson(tiles_params)},
-                    {"globals", globalsJson(globals)},
-                    {"texture_index", tiles::tilesetTextureIndex(used)},
-                    {"top", top},
-                    {"shard_triangles", plan.shard_triangles},
-                    {"scene_triangles", scene.triangles.size()}};
-    if (Status s = writeJson(dir / "tables.json", tablesJson(scene)); !s.ok()) return s;
-    // Each shard's triangles in scene order, written in one pass over the scene.
+    json feature_tables = json::array();
+    for (const format::FileEntry& e : ft.tables) feature_tables.push_back({e.uri, e.bytes});
+    if (Status s = writeJson(dir / "tables.json", tablesJson(tables)); !s.ok()) return s;
+
+    // Each shard's triangles in scene order, in one pass over the spill, with their keys.
     std::vector<std::ofstream> files(plan.shards());
     for (size_t k = 0; k < files.size(); ++k) {
         files[k].open(dir / fmt::format("{}.tri", shardName(static_cast<int>(k))), std::ios::binary);
         if (!files[k]) return Status::Io(fmt::format("{}: cannot create", (dir / shardName(static_cast<int>(k))).string()));
     }
     std::vector<ShardKey> keys(plan.shards());
-    std::vector<std::vector<uint8_t>> textures_of(plan.shards(), std::vector<uint8_t>(scene.textures.size(), 0));
-    std::vector<std::vector<uint8_t>> materials_of(plan.shards(), std::vector<uint8_t>(scene.materials.size(), 0));
-    for (const Triangle& t : scene.triangles) {
+    std::vector<uint8_t> used(tables.textures.size(), 0);
+    std::vector<std::vector<uint8_t>> textures_of(plan.shards(), std::vector<uint8_t>(tables.textures.size(), 0));
+    std::vector<std::vector<uint8_t>> materials_of(plan.shards(), std::vector<uint8_t>(tables.materials.size(), 0));
+    uint64_t scene_triangles = 0;
+    const Status read = forEachSpilled(spill, [&](const Triangle& t) {
         const auto k = static_cast<size_t>(plan.shard_of_feature[t.feature]);
         files[k].write(reinterpret_cast<const char*>(&t), sizeof t);
         keys[k].add(t);
-        if (t.texture >= 0) textures_of[k][static_cast<size_t>(t.texture)] = 1;
+        ++scene_triangles;
+        if (t.texture >= 0) used[static_cast<size_t>(t.texture)] = 1, textures_of[k][static_cast<size_t>(t.texture)] = 1;
         if (t.material >= 0) materials_of[k][static_cast<size_t>(t.material)] = 1;
-    }
+    });
+    if (!read.ok()) return read;
     for (size_t k = 0; k < files.size(); ++k) {
         files[k].close();
         if (!files[k]) return Status::Io(fmt::format("{}.tri: cannot write", (dir / shardName(static_cast<int>(k))).string()));
     }
+    json top = json::array();
+    for (const atlas::PlanNode& n : plan.nodes)
+        top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
+    const std::vector<int32_t> texture_index = tiles::tilesetTextureIndex(used);
+    json j = {{"format", kPlanFormat},
+              {"kind", "cityatlas-shard-plan"},
+              {"atlas", atlasParamsJson(atlas_params)},
+              {"tiles", tilesParamsJson(tiles_params)},
+              {"globals", globalsJson(globals)},
+              {"texture_index", texture_index},
+              {"top", top},
+              {"shard_triangles", plan.shard_triangles},
+              {"scene_triangles", scene_triangles},
+              {"feature_tables", feature_tables},
+              {"feature_count", ft.features}};
     // Besides its triangles, a shard depends on the parameters, the distance
     // every node is built for, its level, and the textures and materials it
     // uses: their entries, tileset numbers, promotions and file contents.
-    const std::vector<int32_t> texture_index = j.at("texture_index").get<std::vector<int32_t>>();
     const std::string common = fmt::format("{} {} {} {} writer {}", kPlanFormat, j.at("atlas").dump(), j.at("tiles").dump(),
                                            globals.d_min_used_m, tiles::kWriterRevision);
     std::vector<int> level(plan.shards(), 0);
@@ -500,23 +547,23 @@ Status writePlan(const fs::path& dir, Scene& scene, const atlas::ShardPlan& plan
         ShardKey& key = keys[k];
         key.add(common);
         key.addValue(level[k]);
-        for (size_t t = 0; t < scene.textures.size(); ++t) {
+        for (size_t t = 0; t < tables.textures.size(); ++t) {
             if (!textures_of[k][t]) continue;
-            const TextureRef& r = scene.textures[t];
+            const TextureRef& r = tables.textures[t];
             const auto digest = texture_digests.find(r.path);
             key.add(fmt::format("texture {} {} {} {} {} {} {} {} {}", t, r.path, r.width_px, r.height_px, r.channels,
                                 static_cast<int>(r.wrap), texture_index[t], globals.promote[t],
                                 digest == texture_digests.end() ? "unreadable" : digest->second));
         }
-        for (size_t m = 0; m < scene.materials.size(); ++m)
+        for (size_t m = 0; m < tables.materials.size(); ++m)
             if (materials_of[k][m])
-                key.add(fmt::format("material {} {} {} {} {}", m, scene.materials[m].diffuse[0], scene.materials[m].diffuse[1],
-                                    scene.materials[m].diffuse[2], scene.materials[m].transparency));
+                key.add(fmt::format("material {} {} {} {} {}", m, tables.materials[m].diffuse[0],
+                                    tables.materials[m].diffuse[1], tables.materials[m].diffuse[2],
+                                    tables.materials[m].transparency));
         key_list.push_back(key.digest());
     }
     j["shard_keys"] = key_list;
     if (keys_out) *keys_out = key_list;
-    std::vector<Triangle>().swap(scene.triangles);
     return writeJson(dir / "plan.json", j);  // last: a plan folder with plan.json is complete
 }
 
@@ -552,7 +599,7 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
         return Status::Usage(fmt::format("shard {}: the plan has shards 0..{}", shard, shards - 1));
     if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     Scene scene;
-    tablesFrom(tables, &scene, false);
+    tablesFrom(tables, &scene);
     {
         const fs::path tri = dir / fmt::format("{}.tri", shardName(shard));
         std::ifstream f(tri, std::ios::binary | std::ios::ate);
@@ -835,7 +882,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
     if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     MergeResult& r = *result;
-    tablesFrom(tables, &r.tables, true);
+    tablesFrom(tables, &r.tables);
     r.scene_triangles = plan.at("scene_triangles");
     const atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
     tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
@@ -928,6 +975,9 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         addDiagnostics(m.at("warnings"), diagnostics);
     }
     built.texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
+    built.feature_tables = tiles::FeatureTables{};
+    for (const json& e : plan.at("feature_tables")) built.feature_tables->tables.push_back({e.at(0), e.at(1)});
+    built.feature_tables->features = plan.at("feature_count");
     // The shards, by content key, for the next build of this folder (reuseShards).
     const auto keys = plan.at("shard_keys").get<std::vector<std::string>>();
     const fs::path cache = out_dir / kShardCache;

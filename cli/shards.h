@@ -7,8 +7,10 @@
 ///   enlargement for critical triangles, promotions), the tileset texture
 ///   numbering and the top cuts (atlas/shard_plan.h); writes the plan folder:
 ///   `plan.json` (parameters, decisions, the top), `tables.json` (textures,
-///   materials, features, georeference) and `shard-<k>.tri` (the shard's
-///   triangles, in scene order).
+///   materials, georeference) and `shard-<k>.tri` (the shard's triangles, in
+///   scene order), and the feature tables into the build's folder. The input
+///   is read once into a spill file (PlanSink); the plan passes over that
+///   file, so no step holds every triangle.
 /// - **shard k** (runShard): builds shard k's subtree completely, atlases and
 ///   geometry, in `shard-<k>/` (written as `shard-<k>.part/`, renamed when
 ///   complete): its node files named by the subtree's own numbering, and
@@ -29,6 +31,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <string>
@@ -42,19 +45,59 @@
 #include "core/status.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
+#include "ingest/scene_sink.h"
 #include "tiles/tileset.h"
 
 namespace cityatlas::cli {
 
 using ShardProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
 
-/// Writes the plan folder `dir` (created) for `scene`, whose triangles are
-/// given up (written to the shards' files and freed).
-/// `texture_digests` (texture path -> xxh3 of the file) enter the shards'
-/// content keys (`keys`, also in plan.json).
-Status writePlan(const std::filesystem::path& dir, Scene& scene, const atlas::ShardPlan& plan,
-                 const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
-                 const tiles::TilesParams& tiles_params, const std::map<std::string, std::string>& texture_digests,
+/// Reading straight into a plan: the triangles go to a spill file as they
+/// come, in scene order; the tables (textures, materials, features,
+/// georeference) and what the plan needs of each feature stay in memory.
+class PlanSink : public SceneSink {
+public:
+    explicit PlanSink(std::filesystem::path spill);
+    Scene tables;                      ///< without triangles
+    atlas::FeatureSummaries features;
+    SceneStatsAccumulator stats;
+    uint64_t triangles = 0;
+    Status finish();                   ///< closes the spill; an error when a write failed
+    void setGeoreference(const Georeference& g) override { tables.georef = g; }
+    int32_t addTexture(const TextureRef& t) override {
+        tables.textures.push_back(t);
+        return static_cast<int32_t>(tables.textures.size() - 1);
+    }
+    int32_t addMaterial(const Material& m) override { return tables.internMaterial(m); }
+    uint32_t addFeature(Feature f) override {
+        tables.features.push_back(std::move(f));
+        return static_cast<uint32_t>(tables.features.size() - 1);
+    }
+    void setFeatureLod(uint32_t feature, int8_t lod) override { tables.features[feature].lod = lod; }
+    void addTriangles(std::vector<Triangle>& t) override;
+
+private:
+    std::filesystem::path spill_;
+    std::ofstream file_;
+};
+
+/// Every triangle of a spill file, in order (a chunk in memory at a time).
+Status forEachSpilled(const std::filesystem::path& spill, const std::function<void(const Triangle&)>& fn);
+/// The whole spill file in memory (a build of one shard in this process).
+Status readSpill(const std::filesystem::path& spill, std::vector<Triangle>* out);
+/// decideGlobals over the spilled scene: two passes over the file.
+Status decideGlobalsFromSpill(const std::filesystem::path& spill, const Scene& tables, const atlas::AtlasParams& params,
+                              atlas::GlobalDecisions* out);
+
+/// Writes the plan folder `dir` (created) for the scene of `tables` and the
+/// `spill` file; `feature_tables` were written into the build's folder
+/// already (they need nothing of the tree, and the features go before the
+/// plan's passes). `texture_digests` (texture path -> xxh3 of the file) enter
+/// the shards' content keys (`keys`, also in plan.json).
+Status writePlan(const std::filesystem::path& dir, const Scene& tables, const std::filesystem::path& spill,
+                 const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
+                 const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params,
+                 const std::map<std::string, std::string>& texture_digests, const tiles::FeatureTables& feature_tables,
                  std::vector<std::string>* keys);
 
 /// Where a sharded build keeps its shards, by content key, inside its folder

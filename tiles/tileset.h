@@ -45,6 +45,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,7 @@
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
 #include "core/status.h"
+#include "format/tileset_document.h"
 #include "tiles/glb_writer.h"
 #include "tiles/node_geometry.h"
 #include "tiles/texture_codec.h"
@@ -213,6 +215,14 @@ Status writeSubtreeFiles(const Scene& scene, const atlas::AtlasTree& tree, const
                          const std::filesystem::path& out_dir, const TilesProgressFn& progress,
                          const EncodedAtlases* encoded, SubtreeFiles* out);
 
+/// The feature attribute tables as written: features/<k>.json, `block_size` features each.
+struct FeatureTables {
+    std::vector<format::FileEntry> tables;
+    uint64_t features = 0;
+};
+Status writeFeatureTables(const std::vector<Feature>& features, int block_size, const std::filesystem::path& out_dir,
+                          FeatureTables* out);
+
 /// The parts of a tree whose files shards wrote (cli/shards.h): writeTileset
 /// then builds only the nodes above them, from their root geometry, and
 /// indexes everything.
@@ -223,6 +233,7 @@ struct BuiltSubtrees {
     std::map<int32_t, std::vector<uint32_t>> subtree_features;  ///< by shard root
     std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's)
     std::vector<std::vector<int32_t>> leaf_textures;  ///< per node, for --originals all (texture_blocks.h)
+    std::optional<FeatureTables> feature_tables;  ///< written already (by the plan); else from the scene's features
 };
 
 /// asset.tilesetVersion. An original texture that cannot be read is a counted

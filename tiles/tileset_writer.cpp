@@ -398,6 +398,39 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
 
 }  // namespace
 
+Status writeFeatureTables(const std::vector<Feature>& features, int block_size, const fs::path& out_dir,
+                          FeatureTables* out) {
+    std::error_code ec;
+    fs::create_directories(out_dir / "features", ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "features").string(), ec.message()));
+    const auto bs = static_cast<size_t>(std::max(1, block_size));
+    out->tables.clear();
+    out->features = features.size();
+    for (size_t first = 0; first < features.size(); first += bs) {
+        json list = json::array();
+        for (size_t id = first; id < std::min(features.size(), first + bs); ++id) {
+            const Feature& f = features[id];
+            json j = {{"id", id},
+                      {"gml_id", f.gml_id},
+                      {"name", f.name},
+                      {"source_file", f.source_file},
+                      {"parent", f.parent},
+                      {"lod", f.lod},
+                      {"roof_type", f.roof_type},
+                      {"function", f.function},
+                      {"attributes", f.attributes}};
+            j["measured_height_m"] = f.measured_height_m ? json(*f.measured_height_m) : json(nullptr);
+            list.push_back(std::move(j));
+        }
+        const std::string text =
+            json({{"first", first}, {"features", list}}).dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
+        const std::string uri = fmt::format("features/{}.json", first / bs);
+        if (Status w = writeBytes(out_dir / uri, text.data(), text.size()); !w.ok()) return w;
+        out->tables.push_back({uri, text.size()});
+    }
+    return Status::Ok();
+}
+
 Status writeSubtreeFiles(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
                          const std::vector<int32_t>& texture_index, const fs::path& out_dir,
                          const TilesProgressFn& progress, const EncodedAtlases* encoded, SubtreeFiles* out) {
@@ -436,9 +469,6 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         stats.steps.push_back({name, c.seconds, c.peak_rss_mb, c.cpu_seconds});
     };
     std::error_code ec;
-    fs::create_directories(out_dir / "features", ec);
-    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "features").string(), ec.message()));
-
     TextureBlocks blocks = built ? planTextureBlocks(scene, tree, params.all_originals, built->texture_index,
                                                      built->leaf_textures)
                                  : planTextureBlocks(scene, tree, params.all_originals);
@@ -464,34 +494,20 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     if (!tex_status.ok()) return tex_status;
     endStep("geometry, atlases and textures");
 
-    // --- Feature tables.
+    // --- Feature tables (a sharded build's plan wrote them already).
     format::TilesetDocument doc;
     const auto bs = static_cast<size_t>(std::max(1, params.feature_block_size));
-    for (size_t first = 0; first < scene.features.size(); first += bs) {
-        json list = json::array();
-        for (size_t id = first; id < std::min(scene.features.size(), first + bs); ++id) {
-            const Feature& f = scene.features[id];
-            json j = {{"id", id},
-                      {"gml_id", f.gml_id},
-                      {"name", f.name},
-                      {"source_file", f.source_file},
-                      {"parent", f.parent},
-                      {"lod", f.lod},
-                      {"roof_type", f.roof_type},
-                      {"function", f.function},
-                      {"attributes", f.attributes}};
-            j["measured_height_m"] = f.measured_height_m ? json(*f.measured_height_m) : json(nullptr);
-            list.push_back(std::move(j));
-        }
-        const std::string text =
-            json({{"first", first}, {"features", list}}).dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
-        const std::string uri = fmt::format("features/{}.json", first / bs);
-        if (Status w = writeBytes(out_dir / uri, text.data(), text.size()); !w.ok()) return w;
-        doc.feature_tables.push_back({uri, text.size()});
-        stats.bytes_features += text.size();
-        ++stats.feature_tables;
+    if (built && built->feature_tables) {
+        doc.feature_tables = built->feature_tables->tables;
+        doc.feature_count = built->feature_tables->features;
+    } else {
+        FeatureTables ft;
+        if (Status w = writeFeatureTables(scene.features, params.feature_block_size, out_dir, &ft); !w.ok()) return w;
+        doc.feature_tables = ft.tables;
+        doc.feature_count = ft.features;
     }
-    doc.feature_count = scene.features.size();
+    for (const format::FileEntry& f : doc.feature_tables) stats.bytes_features += f.bytes;
+    stats.feature_tables = doc.feature_tables.size();
     doc.feature_block_size = static_cast<int64_t>(bs);
 
     // --- tileset.json: the document (format/tileset_document.h), tiles in preorder.
