@@ -5,12 +5,16 @@
 # all, so the trees differ only by the city's size), then wall seconds, CPU
 # seconds, peak RSS and output bytes per building against the size, as
 # out/benchmarks/cost_per_building.json and .png (log x axis).
-# Usage: benchmarks/cost_per_building.sh [SIZES="10000 25000 50000 100000"] [D_MIN=2000]
+# Usage: [REUSE=1] benchmarks/cost_per_building.sh [SIZES="10000 25000 50000 100000 1000000"] [D_MIN=2000]
 # Installs Debian's python3-matplotlib when it is missing (for the plot).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-SIZES="${1:-10000 25000 50000 100000}"; DMIN="${2:-2000}"
-for n in $SIZES; do benchmarks/build_scale.sh "$n" "$DMIN" main 32; done
+SIZES="${1:-10000 25000 50000 100000 1000000}"; DMIN="${2:-2000}"
+# REUSE=1: sizes already measured (out/benchmarks/build-N-D_MIN-32px.json) are not run again.
+for n in $SIZES; do
+  if [ "${REUSE:-0}" = 1 ] && [ -f "out/benchmarks/build-$n-$DMIN-32px.json" ]; then continue; fi
+  benchmarks/build_scale.sh "$n" "$DMIN" main 32
+done
 if ! /usr/bin/python3 -c "import matplotlib" 2> /dev/null; then
   SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends python3-matplotlib > /dev/null

@@ -515,13 +515,16 @@ int runBuild(const BuildCliOptions& opt_in) {
         std::vector<Feature>().swap(scene.features);
         atlas::GlobalDecisions globals;
         if (Status s = decideGlobalsFromSpill(spill, scene, params, &globals); !s.ok()) return abandon(s);
-        std::map<std::string, std::string> digests;
-        for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
         std::vector<std::string> keys;
-        if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, digests, feature_tables,
-                                 &keys);
-            !s.ok())
-            return abandon(s);
+        {
+            std::map<std::string, std::string> digests;
+            for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
+            if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, digests,
+                                     feature_tables, &keys);
+                !s.ok())
+                return abandon(s);
+        }
+        globals = {};
         fs::remove(spill, ec);
         // Incremental: the previous folder's shards with unchanged content keys (not with --force).
         std::vector<int> reused;

@@ -20,6 +20,9 @@
 #include <nlohmann/json.hpp>
 #include <tbb/info.h>
 #include <xxhash.h>
+#ifdef CITYATLAS_WITH_MIMALLOC
+#include <mimalloc.h>
+#endif
 
 #include "atlas/atlas_images.h"
 #include "tiles/texture_blocks.h"
@@ -745,6 +748,12 @@ std::vector<int> shardsToBuild(const fs::path& dir) {
     return todo;
 }
 
+void returnFreedMemory() {
+#ifdef CITYATLAS_WITH_MIMALLOC
+    mi_collect(true);  // mimalloc keeps freed pages for reuse; the workers need them more
+#endif
+}
+
 Status runShards(const fs::path& dir, int workers, int threads, const ShardProgressFn& progress) {
     json plan;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
@@ -762,6 +771,7 @@ Status runShards(const fs::path& dir, int workers, int threads, const ShardProgr
         return Status::Ok();
     }
     // Worker processes: this executable's `shard` command, each with its share of the cores.
+    returnFreedMemory();
     const int cores = threads > 0 ? threads : static_cast<int>(tbb::info::default_concurrency());
     const int running_max = std::max(1, std::min(workers, shards));
     const int per_worker = std::max(1, cores / running_max);
