@@ -514,13 +514,16 @@ int runBuild(const BuildCliOptions& opt_in) {
             return abandon(s);
         std::vector<Feature>().swap(scene.features);
         atlas::GlobalDecisions globals;
-        if (Status s = decideGlobalsFromSpill(spill, scene, params, &globals); !s.ok()) return abandon(s);
+        const auto plan_progress = [&](const char* step, uint64_t done, uint64_t total) {
+            progress.update(step, done, total);
+        };
+        if (Status s = decideGlobalsFromSpill(spill, scene, params, &globals, plan_progress); !s.ok()) return abandon(s);
         std::vector<std::string> keys;
         {
             std::map<std::string, std::string> digests;
             for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
             if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, digests,
-                                     feature_tables, &keys);
+                                     feature_tables, &keys, plan_progress);
                 !s.ok())
                 return abandon(s);
         }
@@ -543,7 +546,9 @@ int runBuild(const BuildCliOptions& opt_in) {
             rec.started_unix = started_unix;
             rec.shards = shardsJson(shard_plan, opt, sharded);
             for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
-            const std::string text = recordJson(rec, stages, diagnostics).dump(1) + "\n";
+            ordered_json record = recordJson(rec, stages, diagnostics);
+            record["force"] = opt.force;
+            const std::string text = record.dump(1) + "\n";
             if (Status s = tiles::writeBytes(plan_dir / "build.json", text.data(), text.size()); !s.ok()) return abandon(s);
             fs::remove_all(work, ec);  // the atlas stage's PNG folder, unused by a sharded build
             SlurmJobs jobs;
@@ -568,7 +573,16 @@ int runBuild(const BuildCliOptions& opt_in) {
         const auto report = [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); };
         if (Status s = runShards(plan_dir, opt.workers, params.threads, report); !s.ok()) return abandon(s);
         endStage("shards");
-        if (Status s = mergeShards(plan_dir, tmp, build_hash, diagnostics, report, &merged); !s.ok()) return abandon(s);
+        {
+            std::map<std::string, std::string> digests;
+            for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
+            if (Status s = mergeShards(plan_dir, tmp, build_hash, diagnostics, report, &merged, digests,
+                                       opt.force ? fs::path() : target / ".cityatlas-cache");
+                !s.ok())
+                return abandon(s);
+        }
+        shard_reuse["texture_blocks_reused"] = merged.blocks_reused;
+        shard_reuse["texture_blocks_encoded"] = merged.blocks_encoded;
         ts = merged.tiles;
         addShardCost(merged.shard_cost, &shard_cost);
         fs::remove_all(plan_dir, ec);
@@ -692,10 +706,16 @@ RunFn addMergeCommand(CLI::App& app) {
         }
         StageClock clock;
         MergeResult merged;
+        std::map<std::string, std::string> digests;
+        for (const FileDigest& d : rec.texture_digests) digests[d.path] = d.xxh3;
+        const bool force = j.value("force", false);
         if (Status s = mergeShards(opt->plan, rec.working, rec.build_hash, diagnostics,
-                                   [&](const char* step, uint64_t d, uint64_t t) { progress.update(step, d, t); }, &merged);
+                                   [&](const char* step, uint64_t d, uint64_t t) { progress.update(step, d, t); }, &merged,
+                                   digests, force ? fs::path() : fs::path(rec.target) / ".cityatlas-cache");
             !s.ok())
             return fail(progress, s);
+        rec.shards["texture_blocks_reused"] = merged.blocks_reused;
+        rec.shards["texture_blocks_encoded"] = merged.blocks_encoded;
         ordered_json cost;
         addShardCost(merged.shard_cost, &cost);
         rec.shards["cost"] = cost;

@@ -434,15 +434,21 @@ private:
 
 }  // namespace
 
-Status forEachSpilled(const fs::path& spill, const std::function<void(const Triangle&)>& fn) {
+Status forEachSpilled(const fs::path& spill, const std::function<void(const Triangle&)>& fn, const char* step,
+                      const ShardProgressFn& progress) {
     std::ifstream f(spill, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot open", spill.string()));
+    std::error_code ec;
+    const uint64_t total = fs::file_size(spill, ec);
+    uint64_t done = 0;
     std::vector<Triangle> chunk(1 << 14);
     while (f) {
         f.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(chunk.size() * sizeof(Triangle)));
         const auto got = static_cast<size_t>(f.gcount());
         if (got % sizeof(Triangle) != 0) return Status::Io(fmt::format("{}: truncated", spill.string()));
         for (size_t i = 0; i < got / sizeof(Triangle); ++i) fn(chunk[i]);
+        done += got;
+        if (progress && step) progress(step, done, total);
     }
     if (f.bad()) return Status::Io(fmt::format("{}: cannot read", spill.string()));
     return Status::Ok();
@@ -478,11 +484,15 @@ Status PlanSink::finish() {
 }
 
 Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const atlas::AtlasParams& params,
-                              atlas::GlobalDecisions* out) {
+                              atlas::GlobalDecisions* out, const ShardProgressFn& progress) {
     atlas::GlobalsBuilder b(tables.textures, params);
-    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.add(t); }); !s.ok()) return s;
+    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.add(t); }, "plan: texture models", progress); !s.ok())
+        return s;
     if (Status s = b.chooseDistance(); !s.ok()) return s;
-    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.addForCritical(t); }); !s.ok()) return s;
+    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.addForCritical(t); }, "plan: critical triangles",
+                                  progress);
+        !s.ok())
+        return s;
     *out = b.finish();
     return Status::Ok();
 }
@@ -490,7 +500,7 @@ Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const 
 Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill, const atlas::ShardPlan& plan,
                  const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
                  const tiles::TilesParams& tiles_params, const std::map<std::string, std::string>& texture_digests,
-                 const tiles::FeatureTables& ft, std::vector<std::string>* keys_out) {
+                 const tiles::FeatureTables& ft, std::vector<std::string>* keys_out, const ShardProgressFn& progress) {
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
@@ -508,16 +518,25 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     std::vector<uint8_t> used(tables.textures.size(), 0);
     std::vector<std::vector<uint8_t>> textures_of(plan.shards(), std::vector<uint8_t>(tables.textures.size(), 0));
     std::vector<std::vector<uint8_t>> materials_of(plan.shards(), std::vector<uint8_t>(tables.materials.size(), 0));
-    uint64_t scene_triangles = 0;
+    uint64_t scene_triangles = 0, orphans = 0;
     const Status read = forEachSpilled(spill, [&](const Triangle& t) {
+        // Readers give every triangle a feature of the table; one that is not (a
+        // reader's bug) has no shard and is counted rather than read out of bounds.
+        if (t.feature >= plan.shard_of_feature.size() || plan.shard_of_feature[t.feature] < 0) {
+            ++orphans;
+            return;
+        }
         const auto k = static_cast<size_t>(plan.shard_of_feature[t.feature]);
         files[k].write(reinterpret_cast<const char*>(&t), sizeof t);
         keys[k].add(t);
         ++scene_triangles;
         if (t.texture >= 0) used[static_cast<size_t>(t.texture)] = 1, textures_of[k][static_cast<size_t>(t.texture)] = 1;
         if (t.material >= 0) materials_of[k][static_cast<size_t>(t.material)] = 1;
-    });
+    }, "plan: shard files", progress);
     if (!read.ok()) return read;
+    if (orphans > 0)
+        return Status::Invalid(fmt::format("{}: {} triangles name no feature of the table (an ingest error)", spill.string(),
+                                           orphans));
     for (size_t k = 0; k < files.size(); ++k) {
         files[k].close();
         if (!files[k]) return Status::Io(fmt::format("{}.tri: cannot write", (dir / shardName(static_cast<int>(k))).string()));
@@ -887,7 +906,8 @@ Status submitSlurm(const fs::path& dir, int shards, const std::vector<std::strin
 }
 
 Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
-                   const ShardProgressFn& progress, MergeResult* result) {
+                   const ShardProgressFn& progress, MergeResult* result,
+                   const std::map<std::string, std::string>& texture_digests, const fs::path& previous_cache) {
     json plan, tables;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
     if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
@@ -1032,12 +1052,32 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
                     }
     }
     const tiles::EncodedAtlases encoded = hand_off.take(n_nodes);
-    return tiles::writeTileset(
+    // Original-texture blocks by content: the textures' files, entries and the BC quality.
+    tiles::BlockCache block_cache;
+    block_cache.from = previous_cache.empty() ? fs::path() : previous_cache / "blocks";
+    block_cache.to = out_dir / kBlockCache;
+    block_cache.key = [&](const std::vector<int32_t>& textures) {
+        ShardKey key;
+        key.add(fmt::format("block {} writer {}", tiles::bcQualityName(tp.bc_quality), tiles::kWriterRevision));
+        for (const int32_t t : textures) {
+            const TextureRef& ref = r.tables.textures[static_cast<size_t>(t)];
+            const auto digest = texture_digests.find(ref.path);
+            if (digest == texture_digests.end()) return std::string();  // unknown content: not kept
+            key.add(fmt::format("{} {} {} {} {} {}", ref.path, digest->second, ref.width_px, ref.height_px, ref.channels,
+                                static_cast<int>(ref.wrap)));
+        }
+        return key.digest();
+    };
+    built.block_cache = &block_cache;
+    const Status written = tiles::writeTileset(
         r.tables, tree, out_dir, tp, out_dir, build_hash, diagnostics,
         [&](const char* step, uint64_t d, uint64_t t) {
             if (progress) progress(fmt::format("merge: {}", step).c_str(), d, t);
         },
         &r.tiles, &encoded, &built);
+    r.blocks_reused = block_cache.reused;
+    r.blocks_encoded = block_cache.encoded;
+    return written;
 }
 
 }  // namespace cityatlas::cli

@@ -81,13 +81,15 @@ private:
     std::ofstream file_;
 };
 
-/// Every triangle of a spill file, in order (a chunk in memory at a time).
-Status forEachSpilled(const std::filesystem::path& spill, const std::function<void(const Triangle&)>& fn);
+/// Every triangle of a spill file, in order (a chunk in memory at a time);
+/// bytes read go to `progress` as `step`.
+Status forEachSpilled(const std::filesystem::path& spill, const std::function<void(const Triangle&)>& fn,
+                      const char* step = nullptr, const ShardProgressFn& progress = {});
 /// The whole spill file in memory (a build of one shard in this process).
 Status readSpill(const std::filesystem::path& spill, std::vector<Triangle>* out);
 /// decideGlobals over the spilled scene: two passes over the file.
 Status decideGlobalsFromSpill(const std::filesystem::path& spill, const Scene& tables, const atlas::AtlasParams& params,
-                              atlas::GlobalDecisions* out);
+                              atlas::GlobalDecisions* out, const ShardProgressFn& progress = {});
 
 /// Writes the plan folder `dir` (created) for the scene of `tables` and the
 /// `spill` file; `feature_tables` were written into the build's folder
@@ -98,13 +100,15 @@ Status writePlan(const std::filesystem::path& dir, const Scene& tables, const st
                  const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
                  const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params,
                  const std::map<std::string, std::string>& texture_digests, const tiles::FeatureTables& feature_tables,
-                 std::vector<std::string>* keys);
+                 std::vector<std::string>* keys, const ShardProgressFn& progress = {});
 
 /// Where a sharded build keeps its shards, by content key, inside its folder
 /// (hard links to the folder's own files, plus each shard's manifest, root
 /// geometry and halved root atlases): the next build of the folder reuses
 /// every shard whose key is unchanged.
 inline constexpr const char* kShardCache = ".cityatlas-cache/shards";
+/// Where it keeps its original-texture blocks by content key (tiles::BlockCache).
+inline constexpr const char* kBlockCache = ".cityatlas-cache/blocks";
 
 /// Incremental rebuilds: every shard of the plan in `dir` whose key has a
 /// finished shard in `cache` (a previous build's kShardCache) is linked into
@@ -131,12 +135,17 @@ struct MergeResult {
     /// The shards' own costs: wall and CPU seconds summed over them (their
     /// work, wherever it ran), peak memory the largest shard's.
     StageCost shard_cost;
+    uint64_t blocks_reused = 0, blocks_encoded = 0;  ///< original-texture blocks
 };
 
-/// Merges the finished shards of the plan in `dir` into the tile folder `out_dir`.
+/// Merges the finished shards of the plan in `dir` into the tile folder
+/// `out_dir`. Original-texture blocks whose content (textures, their
+/// `texture_digests`, the BC quality) a previous build of the folder kept in
+/// `previous_cache` (its kBlockCache; empty: none) are linked, not encoded.
 Status mergeShards(const std::filesystem::path& dir, const std::filesystem::path& out_dir,
                    const std::string& build_hash, Diagnostics& diagnostics, const ShardProgressFn& progress,
-                   MergeResult* result);
+                   MergeResult* result, const std::map<std::string, std::string>& texture_digests = {},
+                   const std::filesystem::path& previous_cache = {});
 
 struct SlurmJobs {
     std::string shards, merge;  ///< job ids

@@ -12,6 +12,7 @@
 #include <memory>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <OpenImageIO/imageio.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -163,7 +164,8 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
 }
 
 Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path& out_dir, Diagnostics& diagnostics,
-                          const std::function<void(uint64_t, uint64_t)>& progress, TextureBlocks* blocks) {
+                          const std::function<void(uint64_t, uint64_t)>& progress, TextureBlocks* blocks,
+                          BlockCache* cache) {
     std::error_code ec;
     fs::create_directories(out_dir / "textures", ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "textures").string(), ec.message()));
@@ -179,11 +181,43 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         uint64_t texels = 0;
         double seconds = 0;
         int width = 0, height = 0;
+        uint64_t bytes = 0;  // a cached block's: its DDS size (dds stays empty)
+    };
+    std::vector<std::string> keys(nblocks);
+    if (cache && cache->key) {
+        std::error_code mk;
+        fs::create_directories(cache->to, mk);
+        if (mk) return Status::Io(fmt::format("{}: cannot create: {}", cache->to.string(), mk.message()));
+        for (size_t blk = 0; blk < nblocks; ++blk) {
+            std::vector<int32_t> textures;
+            for (size_t t : members[blk]) textures.push_back(blocks->textures[t].scene_texture);
+            keys[blk] = cache->key(textures);
+        }
+    }
+    // A cached block's textures as its metadata file lists them; false when there is none.
+    auto cached = [&](size_t blk, std::vector<Encoded>* enc) {
+        if (keys[blk].empty() || cache->from.empty()) return false;
+        std::ifstream meta(cache->from / (keys[blk] + ".json"));
+        if (!meta || !fs::exists(cache->from / (keys[blk] + ".bin"))) return false;
+        try {
+            const nlohmann::json j = nlohmann::json::parse(meta);
+            if (j.size() != members[blk].size()) return false;
+            enc->assign(j.size(), {});
+            for (size_t k = 0; k < j.size(); ++k) {
+                Encoded& e = (*enc)[k];
+                e.bytes = j[k].at("bytes"), e.mips = j[k].at("mips"), e.texels = j[k].at("texels");
+                e.width = j[k].at("width"), e.height = j[k].at("height");
+            }
+        } catch (const std::exception&) {
+            return false;
+        }
+        return true;
     };
     // Encodes one block's textures (in parallel: a block may hold a single large original).
     auto encodeBlock = [&](size_t blk) {
         const std::vector<size_t>& list = members[blk];
         std::vector<Encoded> enc(list.size());
+        if (cached(blk, &enc)) return enc;
         tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
             const TextureEntry& e = blocks->textures[list[k]];
             const TextureRef& ref = scene.textures[static_cast<size_t>(e.scene_texture)];
@@ -217,10 +251,24 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     auto writeBlock = [&](size_t blk, std::vector<Encoded>& enc) {
         const std::vector<size_t>& list = members[blk];
         const bool any_readable = std::any_of(enc.begin(), enc.end(), [](const Encoded& x) { return x.why.empty(); });
+        const bool all_readable = std::all_of(enc.begin(), enc.end(), [](const Encoded& x) { return x.why.empty(); });
+        const bool reused = !enc.empty() && enc.front().dds.empty() && enc.front().bytes > 0;
         const auto index = static_cast<int32_t>(written_bytes.size());
         const fs::path path = out_dir / "textures" / fmt::format("{}.bin", index);
         std::ofstream f;
-        if (any_readable) f.open(path, std::ios::binary);
+        if (reused) {
+            // Linked, not written: the previous build's block of the same content.
+            std::error_code le;
+            fs::create_hard_link(cache->from / (keys[blk] + ".bin"), path, le);
+            if (le) fs::copy_file(cache->from / (keys[blk] + ".bin"), path, fs::copy_options::overwrite_existing, le);
+            if (le) {
+                write_status = Status::Io(fmt::format("{}: cannot reuse the cached block: {}", path.string(), le.message()));
+                return;
+            }
+            ++cache->reused;
+        } else if (any_readable) {
+            f.open(path, std::ios::binary);
+        }
         uint64_t offset = 0;
         for (size_t k = 0; k < list.size(); ++k) {
             TextureEntry& e = blocks->textures[list[k]];
@@ -234,9 +282,10 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             e.block = index;
             // The real size wins over the one recorded at ingest.
             e.width = enc[k].width, e.height = enc[k].height;
-            f.write(reinterpret_cast<const char*>(enc[k].dds.data()), static_cast<std::streamsize>(enc[k].dds.size()));
+            if (!reused)
+                f.write(reinterpret_cast<const char*>(enc[k].dds.data()), static_cast<std::streamsize>(enc[k].dds.size()));
             e.offset = offset;
-            e.bytes = enc[k].dds.size();
+            e.bytes = reused ? enc[k].bytes : enc[k].dds.size();
             e.mips = enc[k].mips;
             offset += e.bytes;
             blocks->texels_encoded += enc[k].texels;
@@ -245,12 +294,32 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         done += list.size();
         if (progress) progress(done, blocks->textures.size() - exact);
         if (!any_readable) return;
-        f.close();
-        if (!f) {
-            write_status = Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
-            return;
+        if (!reused) {
+            f.close();
+            if (!f) {
+                write_status = Status::Io(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
+                return;
+            }
+            if (cache) ++cache->encoded;
         }
         written_bytes.push_back(offset);
+        // Kept for the next build: the block (a hard link) and what it holds.
+        if (cache && !keys[blk].empty() && all_readable) {
+            std::error_code ke;
+            const fs::path bin = cache->to / (keys[blk] + ".bin");
+            fs::remove(bin, ke);
+            fs::create_hard_link(path, bin, ke);
+            if (ke) fs::copy_file(path, bin, fs::copy_options::overwrite_existing, ke);
+            nlohmann::json meta = nlohmann::json::array();
+            for (size_t k = 0; k < list.size(); ++k) {
+                const TextureEntry& e = blocks->textures[list[k]];
+                meta.push_back({{"bytes", e.bytes}, {"mips", e.mips}, {"texels", enc[k].texels}, {"width", e.width},
+                                {"height", e.height}});
+            }
+            std::ofstream m(cache->to / (keys[blk] + ".json"));
+            m << meta.dump();
+            if (ke || !m) write_status = Status::Io(fmt::format("{}: cannot keep the block for the next build", bin.string()));
+        }
     };
     // A pipeline rather than block after block: every core encodes while the
     // blocks are written in order, and at most a few blocks' DDS bytes are held

@@ -68,9 +68,21 @@ std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree);
 /// (texture_unreadable) and gets block -1; a block left with no readable
 /// texture is not written, and the others are renumbered densely (textures'
 /// blocks and node_blocks follow).
+/// Blocks kept by content between builds of one folder (incremental rebuilds,
+/// cli/shards.h): `key` names a block by what it holds (its scene textures,
+/// in order; "" = not cacheable); a block whose key has a file in `from` is
+/// linked from there instead of being read and encoded again, and every
+/// written block is linked into `to` for the next build. Only blocks whose
+/// textures all read are kept.
+struct BlockCache {
+    std::filesystem::path from, to;
+    std::function<std::string(const std::vector<int32_t>& scene_textures)> key;
+    uint64_t reused = 0, encoded = 0;  ///< blocks, filled by writeTextureBlocks
+};
+
 Status writeTextureBlocks(const Scene& scene, BcQuality quality, const std::filesystem::path& out_dir,
                           Diagnostics& diagnostics, const std::function<void(uint64_t, uint64_t)>& progress,
-                          TextureBlocks* blocks);
+                          TextureBlocks* blocks, BlockCache* cache = nullptr);
 
 /// Reads an image file as 8-bit, `channels` (3 or 4) channels, rows top-down;
 /// grey and grey+alpha are expanded. Empty optional-like: returns false with a reason.

@@ -58,6 +58,7 @@
 #include "format/tileset_document.h"
 #include "tiles/glb_writer.h"
 #include "tiles/node_geometry.h"
+#include "tiles/texture_blocks.h"
 #include "tiles/texture_codec.h"
 
 namespace cityatlas::tiles {
@@ -234,6 +235,7 @@ struct BuiltSubtrees {
     std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's)
     std::vector<std::vector<int32_t>> leaf_textures;  ///< per node, for --originals all (texture_blocks.h)
     std::optional<FeatureTables> feature_tables;  ///< written already (by the plan); else from the scene's features
+    BlockCache* block_cache = nullptr;            ///< original-texture blocks kept between builds (texture_blocks.h)
 };
 
 /// asset.tilesetVersion. An original texture that cannot be read is a counted

@@ -484,7 +484,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         tbb::task_group side;
         side.run([&] {
             tex_status = writeTextureBlocks(scene, params.bc_quality, out_dir, diagnostics,
-                                            [&](uint64_t d, uint64_t t) { report("tiles: textures", d, t); }, &blocks);
+                                            [&](uint64_t d, uint64_t t) { report("tiles: textures", d, t); }, &blocks,
+                                            built ? built->block_cache : nullptr);
         });
         geometry_status = writeNodeFiles(scene, tree, atlas_dir, params, blocks.texture_index, out_dir, encoded, built,
                                          report, arena, records, nullptr);

@@ -24,6 +24,7 @@
 #include "atlas/atlas_report.h"
 #include "atlas/atlas_tree.h"
 #include "atlas/charts.h"
+#include "atlas/shard_plan.h"
 #include "atlas/texel_estimate.h"
 #include "ingest/synth/facade_texture.h"
 #include "ingest/synth/town.h"
@@ -1154,6 +1155,76 @@ TEST(AtlasDeterminism, ConsumingTheScenesTrianglesGivesTheSameTree) {
     ASSERT_TRUE(b3.status.ok()) << b3.status.error;
     EXPECT_EQ(other.size(), scene.triangles.size());
     fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------------------
+// Sharded builds (atlas/shard_plan.h): the plan's cuts and a shard's subtree.
+
+TEST(AtlasShards, PlanPutsEveryFeatureInOneShardOfBoundedSize) {
+    const Scene& scene = town100();
+    const uint64_t max = scene.triangles.size() / 5;
+    const ShardPlan plan = planShards(scene, max);
+    ASSERT_GE(plan.shards(), 4u);
+    std::vector<uint64_t> count(plan.shards(), 0);
+    for (const Triangle& t : scene.triangles) {
+        const int32_t k = plan.shard_of_feature[t.feature];
+        ASSERT_GE(k, 0) << "feature " << t.feature << " has triangles but no shard";
+        ++count[static_cast<size_t>(k)];
+    }
+    for (size_t k = 0; k < plan.shards(); ++k) {
+        EXPECT_EQ(count[k], plan.shard_triangles[k]) << "shard " << k;
+        EXPECT_LE(count[k], max) << "shard " << k;
+        EXPECT_GT(count[k], 0u) << "shard " << k;
+    }
+    // The top: preorder, each shard a leaf of it exactly once, children one level down.
+    std::vector<int> seen(plan.shards(), 0);
+    for (size_t i = 0; i < plan.nodes.size(); ++i) {
+        const PlanNode& n = plan.nodes[i];
+        if (n.shard >= 0) ++seen[static_cast<size_t>(n.shard)];
+        for (int32_t c : n.children) {
+            if (c < 0) continue;
+            EXPECT_GT(c, static_cast<int32_t>(i));
+            EXPECT_EQ(plan.nodes[static_cast<size_t>(c)].parent, static_cast<int32_t>(i));
+            EXPECT_EQ(plan.nodes[static_cast<size_t>(c)].level, n.level + 1);
+        }
+        if (n.shard >= 0) {
+            EXPECT_EQ(n.children, (std::array<int32_t, 4>{-1, -1, -1, -1}));
+        }
+    }
+    for (size_t k = 0; k < plan.shards(); ++k) EXPECT_EQ(seen[k], 1) << "shard " << k;
+    // A limit above the scene: one shard, no top.
+    const ShardPlan one = planShards(scene, scene.triangles.size());
+    EXPECT_EQ(one.shards(), 1u);
+    EXPECT_EQ(one.nodes.size(), 1u);
+}
+
+TEST(AtlasShards, ShardSubtreeWithTheTownsDecisionsPassesTheChecker) {
+    const Scene& scene = town100();
+    const AtlasParams params = structureOnly();
+    GlobalDecisions globals;
+    ASSERT_TRUE(decideGlobals(scene, params, &globals).ok());
+    // The whole town's own build decides the same (the same passes, streamed or not).
+    const auto whole = build(scene, params, "whole town");
+    ASSERT_TRUE(whole->status.ok()) << whole->status.error;
+    EXPECT_EQ(whole->tree.stats.d_min_used_m, globals.d_min_used_m);
+    EXPECT_EQ(whole->tree.stats.d_min_requested_m, globals.d_min_requested_m);
+    const ShardPlan plan = planShards(scene, scene.triangles.size() / 5);
+    for (const PlanNode& n : plan.nodes) {
+        if (n.shard < 0) continue;
+        Scene part;
+        part.textures = scene.textures;
+        part.materials = scene.materials;
+        part.features = scene.features;
+        for (const Triangle& t : scene.triangles)
+            if (plan.shard_of_feature[t.feature] == n.shard) part.triangles.push_back(t);
+        AtlasParams p = params;
+        p.base_level = n.level;
+        auto b = std::make_unique<Built>();
+        b->status = buildAtlasTree(part, p, {}, b->diagnostics, {}, &b->tree, {}, nullptr, &globals);
+        ASSERT_TRUE(b->status.ok()) << b->status.error;
+        EXPECT_EQ(b->tree.stats.d_min_used_m, globals.d_min_used_m) << "shard " << n.shard;
+        EXPECT_TRUE(treeIsValid(part, b->tree)) << "shard " << n.shard;
+    }
 }
 
 }  // namespace

@@ -4,8 +4,8 @@
 #     only the shard holding it, reuses the others, and gives the folder a
 #     full build of the new inputs gives, byte for byte;
 #  2. one facade texture's pixels changed (same size): only the shard holding
-#     its building is built again, the rest reused, and again the folder
-#     equals a full build;
+#     its building and the original-texture block holding it are built
+#     again, the rest reused, and again the folder equals a full build;
 #  3. --force rebuilds every shard and gives the same folder.
 source "$(dirname "$0")/lib.sh" "$@"
 
@@ -14,7 +14,9 @@ synth() {  # synth DIR SEED EAST
 }
 synth a 5 690000
 synth b 6 693000
-args=(--shard-triangles 300 --d-min 150 -q)
+# A small atlas makes small original-texture blocks (one atlas of texels: four
+# 64 px facades), and --originals all puts every facade in one of them.
+args=(--shard-triangles 300 --d-min 150 --atlas-size 128 --originals all -q)
 "$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the first build failed"
 total=$(json out/build_report.json "j['shards']['count']")
 [ "$total" -ge 4 ] || fail "expected at least 4 shards, got $total"
@@ -49,6 +51,9 @@ PYEOF
 "$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the rebuild after b changed failed"
 check_eq "b's building moved: shards built (the one holding it)" 1 "$(json out/build_report.json "j['shards']['built']")"
 check_eq "b's building moved: shards reused" "$((total - 1))" "$(json out/build_report.json "j['shards']['reused']")"
+blocks=$(json out/build_report.json "j['counts']['texture_blocks']")
+[ "$blocks" -ge 4 ] || fail "expected several texture blocks, got $blocks"
+echo "ok: b's building moved: texture blocks reused $(json out/build_report.json "j['shards']['texture_blocks_reused']") of $blocks"
 same_as_full "b's building moved"
 
 # 2. One of a's facade textures repainted (same size): only its shards are built.
@@ -64,9 +69,14 @@ PYEOF
 "$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the rebuild after a texture changed failed"
 # facade_000001.png is building 1's alone (synth: one facade texture per building).
 check_eq "texture changed: shards built (the one holding its building)" 1 "$(json out/build_report.json "j['shards']['built']")"
+check_eq "texture changed: texture blocks encoded (the one holding it)" 1 \
+  "$(json out/build_report.json "j['shards']['texture_blocks_encoded']")"
+check_eq "texture changed: texture blocks reused" "$(( $(json out/build_report.json "j['counts']['texture_blocks']") - 1 ))" \
+  "$(json out/build_report.json "j['shards']['texture_blocks_reused']")"
 same_as_full "texture changed"
 
 # 3. --force: nothing reused, same folder.
 "$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" --force > /dev/null || fail "--force failed"
 check_eq "--force: shards reused" 0 "$(json out/build_report.json "j['shards']['reused']")"
+check_eq "--force: texture blocks reused" 0 "$(json out/build_report.json "j['shards']['texture_blocks_reused']")"
 same_as_full "--force"
