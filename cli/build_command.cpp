@@ -741,15 +741,18 @@ RunFn addBuildCommand(CLI::App& app) {
         "nothing. Every default is meant to be kept; d_min is chosen from the data and printed with the reason.");
     addSceneInputOptions(cmd, &opt->input);
     cmd->add_option("-o,--output", opt->output, "Output folder")->required();
-    cmd->add_flag("--force", opt->force, "Rebuild even when the output is up to date");
+    cmd->add_flag("--force", opt->force,
+                  "Rebuild even when the output is up to date, and rebuild every shard and texture block of a sharded "
+                  "build instead of reusing the previous build's");
     cmd->add_flag("--overwrite", opt->overwrite, "Replace an existing folder that is not a cityatlas build");
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
     addAtlasTreeOptions(cmd, &opt->tree);
     auto* sh = "Shards";
     cmd->add_option("--shard-triangles", opt->shard_triangles,
                     "Largest shard: inputs with more triangles are built as a plan, independent shards (subtrees of "
-                    "whole buildings, area-balanced cuts) and a merge of the levels above them; memory follows the "
-                    "shard, not the city")
+                    "whole buildings, area-balanced cuts) and a merge of the levels above them; a shard's memory follows "
+                    "the shard, not the city (the levels above the shards still grow with it: README); a rebuild into "
+                    "the same folder reuses the shards and texture blocks whose content did not change")
         ->default_val(2'000'000)
         ->check(CLI::Range(uint64_t{100}, uint64_t{1} << 40))
         ->group(sh);
