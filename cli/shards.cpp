@@ -665,8 +665,10 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
         return s;
     const tiles::EncodedAtlases encoded = hand_off.take(tree.nodes.size());
     tiles::SubtreeFiles files;
+    StageClock tiles_clock;
     if (Status s = tiles::writeSubtreeFiles(scene, tree, part, tp, texture_index, part, report, &encoded, &files); !s.ok())
         return s;
+    const StageCost tiles_cost = tiles_clock.lap();
 
     json nodes = json::array(), records = json::array(), leaf_textures = json::object();
     const std::vector<std::vector<int32_t>> used = tiles::leafTextures(tree);
@@ -686,6 +688,7 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     }
     std::vector<json> steps;
     for (const auto& s : tree.stats.steps) steps.push_back({s.name, s.seconds, s.cpu_seconds, s.peak_rss_mb});
+    steps.push_back({"tiles: geometry and atlases", tiles_cost.seconds, tiles_cost.cpu_seconds, tiles_cost.peak_rss_mb});
     const json manifest = {{"shard", shard},
                            {"nodes", nodes},
                            {"records", records},
