@@ -35,25 +35,29 @@ json byteBudgetJson(const ByteBudget& b) {
             {"ratio", b.ratio()}};
 }
 
+json atlasParamsJson(const AtlasParams& p) {
+    return {{"d_min_m", p.d_min_m ? json(*p.d_min_m) : json(nullptr)},
+            {"d_min_from_data", p.d_min_from_data},
+            {"d_min_diagonal_fraction", p.d_min_diagonal_fraction},
+            {"atlas_size_px", p.atlas_size_px},
+            {"border_px", p.border_px},
+            {"screen_width_px", p.screen_width_px},
+            {"screen_height_px", p.screen_height_px},
+            {"vertical_fov_deg", p.vertical_fov_deg},
+            {"filter", filterName(p.filter)},
+            {"packing", packingMethodName(p.packing)},
+            {"critical_fraction", p.critical_fraction},
+            {"threads", p.threads},
+            {"cache_mb", p.cache_mb}};
+}
+
 json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostics& diagnostics) {
     const AtlasParams& p = tree.params;
     const AtlasStats& s = tree.stats;
     json j;
     j["cityatlas_version"] = kCityAtlasVersion;
     j["kind"] = "atlas_report";
-    j["parameters"] = {{"d_min_m", p.d_min_m ? json(*p.d_min_m) : json(nullptr)},
-                       {"d_min_from_data", p.d_min_from_data},
-                       {"d_min_diagonal_fraction", p.d_min_diagonal_fraction},
-                       {"atlas_size_px", p.atlas_size_px},
-                       {"border_px", p.border_px},
-                       {"screen_width_px", p.screen_width_px},
-                       {"screen_height_px", p.screen_height_px},
-                       {"vertical_fov_deg", p.vertical_fov_deg},
-                       {"filter", filterName(p.filter)},
-                       {"packing", packingMethodName(p.packing)},
-                       {"critical_fraction", p.critical_fraction},
-                       {"threads", p.threads},
-                       {"cache_mb", p.cache_mb}};
+    j["parameters"] = atlasParamsJson(p);
     j["projection"] = {{"focal_px", tree.projection.focal_px},
                        {"corner_factor", tree.projection.corner_factor},
                        {"pixels_per_metre_at_d_min", tree.projection.pixelsPerMetreAt1m() / s.d_min_used_m}};

@@ -17,6 +17,8 @@ nlohmann::ordered_json byteBudgetJson(const ByteBudget& b);
 /// The default d_min's candidates: [{d_m, ratio, originals_within_d_min_mb}, ...].
 nlohmann::ordered_json dminCandidatesJson(const DminChoice& choice);
 
+/// Every AtlasParams field by name (the atlas report's "parameters"; a sharded build's plan).
+nlohmann::ordered_json atlasParamsJson(const AtlasParams& p);
 nlohmann::ordered_json makeAtlasReport(const AtlasTree& tree, const Scene& scene, const Diagnostics& diagnostics);
 
 }  // namespace cityatlas::atlas

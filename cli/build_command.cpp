@@ -466,7 +466,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     std::vector<fs::path> read_files;
     if (Status s = readInputs(opt.input, progress, state, &read_files); !s.ok()) return abandon(s);
     if (Status s = sink.finish(); !s.ok()) return abandon(s);
-    Scene& scene = sink.tables;
+    Scene& scene = sink.scene;
     SceneStats scene_stats = sink.stats.finish();
     scene_stats.features = scene.features.size();
     scene_stats.textures = scene.textures.size();
@@ -499,6 +499,18 @@ int runBuild(const BuildCliOptions& opt_in) {
     const atlas::ShardPlan shard_plan = atlas::planShards(sink.features, scene.features.size(), opt.shard_triangles);
     sink.features = {};
     const bool sharded = shard_plan.shards() > 1 || opt.slurm;
+    // What the end of the build needs, here or in the merge job (`merge`).
+    auto buildRecord = [&] {
+        BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
+        rec.features = feature_count;
+        rec.triangles = scene_triangles;
+        rec.textured_triangles = scene_stats.textured_triangles;
+        rec.textures = scene.textures.size();
+        rec.started_unix = started_unix;
+        rec.shards = shardsJson(shard_plan, opt, sharded);
+        for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
+        return rec;
+    };
     if (sharded) {
         // --- Plan, shards, merge (cli/shards.h).
         if (opt.format != "native")
@@ -538,14 +550,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         endStage("plan");
         if (opt.slurm) {
             // The shards and the merge as cluster jobs; the merge job finishes the build.
-            BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
-            rec.features = feature_count;
-            rec.triangles = scene_triangles;
-            rec.textured_triangles = scene_stats.textured_triangles;
-            rec.textures = scene.textures.size();
-            rec.started_unix = started_unix;
-            rec.shards = shardsJson(shard_plan, opt, sharded);
-            for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
+            const BuildRecord rec = buildRecord();
             ordered_json record = recordJson(rec, stages, diagnostics);
             record["force"] = opt.force;
             const std::string text = record.dump(1) + "\n";
@@ -627,15 +632,8 @@ int runBuild(const BuildCliOptions& opt_in) {
     }
     fs::remove_all(work, ec);
 
-    BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
-    rec.features = feature_count;
-    rec.triangles = scene_triangles;
-    rec.textured_triangles = scene_stats.textured_triangles;
-    rec.textures = scene.textures.size();
-    rec.started_unix = started_unix;
-    rec.shards = shardsJson(shard_plan, opt, sharded);
+    BuildRecord rec = buildRecord();
     if (!shard_cost.is_null()) rec.shards["cost"] = shard_cost;
-    for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
     return finishBuild(rec, tree, ts, t3, diagnostics, stages, progress);
 }
 

@@ -25,6 +25,7 @@
 #endif
 
 #include "atlas/atlas_images.h"
+#include "atlas/atlas_report.h"
 #include "tiles/texture_blocks.h"
 
 extern char** environ;
@@ -83,19 +84,11 @@ Status writeJson(const fs::path& path, const json& j) {
 }
 
 // --- Parameters.
-json atlasParamsJson(const atlas::AtlasParams& p) {
-    return {{"d_min_m", p.d_min_m ? json(*p.d_min_m) : json(nullptr)},
-            {"d_min_diagonal_fraction", p.d_min_diagonal_fraction},
-            {"atlas_size_px", p.atlas_size_px},
-            {"border_px", p.border_px},
-            {"screen_width_px", p.screen_width_px},
-            {"screen_height_px", p.screen_height_px},
-            {"vertical_fov_deg", p.vertical_fov_deg},
-            {"d_min_from_data", p.d_min_from_data},
-            {"filter", std::string(atlas::filterName(p.filter))},
-            {"packing", std::string(atlas::packingMethodName(p.packing))},
-            {"critical_fraction", p.critical_fraction},
-            {"cache_mb", p.cache_mb}};
+// The plan's atlas parameters: all that change the output (not the planner's thread count).
+json planAtlasParamsJson(const atlas::AtlasParams& p) {
+    json j = atlas::atlasParamsJson(p);
+    j.erase("threads");
+    return j;
 }
 atlas::AtlasParams atlasParamsFrom(const json& j) {
     atlas::AtlasParams p;
@@ -547,7 +540,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     const std::vector<int32_t> texture_index = tiles::tilesetTextureIndex(used);
     json j = {{"format", kPlanFormat},
               {"kind", "cityatlas-shard-plan"},
-              {"atlas", atlasParamsJson(atlas_params)},
+              {"atlas", planAtlasParamsJson(atlas_params)},
               {"tiles", tilesParamsJson(tiles_params)},
               {"globals", globalsJson(globals)},
               {"texture_index", texture_index},

@@ -55,25 +55,14 @@ using ShardProgressFn = std::function<void(const char* step, uint64_t done, uint
 /// Reading straight into a plan: the triangles go to a spill file as they
 /// come, in scene order; the tables (textures, materials, features,
 /// georeference) and what the plan needs of each feature stay in memory.
-class PlanSink : public SceneSink {
+class PlanSink : public SceneCollector {
 public:
     explicit PlanSink(std::filesystem::path spill);
-    Scene tables;                      ///< without triangles
+    // SceneCollector::scene holds the tables (textures, materials, features, georeference), never triangles.
     atlas::FeatureSummaries features;
     SceneStatsAccumulator stats;
     uint64_t triangles = 0;
     Status finish();                   ///< closes the spill; an error when a write failed
-    void setGeoreference(const Georeference& g) override { tables.georef = g; }
-    int32_t addTexture(const TextureRef& t) override {
-        tables.textures.push_back(t);
-        return static_cast<int32_t>(tables.textures.size() - 1);
-    }
-    int32_t addMaterial(const Material& m) override { return tables.internMaterial(m); }
-    uint32_t addFeature(Feature f) override {
-        tables.features.push_back(std::move(f));
-        return static_cast<uint32_t>(tables.features.size() - 1);
-    }
-    void setFeatureLod(uint32_t feature, int8_t lod) override { tables.features[feature].lod = lod; }
     void addTriangles(std::vector<Triangle>& t) override;
 
 private:
