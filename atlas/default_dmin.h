@@ -40,7 +40,7 @@ std::vector<DminEstimate> estimateDminCandidates(const std::vector<TextureModel>
                                                  const std::function<bool(const DminEstimate&)>& enough = {});
 
 /// Picks d_min from the estimates by `rule`; without textures, the diagonal
-/// fraction of `diagonal_m`. `textures`: modelTextures() of the scene. Sets
+/// fraction of `diagonal_m`. `textures`: the scene's TextureModelBuilder::finish(). Sets
 /// *d_min_m and says why.
 DminChoice chooseDefaultDmin(const std::vector<TextureModel>& textures, double diagonal_m, const AtlasParams& params,
                              double* d_min_m, const DminRule& rule = {});

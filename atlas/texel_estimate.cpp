@@ -248,15 +248,6 @@ CriticalResult CriticalDistanceBuilder::finish() {
     return r;
 }
 
-CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d_min_requested_m,
-                                double pixels_per_metre_at_1m, int atlas_size, int border, double critical_fraction,
-                                std::span<const NativeSize> native) {
-    CriticalDistanceBuilder b(d_min_requested_m, pixels_per_metre_at_1m, atlas_size, border, critical_fraction,
-                              std::vector<NativeSize>(native.begin(), native.end()));
-    for (const Triangle& t : triangles) b.add(t);
-    return b.finish();
-}
-
 void splitCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources, double d_min_used_m,
                             double pixels_per_metre_at_1m, int atlas_size, int border, std::span<const NativeSize> native,
                             CriticalResult* result) {
@@ -282,13 +273,5 @@ void splitCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32
     sources = std::move(out_sources);
 }
 
-CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
-                                        double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
-                                        int border, double critical_fraction, std::span<const NativeSize> native) {
-    CriticalResult r = criticalDistance(triangles, d_min_requested_m, pixels_per_metre_at_1m, atlas_size, border,
-                                        critical_fraction, native);
-    splitCriticalTriangles(triangles, sources, r.d_min_used_m, pixels_per_metre_at_1m, atlas_size, border, native, &r);
-    return r;
-}
 
 }  // namespace cityatlas::atlas

@@ -74,17 +74,19 @@ struct CriticalResult {
     uint64_t triangles_added = 0;
     bool enlarged_for_split_budget = false;  ///< d_min raised further so splitting stays bounded
 };
-/// `pixels_per_metre_at_1m`: ProjectionBound::pixelsPerMetreAt1m(). Replaces
-/// `triangles` by the split set; `sources` gets each output triangle's index
-/// in the input. `native` (per scene texture, may be empty) caps a triangle's
-/// content at its texture's own resolution: a triangle that fits at that
-/// resolution is never critical.
-/// The two halves of resolveCriticalTriangles: the distance (and the counts
-/// at the requested one) from every triangle, read only; then the split at a
-/// distance already decided (critical_after_enlarge and the split counts), so a
-/// shard splits its own triangles at the distance its plan chose for all.
-/// criticalDistance one triangle at a time (inputs never held whole): its
-/// memory grows with the critical triangles only.
+/// Critical triangles in two steps, so a shard splits its own triangles at
+/// the distance its plan chose for the whole input:
+/// - CriticalDistanceBuilder, one triangle at a time (memory: the critical
+///   ones only): the distance d_min is enlarged to when more than
+///   `critical_fraction` of the textured triangles would be critical at the
+///   requested one (and further if splitting would add too many pieces), and
+///   the counts at the requested one;
+/// - splitCriticalTriangles at that distance: replaces `triangles` by the
+///   split set, `sources` gets each output triangle's index in the input, and
+///   fills critical_after_enlarge and the split counts.
+/// `pixels_per_metre_at_1m`: ProjectionBound::pixelsPerMetreAt1m(). `native`
+/// (per scene texture, may be empty) caps a triangle's content at its
+/// texture's own resolution: a triangle that fits at that resolution is never critical.
 class CriticalDistanceBuilder {
 public:
     CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size, int border,
@@ -99,15 +101,8 @@ private:
     std::vector<std::pair<double, double>> overshoot_cap_;
     uint64_t textured_ = 0;
 };
-CriticalResult criticalDistance(const std::vector<Triangle>& triangles, double d_min_requested_m,
-                                double pixels_per_metre_at_1m, int atlas_size, int border, double critical_fraction,
-                                std::span<const NativeSize> native = {});
 void splitCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources, double d_min_used_m,
                             double pixels_per_metre_at_1m, int atlas_size, int border, std::span<const NativeSize> native,
                             CriticalResult* result);
-CriticalResult resolveCriticalTriangles(std::vector<Triangle>& triangles, std::vector<uint32_t>& sources,
-                                        double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
-                                        int border, double critical_fraction,
-                                        std::span<const NativeSize> native = {});
 
 }  // namespace cityatlas::atlas

@@ -46,12 +46,6 @@ void TextureModelBuilder::add(const Triangle& t) {
     for (const Vec3d& p : t.position_local) bounds_[static_cast<size_t>(t.texture)].extend(p);
 }
 
-std::vector<TextureModel> modelTextures(const Scene& scene, double ppm, const AtlasParams& params) {
-    TextureModelBuilder b(scene.textures.size(), ppm);
-    for (const Triangle& t : scene.triangles) b.add(t);
-    return b.finish(scene.textures, params);
-}
-
 std::vector<TextureModel> TextureModelBuilder::finish(const std::vector<TextureRef>& textures, const AtlasParams& params) {
     std::vector<TextureModel> m = std::move(m_);
     std::vector<Box3d> bounds = std::move(bounds_);

@@ -25,12 +25,9 @@ struct TextureModel {
     bool full_fits = false;            ///< every triangle fits one atlas at full resolution
 };
 
-/// One model per scene texture (empty members for unused ones), its
-/// full-resolution plan included; in parallel on the current TBB arena.
-std::vector<TextureModel> modelTextures(const Scene& scene, double pixels_per_metre_at_1m, const AtlasParams& params);
-
-/// The same one triangle at a time (inputs never held whole): 48 bytes a
-/// textured triangle until finish().
+/// One model per scene texture (empty members for unused ones), built one
+/// triangle at a time (inputs never held whole): 48 bytes a textured triangle.
+/// finish() adds the full-resolution plans, in parallel on the current TBB arena.
 class TextureModelBuilder {
 public:
     TextureModelBuilder(size_t textures, double pixels_per_metre_at_1m);
