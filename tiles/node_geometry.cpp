@@ -216,6 +216,9 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
     in.indices = std::move(g.mesh.indices);
     in.feature_id = std::move(g.mesh.feature_id);
     in.keep_attribute_seams = true;  // corners keep their atlas uvs and ids
+    // Above the budget, buildings smaller than a texel go (below a pixel
+    // wherever this node is drawn), smallest first.
+    in.drop_features_below_m = world_texel_m;
     const double bound = std::max(0.0, world_texel_m - child_error);
     const SimplifyResult r = simplifyMesh(in, budget, bound);
     g.mesh.positions = std::move(in.positions);
@@ -225,7 +228,8 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
         g.mesh = compactMesh(g.mesh, r.indices);
         g.simplified = true;
     }
-    g.geometric_error_m = child_error + r.geometric_error_m;
+    // A left-out building's error is its size; the drawn ones' add up along the path.
+    g.geometric_error_m = std::max(child_error + r.geometric_error_m, r.left_out_diagonal_m);
     return g;
 }
 

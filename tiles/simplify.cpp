@@ -9,8 +9,11 @@
 #include <cstddef>
 #include <iterator>
 #include <limits>
+#include <numeric>
 #include <optional>
+#include <tuple>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -308,16 +311,19 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
     std::vector<Vec3d>().swap(local_pos);  // centred stands for it from here
     std::vector<uint8_t>().swap(used);
 
-    std::vector<uint32_t> chosen;
-    double chosen_error = 0;
-    if (!kept.empty()) {
-        const TriangleGrid input_grid(centred, all_local);
+    const size_t target_indices = std::min(target_triangles, (std::numeric_limits<size_t>::max() / 3) - 1) * 3;
+    // The fewest triangles over `kept_l` (triangles of `kept`) whose error fits
+    // the bound, measured against the input triangles `input_l` (zero-area
+    // ones included) from the input vertices `from`; and that error.
+    auto fit = [&](const std::vector<uint32_t>& kept_l, const std::vector<uint32_t>& input_l,
+                   const std::vector<uint32_t>& from) -> std::pair<std::vector<uint32_t>, double> {
+        const TriangleGrid input_grid(centred, input_l);
         // Measures an output index list (local vertices) as simplify.h defines
         // the error; +inf when it exceeds the bound.
         auto measure = [&](const std::vector<uint32_t>& out) {
             if (out.empty()) return kInf;
             const TriangleGrid out_grid(centred, out);
-            const double to_output = maxDistance(centred.size(), [&](size_t i) { return centred[i]; }, out_grid, bound);
+            const double to_output = maxDistance(from.size(), [&](size_t i) { return centred[from[i]]; }, out_grid, bound);
             if (!(to_output <= bound)) return kInf;
             // Seven samples per output triangle (corners, edge midpoints,
             // centroid), made as they are measured.
@@ -339,7 +345,6 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
             return std::max(to_output, maxDistance(out.size() / 3 * 7, sample, input_grid, bound));
         };
 
-        const size_t target_indices = std::min(target_triangles, (std::numeric_limits<size_t>::max() / 3) - 1) * 3;
         // meshopt's target_error is relative to the mesh extent; the scale is
         // the one meshopt derives from the same buffer (its largest side).
         const float scale = meshopt_simplifyScale(fpos.data(), n_local, sizeof(float) * 3);
@@ -351,12 +356,12 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
         // zero-area triangles used (they are not on the kept surface).
         auto identityError = [&] {
             std::vector<uint8_t> on_kept(n_local, 0);
-            for (uint32_t v : kept) on_kept[v] = 1;
+            for (uint32_t v : kept_l) on_kept[v] = 1;
             std::vector<Vec3d> loose;
-            for (size_t v = 0; v < n_local; ++v)
+            for (uint32_t v : from)
                 if (!on_kept[v]) loose.push_back(centred[v]);
             if (loose.empty()) return 0.0;
-            const TriangleGrid kept_grid(centred, kept);
+            const TriangleGrid kept_grid(centred, kept_l);
             return maxDistance(loose.size(), [&](size_t i) { return loose[i]; }, kept_grid, kInf);
         };
 
@@ -401,20 +406,20 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
         // result for any batch size; a batch costs at most its size - 1
         // runs past the stopping rung.
         const size_t batch = std::clamp<size_t>(static_cast<size_t>(tbb::this_task_arena::max_concurrency()), 1, 8);
-        std::vector<std::vector<uint32_t>> outs(batch, std::vector<uint32_t>(kept.size()));
+        std::vector<std::vector<uint32_t>> outs(batch, std::vector<uint32_t>(kept_l.size()));
         std::vector<size_t> counts(batch);
         bool stop = false;
         for (size_t first = 0; first < ladder.size() && !stop; first += batch) {
             const size_t in_batch = std::min(batch, ladder.size() - first);
             tbb::parallel_for(size_t{0}, in_batch, [&](size_t b) {
-                counts[b] = meshopt_simplify(outs[b].data(), kept.data(), kept.size(), fpos.data(), n_local,
+                counts[b] = meshopt_simplify(outs[b].data(), kept_l.data(), kept_l.size(), fpos.data(), n_local,
                                              sizeof(float) * 3, target_indices, static_cast<float>(ladder[first + b]), 0,
                                              nullptr);
             });
             for (size_t b = 0; b < in_batch && !stop; ++b) {
                 const std::vector<uint32_t>& out = outs[b];
                 const size_t n = counts[b];
-                const bool identity = n == kept.size() && std::equal(kept.begin(), kept.end(), out.begin());
+                const bool identity = n == kept_l.size() && std::equal(kept_l.begin(), kept_l.end(), out.begin());
                 // An empty result fits no finite bound (its error is infinite);
                 // at an infinite bound it would, but a node must show something.
                 if (n > 0 && (!best || n < best->size())) {
@@ -429,15 +434,67 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
                 if (identity) stop = true;
             }
         }
-        if (best) {
-            chosen = std::move(*best);
-            chosen_error = best_error;
-        } else {
-            // Nothing fitted, not even the welded input: only possible when
-            // vertices of zero-area triangles lie off the kept surface by
-            // more than the bound. Return the welded input and its error.
-            chosen = kept;
-            chosen_error = identityError();
+        if (best) return {std::move(*best), best_error};
+        // Nothing fitted, not even the welded input: only possible when
+        // vertices of zero-area triangles lie off the kept surface by more
+        // than the bound. The welded input and its error.
+        return {kept_l, identityError()};
+    };
+
+    std::vector<uint32_t> chosen;
+    double chosen_error = 0;
+    if (!kept.empty()) {
+        std::vector<uint32_t> all_vertices(n_local);
+        std::iota(all_vertices.begin(), all_vertices.end(), 0u);
+        std::tie(chosen, chosen_error) = fit(kept, all_local, all_vertices);
+        if (in.drop_features_below_m > 0 && !in.feature_id.empty() && chosen.size() > target_indices) {
+            // Still above the target: whole features out, smallest first (simplify.h).
+            auto featureOf = [&](uint32_t local) { return in.feature_id[input_of[local]]; };
+            std::unordered_map<uint32_t, Box3d> extent;  // over the input surface
+            for (size_t i = 0; i < in.indices.size(); ++i)
+                extent[in.feature_id[in.indices[i]]].extend(centred[all_local[i]]);
+            std::unordered_map<uint32_t, size_t> drawn;  // triangles of the result, by feature
+            for (size_t t = 0; t < chosen.size(); t += 3) ++drawn[featureOf(chosen[t])];
+            std::vector<std::pair<double, uint32_t>> candidates;  // (diagonal, feature)
+            for (const auto& [f, count] : drawn) {
+                const Box3d& b = extent[f];
+                const double diagonal = std::sqrt(norm2(b.max - b.min));
+                if (diagonal < in.drop_features_below_m) candidates.emplace_back(diagonal, f);
+            }
+            std::sort(candidates.begin(), candidates.end());
+            std::unordered_set<uint32_t> dropped;
+            size_t left = chosen.size() / 3;
+            double largest_dropped = 0;
+            for (const auto& [diagonal, f] : candidates) {
+                if (left * 3 <= target_indices) break;
+                const size_t count = drawn[f];
+                if (count >= left) continue;  // a node must show something
+                dropped.insert(f);
+                left -= count;
+                largest_dropped = diagonal;
+            }
+            if (!dropped.empty()) {
+                // The rest simplified again on its own: a kept feature's
+                // nearest surface may have been a dropped one's.
+                auto without = [&](const std::vector<uint32_t>& tris) {
+                    std::vector<uint32_t> out;
+                    for (size_t t = 0; t < tris.size(); t += 3)
+                        if (!dropped.count(featureOf(tris[t])))
+                            out.insert(out.end(), tris.begin() + static_cast<std::ptrdiff_t>(t),
+                                       tris.begin() + static_cast<std::ptrdiff_t>(t + 3));
+                    return out;
+                };
+                std::vector<uint32_t> from;
+                for (uint32_t v = 0; v < n_local; ++v)
+                    if (!dropped.count(featureOf(v))) from.push_back(v);
+                auto [rest, error] = fit(without(kept), without(all_local), from);
+                if (!rest.empty() && rest.size() < chosen.size()) {
+                    chosen = std::move(rest);
+                    chosen_error = error;
+                    result.left_out_diagonal_m = largest_dropped;
+                    result.features_left_out = dropped.size();
+                }
+            }
         }
     }
     // else: every triangle has zero area; the result is empty and its error

@@ -51,6 +51,15 @@ struct SimplifyInput {
     /// meshopt treats vertices sharing a position as an attribute seam, which
     /// it only collapses along: every kept corner keeps its uv and ids.
     bool keep_attribute_seams = false;
+    /// When the result is still above the target within the bound, whole
+    /// features whose bounding box (over the input) has a diagonal below this
+    /// are left out, smallest first, until the target is met (never the last
+    /// one), and the rest is simplified again on its own (a kept feature's
+    /// nearest surface may have been a left-out one's). 0: never. A triangle
+    /// belongs to its first corner's feature. The tiles stage passes the
+    /// node's world texel: a building smaller than a texel is below a pixel
+    /// wherever the node is drawn.
+    double drop_features_below_m = 0;
 };
 
 struct SimplifyResult {
@@ -59,13 +68,19 @@ struct SimplifyResult {
     /// Where the input had several vertices at one position, the first of them
     /// is the one referenced.
     std::vector<uint32_t> indices;
-    /// Measured, symmetric over vertices and samples (see the file comment);
-    /// never above the caller's max_error_m.
+    /// Measured, symmetric over vertices and samples (see the file comment),
+    /// over the features drawn; never above the caller's max_error_m.
     double geometric_error_m = 0;
     size_t triangles_in = 0, triangles_out = 0;
     /// Feature ids some input triangle references but no output triangle does,
     /// sorted ascending. Empty when the input has no feature ids.
     std::vector<uint32_t> features_dropped;
+    /// The largest bounding-box diagonal among the features left out whole
+    /// (SimplifyInput::drop_features_below_m); 0 when none was. It is their
+    /// error in the 3D Tiles sense (what is missing when this is drawn
+    /// instead of the input), not a distance to the remaining surface.
+    double left_out_diagonal_m = 0;
+    size_t features_left_out = 0;
 };
 
 /// Reduces `in` to at most `target_triangles` triangles while keeping the

@@ -17,7 +17,9 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <iterator>
 #include <limits>
+#include <map>
 #include <set>
 #include <tuple>
 #include <vector>
@@ -295,6 +297,114 @@ TEST(Simplify, BoundWinsOverAnUnreachableTarget) {
     // more than the target and says so in triangles_out.
     EXPECT_GT(r.triangles_out, 1u);
     EXPECT_LE(r.geometric_error_m, 0.05);
+}
+
+// The town as the tiles stage hands an inner node's merge over: welded
+// within each face of each building only (a face is a chart with its own
+// atlas uvs), attribute seams kept, so buildings share no vertex and their
+// corners, where three charts meet, are locked for meshopt.
+SimplifyInput perFaceWeld(const Scene& scene) {
+    SimplifyInput in;
+    in.keep_attribute_seams = true;
+    using Key = std::tuple<uint32_t, long, long, long, double, double, double>;
+    std::map<Key, uint32_t> at;
+    for (const Triangle& t : scene.triangles) {
+        const auto& q = t.position_local;
+        Vec3d n = cross(q[1] - q[0], q[2] - q[0]);
+        n = (1.0 / std::sqrt(dot(n, n))) * n;
+        const long nx = std::lround(n.x * 1e4), ny = std::lround(n.y * 1e4), nz = std::lround(n.z * 1e4);
+        for (const Vec3d& p : q) {
+            auto [it, inserted] =
+                at.emplace(Key{t.feature, nx, ny, nz, p.x, p.y, p.z}, static_cast<uint32_t>(in.positions.size()));
+            if (inserted) {
+                in.positions.push_back(p);
+                in.feature_id.push_back(t.feature);
+            }
+            in.indices.push_back(it->second);
+        }
+    }
+    return in;
+}
+
+TEST(Simplify, AboveTheTargetWholeBuildingsSmallerThanTheirBoundLeaveSmallestFirst) {
+    SimplifyInput in = perFaceWeld(town());
+    std::map<uint32_t, double> diagonal;  // over the building's own vertices, written here
+    {
+        std::map<uint32_t, Box3d> box;
+        for (uint32_t i : in.indices) box[in.feature_id[i]].extend(in.positions[i]);
+        for (const auto& [f, b] : box) diagonal[f] = std::sqrt(dot(b.max - b.min, b.max - b.min));
+    }
+    std::vector<double> sorted;
+    for (const auto& [f, d] : diagonal) sorted.push_back(d);
+    std::sort(sorted.begin(), sorted.end());
+    const double below = sorted[sorted.size() * 2 / 3];  // up to two thirds of the buildings may go
+    const double bound = below / 2;                       // meshopt's own bound, kept apart
+    const size_t n = in.indices.size() / 3;
+    const size_t target = n / 8;
+
+    const SimplifyResult plain = simplifyMesh(in, target, bound);
+    ASSERT_GT(plain.triangles_out, target) << "the locked corners must keep meshopt above the target";
+    EXPECT_EQ(plain.features_left_out, 0u);
+    in.drop_features_below_m = below;
+    const SimplifyResult r = simplifyMesh(in, target, bound);
+    expectValidIndices(in, r);
+    EXPECT_LT(r.triangles_out, plain.triangles_out);
+    EXPECT_LE(r.geometric_error_m, bound);
+
+    std::set<uint32_t> left_out;  // dropped here but not by meshopt alone
+    std::set_difference(r.features_dropped.begin(), r.features_dropped.end(), plain.features_dropped.begin(),
+                        plain.features_dropped.end(), std::inserter(left_out, left_out.end()));
+    ASSERT_FALSE(left_out.empty());
+    EXPECT_EQ(r.features_left_out, left_out.size());
+    double largest_left_out = 0;
+    for (uint32_t f : left_out) {
+        EXPECT_LT(diagonal[f], below) << "building " << f << " is not below the size given";
+        largest_left_out = std::max(largest_left_out, diagonal[f]);
+    }
+    EXPECT_NEAR(r.left_out_diagonal_m, largest_left_out, 1e-9);
+    // Smallest first: every building still drawn that could have gone is
+    // at least as large as every one that went.
+    const std::set<uint32_t> drawn = featuresOf(in, r.indices);
+    size_t candidates_drawn = 0;
+    for (uint32_t f : drawn)
+        if (diagonal[f] < below) {
+            ++candidates_drawn;
+            EXPECT_GE(diagonal[f], largest_left_out) << "building " << f << " was kept before a larger one";
+        }
+    // The target is met unless no candidate is left to take.
+    if (r.triangles_out > target) EXPECT_EQ(candidates_drawn, 0u);
+    else EXPECT_LE(r.triangles_out, target);
+
+    // Measured again over what is drawn: the drawn buildings' vertices against
+    // the result, and the result's samples against the drawn buildings' input
+    // (brute force, as simplify.h defines the error).
+    std::vector<uint32_t> drawn_input;
+    for (size_t t = 0; t < in.indices.size(); t += 3)
+        if (drawn.count(in.feature_id[in.indices[t]]))
+            drawn_input.insert(drawn_input.end(), in.indices.begin() + static_cast<std::ptrdiff_t>(t),
+                               in.indices.begin() + static_cast<std::ptrdiff_t>(t + 3));
+    double worst = 0;
+    for (uint32_t v : std::set<uint32_t>(drawn_input.begin(), drawn_input.end()))
+        worst = std::max(worst, bruteSurfaceDist(in.positions[v], in.positions, r.indices));
+    for (size_t t = 0; t < r.indices.size(); t += 3) {
+        const Vec3d& a = in.positions[r.indices[t]];
+        const Vec3d& b = in.positions[r.indices[t + 1]];
+        const Vec3d& c = in.positions[r.indices[t + 2]];
+        for (const Vec3d& s : {a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a), (1.0 / 3.0) * (a + b + c)})
+            worst = std::max(worst, bruteSurfaceDist(s, in.positions, drawn_input));
+    }
+    EXPECT_NEAR(worst, r.geometric_error_m, 1e-9);
+    std::printf("  below %.2f m, bound %.2f m, target %zu: meshopt alone %zu triangles, with whole buildings out "
+                "%zu (%zu buildings, largest %.2f m), error %.3f m\n",
+                below, bound, target, plain.triangles_out, r.triangles_out, left_out.size(), largest_left_out,
+                r.geometric_error_m);
+
+    // Never empty: every building below the size, a target of one triangle:
+    // one building stays.
+    in.drop_features_below_m = 1e6;
+    const SimplifyResult one = simplifyMesh(in, 1, bound);
+    EXPECT_GT(one.triangles_out, 0u);
+    EXPECT_EQ(featuresOf(in, one.indices).size(), 1u);
 }
 
 TEST(Simplify, FlatGridCollapsesToAHandfulAtAnyPositiveBound) {
