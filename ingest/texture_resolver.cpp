@@ -15,7 +15,25 @@ namespace {
 
 bool isRemote(const std::string& uri) { return uri.find("://") != std::string::npos; }
 
+// Plain names only: no ".", "..", or empty part; `absolute` lets it start
+// with one "/".
+bool plainPath(std::string_view p, bool absolute) {
+    if (absolute && !p.empty() && p.front() == '/') p.remove_prefix(1);
+    if (p.empty() || p.front() == '/' || p.back() == '/') return false;
+    for (size_t start = 0; start <= p.size();) {
+        size_t end = p.find('/', start);
+        if (end == std::string_view::npos) end = p.size();
+        const std::string_view part = p.substr(start, end - start);
+        if (part.empty() || part == "." || part == "..") return false;
+        start = end + 1;
+    }
+    return true;
+}
+
 fs::path localPath(const fs::path& base_dir, const std::string& uri) {
+    // lexically_normal() costs microseconds; a plain relative URI (the usual
+    // "folder/image.png") joined to a plain folder is its result already.
+    if (plainPath(base_dir.native(), true) && plainPath(uri, false)) return fs::path(base_dir.native() + '/' + uri);
     return (base_dir / fs::path(uri)).lexically_normal();
 }
 
