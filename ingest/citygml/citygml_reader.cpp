@@ -4,9 +4,14 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
+#include <exception>
 #include <functional>
+#include <mutex>
 #include <optional>
+#include <thread>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -101,6 +106,18 @@ bool parseDoubles(const char* p, const char* end, std::vector<double>* out) {
     return true;
 }
 
+// The element's text as text() gives it; no copy when it is one text node
+// (the usual case), else concatenated into `scratch`.
+std::string_view textView(xmlNodePtr n, std::string* scratch) {
+    const xmlChar* only = nullptr;
+    int count = 0;
+    for (xmlNodePtr c = n->children; c; c = c->next)
+        if ((c->type == XML_TEXT_NODE || c->type == XML_CDATA_SECTION_NODE) && c->content && count++ == 0) only = c->content;
+    if (count == 1) return reinterpret_cast<const char*>(only);
+    *scratch = text(n);
+    return *scratch;
+}
+
 // The dimension of a ring's numbers when no srsDimension says it (GML's
 // default is the CRS's, which a 3D city model's projected CRS does not give):
 // the one under which the ring closes, 3 before 2; else the one that divides
@@ -115,13 +132,14 @@ int guessDimension(const std::vector<double>& v) {
     return v.size() % 3 == 0 ? 3 : v.size() % 2 == 0 ? 2 : 3;
 }
 
-// srsDimension declared on the element or its ancestors, else 0.
-int declaredDimension(xmlNodePtr n) {
+// srsDimension declared on the element or its ancestors, else `above`: the
+// one in effect above the subtree's root (a captured subtree has no parents).
+int declaredDimension(xmlNodePtr n, int above = 0) {
     for (; n && n->type == XML_ELEMENT_NODE; n = n->parent) {
         const std::string d = attribute(n, "srsDimension");
         if (!d.empty()) return std::atoi(d.c_str());
     }
-    return 0;
+    return above;
 }
 
 // ---------------------------------------------------------------------------
@@ -141,6 +159,7 @@ public:
 
 private:
     const fs::path file_;
+    const fs::path base_dir_ = file_.parent_path();  // image URIs are relative to it
     IngestState& state_;
     InputFileSummary summary_;
     int file_dimension_ = 0;              // srsDimension from the root envelope
@@ -160,7 +179,8 @@ private:
     std::unordered_map<std::string, std::vector<RawPolygon>> foreign_geometry_;
 
     // Per member during the read pass.
-    std::unordered_map<std::string, xmlNodePtr> ids_;
+    int member_dimension_ = 0;  // srsDimension in effect above the member
+    std::unordered_map<std::string_view, xmlNodePtr> ids_;  // keys point into the member's DOM
     std::unordered_set<std::string> emitted_ids_;  // polygons already emitted for this city object
     AppearanceStore local_appearances_;
     TextureResolver textures_{*state_.sink, state_.diagnostics};
@@ -246,6 +266,7 @@ private:
     }
 
     static bool isGeometryElement(const char* n) {
+        if (n[0] != 'P' && n[0] != 'C' && n[0] != 'M' && n[0] != 'S' && n[0] != 'O' && n[0] != 'T') return false;
         static const char* names[] = {"Polygon", "CompositeSurface", "MultiSurface", "Solid", "OrientableSurface",
                                       "Surface", "TriangulatedSurface", "Tin", "Triangle", "Shell", "MultiSolid",
                                       "CompositeSolid"};
@@ -260,7 +281,7 @@ private:
         std::string theme;
         const std::vector<std::string> uris = textureImageUris(appearance, &theme);
         if (!state_.options.theme.empty() && theme != state_.options.theme) return;
-        for (const std::string& uri : uris) textures_.prefetch(file_.parent_path(), uri);
+        for (const std::string& uri : uris) textures_.prefetch(base_dir_, uri);
     }
 
     // The index pass as a SAX scan (no DOM but for the envelope, appearances
@@ -275,7 +296,10 @@ private:
         explicit IndexScan(FileReader& reader) : r(reader) {}
         Status root(const ScanElement& e) override { return r.checkRoot(e.local_name, e.ns, true); }
         bool element(const ScanElement& e) override { return r.indexElement(e, *this); }
-        void captured(xmlNodePtr n, int depth, int dimension, int64_t) override { r.indexCaptured(n, depth, dimension); }
+        bool captured(xmlNodePtr n, int depth, int dimension, int64_t) override {
+            r.indexCaptured(n, depth, dimension);
+            return false;
+        }
         void namespaceError(int64_t line, const std::string& message) override {
             r.warn(warn::kXmlNamespaceError, line, "", message + "; read as in no namespace");
         }
@@ -314,13 +338,15 @@ private:
             std::string srs = e.attribute("srsName");
             if (!srs.empty()) srs_name_ = std::move(srs);
         }
+        // (std::hash of a string_view equals that of the std::string the read pass hashes.)
+        std::string scratch;
         if (isGeometryElement(n)) {
-            const std::string id = e.attribute("id", kGmlNamespace);
-            if (!id.empty()) id_owner_.emplace_back(std::hash<std::string>{}(id), scan.member);
+            const std::string_view id = e.attributeView("id", kGmlNamespace, &scratch);
+            if (!id.empty()) id_owner_.emplace_back(std::hash<std::string_view>{}(id), scan.member);
         }
-        const std::string href = e.attribute("href", kXlinkNamespace);
+        const std::string_view href = e.attributeView("href", kXlinkNamespace, &scratch);
         if (!href.empty())
-            href_user_.emplace_back(std::hash<std::string>{}(href[0] == '#' ? href.substr(1) : href), scan.member);
+            href_user_.emplace_back(std::hash<std::string_view>{}(href[0] == '#' ? href.substr(1) : href), scan.member);
         return !first_point_ && (std::strcmp(n, "posList") == 0 || std::strcmp(n, "pos") == 0);
     }
 
@@ -451,10 +477,10 @@ private:
             ids_.clear();
             indexIds(n, false);
             for (const auto& [id, node] : ids_) {
-                if (!foreign_needed_.count(std::hash<std::string>{}(id))) continue;
+                if (!foreign_needed_.count(std::hash<std::string_view>{}(id))) continue;
                 std::vector<RawPolygon> polys;
-                resolveTarget(node, SurfaceSemantic::Unclassified, {}, false, "", polys, 0);
-                foreign_geometry_[id] = std::move(polys);
+                resolveTarget(node, SurfaceSemantic::Unclassified, false, "", polys, 0);
+                foreign_geometry_[std::string(id)] = std::move(polys);
             }
             progress("xlinks", in);
         }
@@ -466,14 +492,14 @@ private:
 
     void indexIds(xmlNodePtr node, bool report_duplicates) {
         for (xmlNodePtr c = firstChild(node); c; c = nextSibling(c)) {
-            const std::string id = gmlId(c);
+            const std::string_view id = gmlIdView(c);
             if (!id.empty()) {
                 auto [it, inserted] = ids_.emplace(id, c);
                 if (!inserted && report_duplicates)
-                    warn(warn::kDuplicateGmlId, lineOf(c), id, "gml:id used twice in one city object; first kept");
+                    warn(warn::kDuplicateGmlId, lineOf(c), std::string(id), "gml:id used twice in one city object; first kept");
                 else if (inserted && report_duplicates && isGeometryElement(localName(c)) &&
-                         duplicate_across_members_.count(std::hash<std::string>{}(id)))
-                    warn(warn::kDuplicateGmlId, lineOf(c), id, "gml:id also used in another city object");
+                         duplicate_across_members_.count(std::hash<std::string_view>{}(id)))
+                    warn(warn::kDuplicateGmlId, lineOf(c), std::string(id), "gml:id also used in another city object");
             }
             indexIds(c, report_duplicates);
         }
@@ -489,44 +515,131 @@ private:
         }
     }
 
-    Status readPass() {
-        XmlInput in;
-        if (Status s = openRoot(in, false); !s.ok()) return s;
-        uint64_t members = 0;
-        while (in.nextChild()) {
-            const RootChild kind = classify(in.currentLocalName());
-            if (kind == RootChild::Other) continue;
-            xmlNodePtr member = in.expand();
-            if (!member) break;
-            xmlNodePtr object = objectOf(member, kind);
-            if (!object) continue;
-            if (isNamed(object, "Building")) {
-                ids_.clear();
-                emitted_ids_.clear();
-                indexIds(member, true);
-                local_appearances_ = AppearanceStore();
-                collectAppearances(member);
-                warnUnsupported(local_appearances_);
-                state_.counts.objects_read["Building"]++;
-                summary_.buildings++;
-                const bool any = readFeature(object, -1);
-                if (!any) {
-                    state_.counts.features_without_geometry++;
-                    warn(warn::kNoLodGeometry, lineOf(object), gmlId(object),
-                         state_.options.lod ? fmt::format("no LOD{} geometry", state_.options.lod)
-                                            : "no LOD1 or LOD2 geometry (LOD0/3/4 only, or none)");
-                }
-            } else {
-                state_.counts.objects_skipped[localName(object)]++;
+    // One city object at a time: the scan (this thread) parses a member into
+    // a DOM while a worker thread reads the one before (geometry, appearances,
+    // triangulation, the sink). The one worker takes the members in file
+    // order, so everything it does happens in the order one thread would do
+    // it. At most kMembersInFlight DOMs exist at a time; the scan frees them
+    // (they hold its dictionary's names).
+    static constexpr size_t kMembersInFlight = 16;
+    struct ReadScan : ScanHandler {
+        struct Member {
+            xmlNodePtr node;
+            RootChild kind;
+            int dimension_above;
+        };
+        FileReader& r;
+        std::mutex mutex;
+        std::condition_variable work_ready, space_ready;
+        std::deque<Member> work;
+        std::vector<xmlNodePtr> done;  // read by the worker, for the scan to free
+        size_t in_flight = 0;
+        bool closed = false;
+        std::exception_ptr error;      // what the worker threw; it then skips the rest
+        std::thread worker;
+
+        explicit ReadScan(FileReader& reader) : r(reader), worker([this] { run(); }) {}
+        ~ReadScan() override { endOfScan(); }
+
+        Status root(const ScanElement& e) override { return r.checkRoot(e.local_name, e.ns, false); }
+        bool element(const ScanElement& e) override { return e.depth == 1 && classify(e.local_name) != RootChild::Other; }
+        bool captured(xmlNodePtr n, int, int dimension, int64_t) override {
+            std::vector<xmlNodePtr> to_free;
+            {
+                std::unique_lock lock(mutex);
+                space_ready.wait(lock, [&] { return in_flight < kMembersInFlight; });
+                to_free.swap(done);
+                work.push_back({n, classify(localName(n)), dimension});
+                ++in_flight;
             }
-            if ((++members & 63) == 0) progress("read", in);
+            work_ready.notify_one();
+            for (xmlNodePtr f : to_free) xmlFreeNode(f);
+            return true;
         }
-        if (!in.status().ok()) return in.status();
-        progress("read", in);
+        void progress(uint64_t done_bytes) override {
+            if (r.state_.progress) r.state_.progress("read", done_bytes, r.summary_.bytes);
+        }
+        // Waits for the worker to read what is queued, then frees it all.
+        void endOfScan() override {
+            {
+                std::lock_guard lock(mutex);
+                closed = true;
+            }
+            work_ready.notify_one();
+            if (worker.joinable()) worker.join();
+            for (xmlNodePtr f : done) xmlFreeNode(f);
+            done.clear();
+        }
+        void run() {
+            for (;;) {
+                Member m;
+                {
+                    std::unique_lock lock(mutex);
+                    work_ready.wait(lock, [&] { return closed || !work.empty(); });
+                    if (work.empty()) return;
+                    m = work.front();
+                    work.pop_front();
+                }
+                if (!error) {
+                    try {
+                        r.readMember(m.node, m.kind, m.dimension_above);
+                    } catch (...) {
+                        error = std::current_exception();
+                    }
+                }
+                {
+                    std::lock_guard lock(mutex);
+                    done.push_back(m.node);
+                    --in_flight;
+                }
+                space_ready.notify_one();
+            }
+        }
+    };
+
+    Status readPass() {
+        uint64_t bytes = 0;
+        Status s;
+        std::exception_ptr error;
+        {
+            ReadScan scan(*this);
+            s = scanXml(file_, scan, &bytes);
+            scan.endOfScan();
+            error = scan.error;
+        }
+        if (error) std::rethrow_exception(error);
+        if (!s.ok()) return s;
+        if (state_.progress) state_.progress("read", summary_.bytes, summary_.bytes);
         state_.counts.textures_ok += textures_.resolved();
         state_.counts.textures_failed += textures_.failed();
         state_.files.push_back(summary_);
         return Status::Ok();
+    }
+
+    // One root child that holds a city object (worker thread, in file order).
+    void readMember(xmlNodePtr member, RootChild kind, int dimension_above) {
+        member_dimension_ = dimension_above;
+        xmlNodePtr object = objectOf(member, kind);
+        if (!object) return;
+        if (isNamed(object, "Building")) {
+            ids_.clear();
+            emitted_ids_.clear();
+            indexIds(member, true);
+            local_appearances_ = AppearanceStore();
+            collectAppearances(member);
+            warnUnsupported(local_appearances_);
+            state_.counts.objects_read["Building"]++;
+            summary_.buildings++;
+            const bool any = readFeature(object, -1);
+            if (!any) {
+                state_.counts.features_without_geometry++;
+                warn(warn::kNoLodGeometry, lineOf(object), gmlId(object),
+                     state_.options.lod ? fmt::format("no LOD{} geometry", state_.options.lod)
+                                        : "no LOD1 or LOD2 geometry (LOD0/3/4 only, or none)");
+            }
+        } else {
+            state_.counts.objects_skipped[localName(object)]++;
+        }
     }
 
     // Attributes of a Building / BuildingPart.
@@ -587,9 +700,9 @@ private:
         for (xmlNodePtr c = firstChild(b); c; c = nextSibling(c)) {
             const char* n = localName(c);
             if (std::strcmp(n, "lod1Solid") == 0 || std::strcmp(n, "lod1MultiSurface") == 0) {
-                collectGeometry(c, SurfaceSemantic::Unclassified, {}, false, "", plain[1]);
+                collectGeometry(c, SurfaceSemantic::Unclassified, false, "", plain[1]);
             } else if (std::strcmp(n, "lod2Solid") == 0 || std::strcmp(n, "lod2MultiSurface") == 0) {
-                collectGeometry(c, SurfaceSemantic::Unclassified, {}, false, "", plain[2]);
+                collectGeometry(c, SurfaceSemantic::Unclassified, false, "", plain[2]);
             } else if (std::strcmp(n, "boundedBy") == 0 || std::strcmp(n, "boundary") == 0) {
                 readThematic(firstChild(c), std::nullopt, thematic);
             } else if (std::strcmp(n, "outerBuildingInstallation") == 0 || std::strcmp(n, "buildingInstallation") == 0) {
@@ -659,8 +772,8 @@ private:
         const SurfaceSemantic sem = forced ? *forced : semanticOf(localName(surface));
         for (xmlNodePtr g = firstChild(surface); g; g = nextSibling(g)) {
             const char* n = localName(g);
-            if (std::strcmp(n, "lod2MultiSurface") == 0) collectGeometry(g, sem, {}, false, "", out[2]);
-            else if (std::strcmp(n, "lod1MultiSurface") == 0) collectGeometry(g, sem, {}, false, "", out[1]);
+            if (std::strcmp(n, "lod2MultiSurface") == 0) collectGeometry(g, sem, false, "", out[2]);
+            else if (std::strcmp(n, "lod1MultiSurface") == 0) collectGeometry(g, sem, false, "", out[1]);
             else if (startsWith(n, "lod3") || startsWith(n, "lod4") || std::strcmp(n, "opening") == 0)
                 state_.counts.geometry_skipped[n]++;
             else if (!isKnownNamespace(g))
@@ -678,7 +791,7 @@ private:
         for (xmlNodePtr g = firstChild(inst); g; g = nextSibling(g)) {
             const char* n = localName(g);
             if (std::strcmp(n, "lod2Geometry") == 0 || std::strcmp(n, "lod2MultiSurface") == 0)
-                collectGeometry(g, SurfaceSemantic::Installation, {}, false, "", out[2]);
+                collectGeometry(g, SurfaceSemantic::Installation, false, "", out[2]);
             else if (std::strcmp(n, "boundedBy") == 0 || std::strcmp(n, "boundary") == 0)
                 readThematic(firstChild(g), SurfaceSemantic::Installation, out);
             else if (startsWith(n, "lod3") || startsWith(n, "lod4"))
@@ -688,25 +801,32 @@ private:
 
     // ---- geometry ---------------------------------------------------------------
 
+    std::vector<double> coordinates_;  // readRing's, reused
+    std::string text_;                 // textView's, reused
+
     bool readRing(xmlNodePtr ring, RawRing* out) {
         out->id = gmlId(ring);
         out->line = lineOf(ring);
-        std::vector<double> v;
+        std::vector<double>& v = coordinates_;
+        v.clear();
         int dim = 0;
         bool ok = true;
         for (xmlNodePtr c = firstChild(ring); c; c = nextSibling(c)) {
             const char* n = localName(c);
             if (std::strcmp(n, "posList") == 0 || std::strcmp(n, "coordinates") == 0) {
-                const std::string t = text(c);
-                std::string buf = t;
-                if (std::strcmp(n, "coordinates") == 0) std::replace(buf.begin(), buf.end(), ',', ' ');
-                ok &= parseDoubles(buf.data(), buf.data() + buf.size(), &v);
-                dim = declaredDimension(c);
+                std::string_view t = textView(c, &text_);
+                if (std::strcmp(n, "coordinates") == 0) {
+                    if (t.data() != text_.data()) text_.assign(t);
+                    std::replace(text_.begin(), text_.end(), ',', ' ');
+                    t = text_;
+                }
+                ok &= parseDoubles(t.data(), t.data() + t.size(), &v);
+                dim = declaredDimension(c, member_dimension_);
             } else if (std::strcmp(n, "pos") == 0) {
-                const std::string t = text(c);
+                const std::string_view t = textView(c, &text_);
                 const size_t before = v.size();
                 ok &= parseDoubles(t.data(), t.data() + t.size(), &v);
-                if (!dim) dim = declaredDimension(c);
+                if (!dim) dim = declaredDimension(c, member_dimension_);
                 if (!dim && v.size() - before == 2) dim = 2;
             }
         }
@@ -734,11 +854,11 @@ private:
         return true;
     }
 
-    void readPolygonLike(xmlNodePtr poly, SurfaceSemantic sem, const std::vector<std::string>& ancestors,
-                         bool reversed, const std::string& solid, std::vector<RawPolygon>& out) {
+    void readPolygonLike(xmlNodePtr poly, SurfaceSemantic sem, bool reversed, const std::string& solid,
+                         std::vector<RawPolygon>& out) {
         RawPolygon p;
         p.id = gmlId(poly);
-        p.surface_ids = ancestors;
+        p.surface_ids.assign(ancestors_.rbegin(), ancestors_.rend());
         p.reversed = reversed;
         p.semantic = sem;
         p.solid = solid;
@@ -767,15 +887,19 @@ private:
         out.push_back(std::move(p));
     }
 
-    void collectGeometry(xmlNodePtr node, SurfaceSemantic sem, std::vector<std::string> ancestors, bool reversed,
-                         const std::string& solid, std::vector<RawPolygon>& out, int depth = 0) {
+    // Enclosing geometry ids while collectGeometry descends, outermost first
+    // (a stack, not a copy per level; empty between top-level calls).
+    std::vector<std::string> ancestors_;
+
+    void collectGeometry(xmlNodePtr node, SurfaceSemantic sem, bool reversed, const std::string& solid,
+                         std::vector<RawPolygon>& out, int depth = 0) {
         if (depth > 64) return;  // a reference cycle; real geometry is never this deep
         const std::string href = xlinkHref(node);
         if (!href.empty() && !firstChild(node)) {
             auto it = ids_.find(href);
             if (it != ids_.end()) {
                 state_.counts.xlinks_resolved++;
-                resolveTarget(it->second, sem, ancestors, reversed, solid, out, depth);
+                resolveTarget(it->second, sem, reversed, solid, out, depth);
                 return;
             }
             if (auto f = foreign_geometry_.find(href); f != foreign_geometry_.end()) {
@@ -794,28 +918,30 @@ private:
             return;
         }
         for (xmlNodePtr c = firstChild(node); c; c = nextSibling(c))
-            resolveTarget(c, sem, ancestors, reversed, solid, out, depth + 1);
+            resolveTarget(c, sem, reversed, solid, out, depth + 1);
     }
 
-    void resolveTarget(xmlNodePtr g, SurfaceSemantic sem, std::vector<std::string> ancestors, bool reversed,
-                       std::string solid, std::vector<RawPolygon>& out, int depth) {
+    void resolveTarget(xmlNodePtr g, SurfaceSemantic sem, bool reversed, const std::string& solid,
+                       std::vector<RawPolygon>& out, int depth) {
         const char* n = localName(g);
         if (std::strcmp(n, "Polygon") == 0 || std::strcmp(n, "Triangle") == 0 || std::strcmp(n, "PolygonPatch") == 0 ||
             std::strcmp(n, "Rectangle") == 0) {
-            readPolygonLike(g, sem, ancestors, reversed, solid, out);
+            readPolygonLike(g, sem, reversed, solid, out);
             return;
         }
         const std::string id = gmlId(g);
         if (std::strcmp(n, "OrientableSurface") == 0 && attribute(g, "orientation") == "-") reversed = !reversed;
         if (std::strcmp(n, "Solid") == 0) {
-            solid = id.empty() ? fmt::format("solid@{}", lineOf(g)) : id;
+            const std::string own = id.empty() ? fmt::format("solid@{}", lineOf(g)) : id;
             // Only the outer shell is visible; interior shells are voids.
-            if (xmlNodePtr ext = child(g, "exterior")) collectGeometry(ext, sem, ancestors, reversed, solid, out, depth + 1);
+            if (xmlNodePtr ext = child(g, "exterior")) collectGeometry(ext, sem, reversed, own, out, depth + 1);
             return;
         }
         if (std::strcmp(n, "interior") == 0 && g->parent && isNamed(g->parent, "Solid")) return;
-        if (!id.empty() && isGeometryElement(n)) ancestors.insert(ancestors.begin(), id);
-        collectGeometry(g, sem, std::move(ancestors), reversed, solid, out, depth + 1);
+        const bool enclosing = !id.empty() && isGeometryElement(n);
+        if (enclosing) ancestors_.push_back(id);
+        collectGeometry(g, sem, reversed, solid, out, depth + 1);
+        if (enclosing) ancestors_.pop_back();
     }
 
     // ---- appearance lookup -------------------------------------------------------
@@ -836,8 +962,19 @@ private:
 
     int32_t sceneTexture(const AppearanceStore& store, uint32_t image, int64_t line, const std::string& polygon_id) {
         const TextureImage& img = store.images[image];
-        return textures_.resolve(file_.parent_path(), img.uri, img.wrap, {file_.string(), line, polygon_id, ""});
+        // resolve() gives the same answer for the same image and wrap (it
+        // warns the first time only); most polygons ask again for their
+        // building's image, so the path work is done once per image.
+        texture_key_.assign(img.uri);
+        texture_key_ += '#';
+        texture_key_ += std::to_string(static_cast<int>(img.wrap));
+        if (auto it = texture_index_.find(texture_key_); it != texture_index_.end()) return it->second;
+        const int32_t index = textures_.resolve(base_dir_, img.uri, img.wrap, {file_.string(), line, polygon_id, ""});
+        texture_index_.emplace(texture_key_, index);
+        return index;
     }
+    std::string texture_key_;
+    std::unordered_map<std::string, int32_t> texture_index_;  // (uri#wrap) -> resolve()'s answer
 
     // A GeoreferencedTexture as a texture-generation matrix: the inverse of
     // its pixel-to-world map, scaled to the image's size, applied to a
@@ -944,21 +1081,22 @@ private:
 
     void emitPolygons(std::vector<RawPolygon>& polygons, uint32_t feature) {
         std::vector<Triangle> tris;
-        std::vector<std::string> tri_solid;  // solid of each triangle, for the orientation check
-        for (RawPolygon& p : polygons) emitPolygon(p, feature, tris, tri_solid);
+        std::vector<uint32_t> tri_polygon;  // polygon of each triangle: its solid, for the orientation check
+        for (size_t i = 0; i < polygons.size(); ++i) emitPolygon(polygons[i], feature, tris, tri_polygon, static_cast<uint32_t>(i));
+        auto solidOf = [&](size_t triangle) -> const std::string& { return polygons[tri_polygon[triangle]].solid; };
 
         // A closed solid whose faces point inward has negative volume: flip it.
         std::unordered_map<std::string, double> volume;
         for (size_t i = 0; i < tris.size(); ++i) {
-            if (tri_solid[i].empty()) continue;
+            if (solidOf(i).empty()) continue;
             const auto& q = tris[i].position_local;
-            volume[tri_solid[i]] += dot(q[0], cross(q[1], q[2])) / 6.0;
+            volume[solidOf(i)] += dot(q[0], cross(q[1], q[2])) / 6.0;
         }
         for (const auto& [solid, v] : volume) {
             if (v >= 0) continue;
             warn(warn::kSolidInverted, 0, solid, fmt::format("faces point inward (volume {:.3f} m3); flipped", v));
             for (size_t i = 0; i < tris.size(); ++i)
-                if (tri_solid[i] == solid) {
+                if (solidOf(i) == solid) {
                     std::swap(tris[i].position_local[1], tris[i].position_local[2]);
                     std::swap(tris[i].uv[1], tris[i].uv[2]);
                 }
@@ -966,7 +1104,8 @@ private:
         state_.sink->addTriangles(tris);
     }
 
-    void emitPolygon(const RawPolygon& p, uint32_t feature, std::vector<Triangle>& tris, std::vector<std::string>& tri_solid) {
+    void emitPolygon(const RawPolygon& p, uint32_t feature, std::vector<Triangle>& tris, std::vector<uint32_t>& tri_polygon,
+                     uint32_t polygon) {
         const std::string& pid = p.id.empty() ? (p.surface_ids.empty() ? std::string() : p.surface_ids.front()) : p.id;
         // Appearance: texture coordinates per ring, or a generation matrix on
         // the polygon or an enclosing surface; a material the same way.
@@ -1108,7 +1247,7 @@ private:
             tri.feature = feature;
             tri.semantic = sem;
             tris.push_back(tri);
-            tri_solid.push_back(p.solid);
+            tri_polygon.push_back(polygon);
         }
     }
 };

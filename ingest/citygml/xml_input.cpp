@@ -211,7 +211,9 @@ static bool nsStartsWith(xmlNsPtr ns, const char* prefix) {
     return ns && ns->href && std::strncmp(reinterpret_cast<const char*>(ns->href), prefix, std::strlen(prefix)) == 0;
 }
 
-std::string gmlId(xmlNodePtr n) {
+std::string gmlId(xmlNodePtr n) { return std::string(gmlIdView(n)); }
+
+std::string_view gmlIdView(xmlNodePtr n) {
     for (xmlAttrPtr a = n->properties; a; a = a->next)
         if (std::strcmp(reinterpret_cast<const char*>(a->name), "id") == 0 &&
             nsStartsWith(a->ns, "http://www.opengis.net/gml") && a->children && a->children->content)

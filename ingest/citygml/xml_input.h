@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 #include "core/status.h"
 
@@ -83,6 +84,8 @@ inline bool isElement(xmlNodePtr n) { return n && n->type == XML_ELEMENT_NODE; }
 bool isNamed(xmlNodePtr n, const char* local_name);
 /// gml:id (GML 3.1.1 or 3.2), or empty.
 std::string gmlId(xmlNodePtr n);
+/// gmlId() without a copy: valid while the node lives.
+std::string_view gmlIdView(xmlNodePtr n);
 /// xlink:href without a leading '#', or empty.
 std::string xlinkHref(xmlNodePtr n);
 /// An attribute by local name (any namespace), or empty.

@@ -18,6 +18,15 @@
 namespace cityatlas::citygml {
 namespace {
 
+// std::atoi of a value that is not NUL-terminated.
+int atoi(std::string_view v) {
+    char buf[64];
+    if (v.size() >= sizeof buf) return std::atoi(std::string(v).c_str());
+    v.copy(buf, v.size());
+    buf[v.size()] = '\0';
+    return std::atoi(buf);
+}
+
 bool startsWith(const xmlChar* s, const char* prefix) {
     return s && std::strncmp(reinterpret_cast<const char*>(s), prefix, std::strlen(prefix)) == 0;
 }
@@ -69,8 +78,9 @@ void onStartElement(void* ctx, const xmlChar* local_name, const xmlChar* prefix,
     e.line = currentLine(st.ctxt);
     e.attribute_count = attribute_count;
     e.attributes = attributes;
-    const std::string dim = e.attribute("srsDimension");
-    e.srs_dimension = !dim.empty() ? std::atoi(dim.c_str()) : st.dimension.empty() ? 0 : st.dimension.back();
+    std::string scratch;
+    const std::string_view dim = e.attributeView("srsDimension", "", &scratch);
+    e.srs_dimension = !dim.empty() ? atoi(dim) : st.dimension.empty() ? 0 : st.dimension.back();
     st.dimension.push_back(e.srs_dimension);
 
     if (depth == 0) {
@@ -111,9 +121,8 @@ void onEndElement(void* ctx, const xmlChar* local_name, const xmlChar* prefix, c
         st.capture_depth = -1;
         st.capture_root = nullptr;
         if (root) {
-            st.handler->captured(root, depth, st.capture_dimension, st.capture_line);
             xmlUnlinkNode(root);
-            xmlFreeNode(root);
+            if (!st.handler->captured(root, depth, st.capture_dimension, st.capture_line)) xmlFreeNode(root);
         }
     }
     st.scope.resize(st.scope_mark.back());
@@ -154,6 +163,12 @@ void onError(void* ctx, xmlErrorPtr error) {
 }  // namespace
 
 std::string ScanElement::attribute(const char* name, const char* namespace_prefix) const {
+    std::string scratch;
+    const std::string_view v = attributeView(name, namespace_prefix, &scratch);
+    return v.data() == scratch.data() ? std::move(scratch) : std::string(v);
+}
+
+std::string_view ScanElement::attributeView(const char* name, const char* namespace_prefix, std::string* scratch) const {
     for (int i = 0; i < attribute_count; ++i) {
         const xmlChar* const* a = attributes + 5 * i;
         if (std::strcmp(reinterpret_cast<const char*>(a[0]), name) != 0) continue;
@@ -161,7 +176,9 @@ std::string ScanElement::attribute(const char* name, const char* namespace_prefi
         // libxml2 hands '&' in attribute values to SAX as "&#38;" (its tree
         // builder decodes it); everything else arrives decoded.
         const std::string_view raw(reinterpret_cast<const char*>(a[3]), static_cast<size_t>(a[4] - a[3]));
-        std::string v;
+        if (raw.find('&') == std::string_view::npos) return raw;
+        std::string& v = *scratch;
+        v.clear();
         v.reserve(raw.size());
         for (size_t k = 0; k < raw.size(); ++k) {
             v.push_back(raw[k]);
@@ -202,6 +219,11 @@ Status scanXml(const std::filesystem::path& file, ScanHandler& handler, uint64_t
         c->myDoc = nullptr;
         xmlFreeParserCtxt(c);
     });
+    // Declared after `owner`, so it runs while the parser (and its dictionary) still exists.
+    struct EndOfScan {
+        ScanHandler& handler;
+        ~EndOfScan() { handler.endOfScan(); }
+    } end_of_scan{handler};
     st.ctxt->_private = &st;
     xmlCtxtUseOptions(st.ctxt, kXmlParseOptions);
     st.ctxt->linenumbers = 1;

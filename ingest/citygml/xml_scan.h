@@ -31,6 +31,10 @@ struct ScanElement {
     /// An attribute by local name and namespace prefix ("" = any namespace),
     /// entities decoded as the DOM would; empty when absent or empty.
     std::string attribute(const char* local_name, const char* namespace_prefix = "") const;
+    /// The same value without a copy when it needs no decoding (no '&'),
+    /// else decoded into `scratch`; valid during the call (and while
+    /// `scratch` lives).
+    std::string_view attributeView(const char* local_name, const char* namespace_prefix, std::string* scratch) const;
 };
 
 class ScanHandler {
@@ -41,10 +45,16 @@ public:
     /// Every element below the root outside captured subtrees; true to get
     /// its subtree as a DOM in captured() (nothing inside it comes here).
     virtual bool element(const ScanElement& e) = 0;
-    /// A subtree element() asked for, complete; freed after the call. Its
-    /// root carries every namespace in scope; its ancestors are not there
-    /// (`depth`, `srs_dimension` and `line` are element()'s).
-    virtual void captured(xmlNodePtr subtree, int depth, int srs_dimension, int64_t line) = 0;
+    /// A subtree element() asked for, complete, unlinked from the document.
+    /// Its root carries every namespace in scope; its ancestors are not there
+    /// (`depth`, `srs_dimension` and `line` are element()'s). False: it is
+    /// freed after the call. True: the handler keeps it (another thread may
+    /// read it) and frees it with xmlFreeNode on the scanning thread, in a
+    /// later callback or in endOfScan() at the latest: its names live in the
+    /// parser's dictionary, which the scan owns and which is not thread-safe.
+    virtual bool captured(xmlNodePtr subtree, int depth, int srs_dimension, int64_t line) = 0;
+    /// Once, as the scan ends (well or not), while its parser still exists.
+    virtual void endOfScan() {}
     /// A namespace error libxml2 reads past (an undeclared prefix: the
     /// element or attribute is in no namespace); not a parse failure.
     virtual void namespaceError(int64_t /*line*/, const std::string& /*message*/) {}

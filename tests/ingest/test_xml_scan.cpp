@@ -54,7 +54,7 @@ struct Recorder : ScanHandler {
             if (c == e.local_name) return true;
         return false;
     }
-    void captured(xmlNodePtr n, int depth, int dimension, int64_t line) override {
+    bool captured(xmlNodePtr n, int depth, int dimension, int64_t line) override {
         xmlNodePtr inner = firstChild(n);
         captured_report.push_back(std::string(localName(n)) + " depth " + std::to_string(depth) + " dim " +
                                   std::to_string(dimension) + " line " + std::to_string(line) + " node line " +
@@ -62,6 +62,7 @@ struct Recorder : ScanHandler {
                                   " inner id " + (inner ? gmlId(inner) : "-") + " theme " +
                                   (inner && child(inner, "theme") ? text(child(inner, "theme")) : "-") + " href " +
                                   (inner && child(inner, "link") ? xlinkHref(child(inner, "link")) : "-"));
+        return false;
     }
 };
 
