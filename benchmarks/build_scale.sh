@@ -12,14 +12,17 @@
 # updated after each run; records of runs not repeated are kept) and prints a
 # table. Every run rebuilds everything (--force), so each record's
 # stage times are complete. The town is made once and not timed.
+# CITYATLAS=/path/to/cityatlas runs that executable instead of building and
+# running ./build/cli/cityatlas (a long run that the next build must not touch).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 N="${1:-10000}"; DMIN="${2:-400}"; RUNS="${3:-all}"; PX="${4:-512}"
-./scripts/build > /dev/null
+if [ -z "${CITYATLAS:-}" ]; then ./scripts/build > /dev/null; fi
+export CITYATLAS="${CITYATLAS:-./build/cli/cityatlas}"
 mkdir -p out/benchmarks
 TOWN="out/benchmarks/synth-$N-$PX"
 if [ ! -f "$TOWN/truth.json" ]; then
-  ./build/cli/cityatlas synth --buildings "$N" --texture-size "$PX" --lod 2 --seed 1 -q --overwrite -o "$TOWN" > /dev/null
+  "$CITYATLAS" synth --buildings "$N" --texture-size "$PX" --lod 2 --seed 1 -q --overwrite -o "$TOWN" > /dev/null
 fi
 TAG="$N-${DMIN//\//_}"
 [ "$PX" = 512 ] || TAG="$TAG-${PX}px"
@@ -39,7 +42,7 @@ previous = json.load(open(result))["runs"] if os.path.exists(result) else []
 records = []
 for name, extra in variants:
     out = f"out/benchmarks/build-{tag}-{name}"
-    cmd = ["./build/cli/cityatlas", "build", os.path.join(town, "town.gml"), "-o", out, "--force", "-q",
+    cmd = [os.environ["CITYATLAS"], "build", os.path.join(town, "town.gml"), "-o", out, "--force", "-q",
            "--d-min", dmin] + extra
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.monotonic()

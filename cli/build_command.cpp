@@ -505,7 +505,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         rec.features = feature_count;
         rec.triangles = scene_triangles;
         rec.textured_triangles = scene_stats.textured_triangles;
-        rec.textures = scene.textures.size();
+        rec.textures = scene_stats.textures;
         rec.started_unix = started_unix;
         rec.shards = shardsJson(shard_plan, opt, sharded);
         for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
@@ -575,6 +575,11 @@ int runBuild(const BuildCliOptions& opt_in) {
                         shard_plan.shards() - reused.size(), jobs.merge.c_str(), logs.string().c_str());
             return kExitOk;
         }
+        // From here this process waits for the shards and merges from the plan
+        // folder, as the merge job does: the scene's tables go before the
+        // shards start (a million textures' entries are ~0.3 GB).
+        std::vector<TextureRef>().swap(scene.textures);
+        std::vector<Material>().swap(scene.materials);
         const auto report = [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); };
         if (Status s = runShards(plan_dir, opt.workers, params.threads, report); !s.ok()) return abandon(s);
         endStage("shards");

@@ -909,6 +909,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     MergeResult& r = *result;
     tablesFrom(tables, &r.tables);
+    tables = json();  // a million textures' entries as JSON are ~1 GB: typed from here on
     r.scene_triangles = plan.at("scene_triangles");
     const atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
     tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
@@ -932,6 +933,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     std::vector<int32_t> shard_root;
     tiles::BuiltSubtrees built;
     atlas::assembleTree(sp, trees, ap, &tree, &shard_root, &built.built);
+    std::vector<atlas::AtlasTree>().swap(trees);
     const size_t n_nodes = tree.nodes.size();
 
     // Every shard file moves to its node's number in the whole tree.
@@ -999,6 +1001,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         }
         addStats(m.at("stats"), &tree.stats);
         addDiagnostics(m.at("warnings"), diagnostics);
+        manifests[k] = json();  // its records are typed now
     }
     built.texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
     built.feature_tables = tiles::FeatureTables{};
@@ -1006,6 +1009,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     built.feature_tables->features = plan.at("feature_count");
     // The shards, by content key, for the next build of this folder (reuseShards).
     const auto keys = plan.at("shard_keys").get<std::vector<std::string>>();
+    plan = json();
     const fs::path cache = out_dir / kShardCache;
     fs::create_directories(cache, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", cache.string(), ec.message()));

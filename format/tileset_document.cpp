@@ -486,21 +486,43 @@ Status readTilesetDocument(const std::string& text, const std::string& where, Ti
     return Status::Ok();
 }
 
+namespace {
+
+json textureJson(const TextureEntry& e) {
+    return {{"block", e.block},   {"offset", e.offset}, {"bytes", e.bytes}, {"width", e.width},      {"height", e.height},
+            {"format", e.format}, {"mips", e.mips},     {"wrap", e.wrap},   {"original", e.original}};
+}
+
+// The textures array as dump(1) writes it with its key at `depth`, one entry
+// at a time: a million entries as one JSON value would take ~1 GB.
+void appendTexturesText(const std::vector<TextureEntry>& textures, size_t depth, std::string* out) {
+    if (textures.empty()) {
+        *out += "[]";
+        return;
+    }
+    const std::string pad(depth + 1, ' ');
+    *out += "[\n";
+    for (size_t i = 0; i < textures.size(); ++i) {
+        *out += pad;
+        for (const char c : textureJson(textures[i]).dump(1, ' ', false, json::error_handler_t::replace)) {
+            *out += c;
+            if (c == '\n') *out += pad;
+        }
+        *out += i + 1 < textures.size() ? ",\n" : "\n";
+    }
+    out->append(depth, ' ');
+    *out += ']';
+}
+
+}  // namespace
+
 std::string writeTilesetDocument(const TilesetDocument& doc) {
     json materials = json::array();
     for (const MaterialEntry& m : doc.materials)
         materials.push_back({{"diffuse", json(m.diffuse)}, {"transparency", m.transparency}});
-    json textures = json::array();
-    for (const TextureEntry& e : doc.textures)
-        textures.push_back({{"block", e.block},
-                            {"offset", e.offset},
-                            {"bytes", e.bytes},
-                            {"width", e.width},
-                            {"height", e.height},
-                            {"format", e.format},
-                            {"mips", e.mips},
-                            {"wrap", e.wrap},
-                            {"original", e.original}});
+    // Stands for the textures array in the dump; replaced by appendTexturesText.
+    const std::string placeholder = "cityatlas-textures-placeholder";
+    const json textures = placeholder;
     json blocks = json::array(), tables = json::array();
     for (const FileEntry& b : doc.texture_blocks) blocks.push_back(file(b));
     for (const FileEntry& t : doc.feature_tables) tables.push_back(file(t));
@@ -534,7 +556,20 @@ std::string writeTilesetDocument(const TilesetDocument& doc) {
     tileset["geometricError"] = doc.geometric_error;
     if (!doc.tiles.empty()) tileset["root"] = tileJson(doc, 0);
     tileset["extras"] = {{"cityatlas", ca}};
-    return tileset.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+    const std::string text = tileset.dump(1, ' ', false, json::error_handler_t::replace);
+    // Key and value with their quotes: inside a string value of the input's
+    // (a CRS name) the quotes would be escaped, so this is the member itself.
+    const std::string key = "\"textures\": ";
+    const size_t at = text.find(key + '"' + placeholder + '"');
+    const size_t line = text.rfind('\n', at) + 1;
+    const size_t depth = at - line;
+    std::string out;
+    out.reserve(text.size() + doc.textures.size() * 160 + 2);
+    out.append(text, 0, at + key.size());
+    appendTexturesText(doc.textures, depth, &out);
+    out.append(text, at + key.size() + placeholder.size() + 2, std::string::npos);
+    out += '\n';
+    return out;
 }
 
 }  // namespace cityatlas::format
