@@ -493,9 +493,8 @@ int runBuild(const BuildCliOptions& opt_in) {
     const size_t feature_count = scene.features.size();
     Diagnostics& diagnostics = state.diagnostics;
     atlas::AtlasTree single_tree;
-    MergeResult merged;
     tiles::TilesStats ts;
-    ordered_json shard_cost, shard_reuse;
+    ordered_json shard_reuse;
     const atlas::ShardPlan shard_plan = atlas::planShards(sink.features, scene.features.size(), opt.shard_triangles);
     sink.features = {};
     const bool sharded = shard_plan.shards() > 1 || opt.slurm;
@@ -548,14 +547,17 @@ int runBuild(const BuildCliOptions& opt_in) {
         shard_reuse = {{"reused", reused.size()}, {"built", shard_plan.shards() - reused.size()}, {"reused_shards", reused},
                        {"keys", keys}};
         endStage("plan");
-        if (opt.slurm) {
-            // The shards and the merge as cluster jobs; the merge job finishes the build.
+        // What the merge (a job, or this process after exec) finishes the build from.
+        {
             const BuildRecord rec = buildRecord();
             ordered_json record = recordJson(rec, stages, diagnostics);
             record["force"] = opt.force;
             const std::string text = record.dump(1) + "\n";
             if (Status s = tiles::writeBytes(plan_dir / "build.json", text.data(), text.size()); !s.ok()) return abandon(s);
             fs::remove_all(work, ec);  // the atlas stage's PNG folder, unused by a sharded build
+        }
+        if (opt.slurm) {
+            // The shards and the merge as cluster jobs; the merge job finishes the build.
             SlurmJobs jobs;
             const fs::path logs = target.string() + ".slurm";
             if (Status s = submitSlurm(plan_dir, static_cast<int>(shard_plan.shards()), opt.sbatch, logs, opt.wait, &jobs);
@@ -575,28 +577,13 @@ int runBuild(const BuildCliOptions& opt_in) {
                         shard_plan.shards() - reused.size(), jobs.merge.c_str(), logs.string().c_str());
             return kExitOk;
         }
-        // From here this process waits for the shards and merges from the plan
-        // folder, as the merge job does: the scene's tables go before the
-        // shards start (a million textures' entries are ~0.3 GB).
-        std::vector<TextureRef>().swap(scene.textures);
-        std::vector<Material>().swap(scene.materials);
-        const auto report = [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); };
-        if (Status s = runShards(plan_dir, opt.workers, params.threads, report); !s.ok()) return abandon(s);
-        endStage("shards");
-        {
-            std::map<std::string, std::string> digests;
-            for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
-            if (Status s = mergeShards(plan_dir, tmp, build_hash, diagnostics, report, &merged, digests,
-                                       opt.force ? fs::path() : target / ".cityatlas-cache");
-                !s.ok())
-                return abandon(s);
-        }
-        shard_reuse["texture_blocks_reused"] = merged.blocks_reused;
-        shard_reuse["texture_blocks_encoded"] = merged.blocks_encoded;
-        ts = merged.tiles;
-        addShardCost(merged.shard_cost, &shard_cost);
-        fs::remove_all(plan_dir, ec);
-        endStage("merge");
+        // The shards and the merge, as `merge --run-shards` in a fresh process
+        // image (the same process: exec): what reading and planning a city
+        // left in this one (a million buildings' tables and the allocator's
+        // retained pages, ~1 GB) is gone before the shards start, and the
+        // merge is the Slurm merge job's code.
+        progress.finish();
+        return abandon(execMergeRunningShards(plan_dir, opt.workers, params.threads, opt.quiet));  // returns on failure only
     } else {
         // One shard: the whole tree in this process, from the scene in memory.
         if (Status s = readSpill(spill, &scene.triangles); !s.ok()) return abandon(s);
@@ -620,7 +607,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         if (!written.ok()) return abandon(written);
         endStage("tiles");
     }
-    const atlas::AtlasTree& tree = sharded ? merged.tree : single_tree;
+    const atlas::AtlasTree& tree = single_tree;  // a sharded build ends in the merge (above)
 
     // --- 3D Tiles, from the native folder just written (tiles/tiles3d_writer.h).
     tiles::Tiles3dStats t3;
@@ -638,7 +625,6 @@ int runBuild(const BuildCliOptions& opt_in) {
     fs::remove_all(work, ec);
 
     BuildRecord rec = buildRecord();
-    if (!shard_cost.is_null()) rec.shards["cost"] = shard_cost;
     return finishBuild(rec, tree, ts, t3, diagnostics, stages, progress);
 }
 
@@ -677,6 +663,8 @@ RunFn addShardCommand(CLI::App& app) {
 RunFn addMergeCommand(CLI::App& app) {
     struct MergeCliOptions {
         std::string plan;
+        bool run_shards = false;
+        int workers = 1, threads = 0;
         bool quiet = false;
     };
     auto opt = std::make_shared<MergeCliOptions>();
@@ -686,6 +674,12 @@ RunFn addMergeCommand(CLI::App& app) {
         "levels above the shards, the original textures, the index and the report, then the folder moved to its\n"
         "place.");
     cmd->add_option("plan", opt->plan, "The plan folder (OUT.partial/.plan)")->required();
+    cmd->add_flag("--run-shards", opt->run_shards,
+                  "Build the shards not built yet first, on this machine (what `build` does after its plan, in a fresh\n"
+                  "process image); a failure then removes the working folder, as a failed `build` does");
+    cmd->add_option("--workers", opt->workers, "With --run-shards: shard worker processes (0: in this process)")
+        ->check(CLI::NonNegativeNumber);
+    cmd->add_option("--threads", opt->threads, "With --run-shards: threads in all (0: all cores)")->check(CLI::NonNegativeNumber);
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
     return [opt]() {
         Progress progress(!opt->quiet);
@@ -708,22 +702,35 @@ RunFn addMergeCommand(CLI::App& app) {
             return fail(progress, Status::Io(fmt::format("{}/build.json: {}", opt->plan, e.what())));
         }
         StageClock clock;
+        // Run by `build` itself: its errors are the build's, and leave no working folder.
+        auto failed = [&](const Status& s) {
+            if (!opt->run_shards) return cli::fail("merge", s, &progress);
+            std::error_code ignored;
+            fs::remove_all(rec.working, ignored);
+            return fail(progress, s);
+        };
+        const auto report = [&](const char* step, uint64_t d, uint64_t t) { progress.update(step, d, t); };
+        if (opt->run_shards) {
+            if (Status s = runShards(opt->plan, opt->workers, opt->threads, report); !s.ok()) return failed(s);
+            stages.push_back({"shards", clock.lap()});
+        }
         MergeResult merged;
         std::map<std::string, std::string> digests;
         for (const FileDigest& d : rec.texture_digests) digests[d.path] = d.xxh3;
         const bool force = j.value("force", false);
-        if (Status s = mergeShards(opt->plan, rec.working, rec.build_hash, diagnostics,
-                                   [&](const char* step, uint64_t d, uint64_t t) { progress.update(step, d, t); }, &merged,
-                                   digests, force ? fs::path() : fs::path(rec.target) / ".cityatlas-cache");
+        if (Status s = mergeShards(opt->plan, rec.working, rec.build_hash, diagnostics, report, &merged, digests,
+                                   force ? fs::path() : fs::path(rec.target) / ".cityatlas-cache");
             !s.ok())
-            return fail(progress, s);
+            return failed(s);
         rec.shards["texture_blocks_reused"] = merged.blocks_reused;
         rec.shards["texture_blocks_encoded"] = merged.blocks_encoded;
         ordered_json cost;
         addShardCost(merged.shard_cost, &cost);
         rec.shards["cost"] = cost;
-        rec.shards["slurm"] = true;
-        stages.push_back({"shards", merged.shard_cost});
+        if (!opt->run_shards) {
+            rec.shards["slurm"] = true;
+            stages.push_back({"shards", merged.shard_cost});  // the jobs' own time
+        }
         stages.push_back({"merge", clock.lap()});
         std::error_code ec;
         fs::remove_all(opt->plan, ec);

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -899,6 +900,20 @@ Status submitSlurm(const fs::path& dir, int shards, const std::vector<std::strin
                                       field("Reason=") != "None" ? ", reason " + field("Reason=") : std::string(),
                                       log_dir.string()));
     return Status::Ok();
+}
+
+Status execMergeRunningShards(const fs::path& dir, int workers, int threads, bool quiet) {
+    std::vector<std::string> args = {"cityatlas", "merge", dir.string(), "--run-shards", "--workers",
+                                     std::to_string(workers), "--threads", std::to_string(threads)};
+    if (quiet) args.emplace_back("--quiet");
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    std::fflush(stdout);
+    std::fflush(stderr);
+    // /proc/self/exe: this very executable, even if its file was replaced since.
+    execv("/proc/self/exe", argv.data());
+    return Status::Io(fmt::format("cannot start the merge (exec /proc/self/exe): {}", std::strerror(errno)));
 }
 
 Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
