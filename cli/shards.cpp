@@ -911,9 +911,14 @@ Status execMergeRunningShards(const fs::path& dir, int workers, int threads, boo
     argv.push_back(nullptr);
     std::fflush(stdout);
     std::fflush(stderr);
-    // /proc/self/exe: this very executable, even if its file was replaced since.
-    execv("/proc/self/exe", argv.data());
-    return Status::Io(fmt::format("cannot start the merge (exec /proc/self/exe): {}", std::strerror(errno)));
+    // This executable by its path (so ps and top name it as before), or
+    // through /proc/self/exe when its file was deleted or replaced since.
+    char self[4096];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    std::string path = n > 0 ? std::string(self, static_cast<size_t>(n)) : std::string();
+    if (path.empty() || path.ends_with(" (deleted)")) path = "/proc/self/exe";
+    execv(path.c_str(), argv.data());
+    return Status::Io(fmt::format("cannot start the merge (exec {}): {}", path, std::strerror(errno)));
 }
 
 Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,

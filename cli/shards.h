@@ -114,7 +114,7 @@ Status runShard(const std::filesystem::path& dir, int shard, int threads, const 
 /// in up to `workers` worker processes (`cityatlas shard`) side by side, each
 /// with its share of the cores.
 Status runShards(const std::filesystem::path& dir, int workers, int threads, const ShardProgressFn& progress);
-/// Replaces this process (exec of /proc/self/exe) with `cityatlas merge DIR
+/// Replaces this process (exec of this executable) with `cityatlas merge DIR
 /// --run-shards --workers W --threads T [--quiet]`, which finishes the build
 /// from DIR/build.json; returns only when the exec failed.
 Status execMergeRunningShards(const std::filesystem::path& dir, int workers, int threads, bool quiet);
