@@ -701,6 +701,8 @@ RunFn addMergeCommand(CLI::App& app) {
         } catch (const std::exception& e) {
             return fail(progress, Status::Io(fmt::format("{}/build.json: {}", opt->plan, e.what())));
         }
+        const bool force = j.value("force", false);
+        j = nlohmann::json();  // a million texture digests as JSON: ~0.6 GB, typed in `rec` now
         StageClock clock;
         // Run by `build` itself: its errors are the build's, and leave no working folder.
         auto failed = [&](const Status& s) {
@@ -717,7 +719,6 @@ RunFn addMergeCommand(CLI::App& app) {
         MergeResult merged;
         std::map<std::string, std::string> digests;
         for (const FileDigest& d : rec.texture_digests) digests[d.path] = d.xxh3;
-        const bool force = j.value("force", false);
         if (Status s = mergeShards(opt->plan, rec.working, rec.build_hash, diagnostics, report, &merged, digests,
                                    force ? fs::path() : fs::path(rec.target) / ".cityatlas-cache");
             !s.ok())
