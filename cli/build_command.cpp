@@ -670,9 +670,9 @@ RunFn addMergeCommand(CLI::App& app) {
     auto opt = std::make_shared<MergeCliOptions>();
     CLI::App* cmd = app.add_subcommand(
         "merge",
-        "Finish a sharded build whose shards are built (`build --slurm` submits this as the job after them): the\n"
-        "levels above the shards, the original textures, the index and the report, then the folder moved to its\n"
-        "place.");
+        "Finish a sharded build whose shards are built (`build --slurm` submits this as the job after them; a local\n"
+        "`build` becomes `merge --run-shards` after its plan): the levels above the shards, the original textures,\n"
+        "the index and the report, then the folder moved to its place.");
     cmd->add_option("plan", opt->plan, "The plan folder (OUT.partial/.plan)")->required();
     cmd->add_flag("--run-shards", opt->run_shards,
                   "Build the shards not built yet first, on this machine (what `build` does after its plan, in a fresh\n"
