@@ -8,6 +8,7 @@
 /// busy on average: the figure that shows serial sections.
 
 #include <chrono>
+#include <cstdio>
 
 #include <sys/resource.h>
 
@@ -27,6 +28,17 @@ inline double processCpuSeconds() {
 
 /// Peak resident set size of this process so far, in MB (10^6 bytes, as the CLI prints them).
 inline double peakRssMb() {
+    // VmHWM is this address space's mark. getrusage's ru_maxrss would carry
+    // the mark of the image the process replaced by exec (a sharded `build`
+    // becomes `merge --run-shards` after its plan) into every later stage.
+    if (std::FILE* f = std::fopen("/proc/self/status", "r")) {
+        char line[256];
+        long kib = -1;
+        while (std::fgets(line, sizeof line, f))
+            if (std::sscanf(line, "VmHWM: %ld kB", &kib) == 1) break;
+        std::fclose(f);
+        if (kib >= 0) return static_cast<double>(kib) * 1024.0 / 1e6;
+    }
     rusage u{};
     getrusage(RUSAGE_SELF, &u);
     return static_cast<double>(u.ru_maxrss) * 1024.0 / 1e6;  // Linux reports KiB
