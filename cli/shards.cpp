@@ -913,10 +913,8 @@ Status execMergeRunningShards(const fs::path& dir, int workers, int threads, boo
     std::fflush(stderr);
     // This executable by its path (so ps and top name it as before), or
     // through /proc/self/exe when its file was deleted or replaced since.
-    char self[4096];
-    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-    std::string path = n > 0 ? std::string(self, static_cast<size_t>(n)) : std::string();
-    if (path.empty() || path.ends_with(" (deleted)")) path = "/proc/self/exe";
+    std::string path;
+    if (!selfPath(&path).ok() || path.ends_with(" (deleted)")) path = "/proc/self/exe";
     execv(path.c_str(), argv.data());
     return Status::Io(fmt::format("cannot start the merge (exec {}): {}", path, std::strerror(errno)));
 }

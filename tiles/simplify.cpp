@@ -227,6 +227,34 @@ double maxDistance(size_t count, const PointAt& point, const TriangleGrid& grid,
     return over.load() ? kInf : worst.load();
 }
 
+// Which features to leave out (simplify.h drop_features_below_m): those whose
+// extent's diagonal is below `below_m`, smallest first (ties by id), until the
+// drawn triangles are at most `target_triangles`, never the last one drawn.
+// `largest` gets the largest diagonal left out.
+std::unordered_set<uint32_t> featuresToLeaveOut(const std::unordered_map<uint32_t, Box3d>& extent,
+                                                const std::unordered_map<uint32_t, size_t>& drawn, double below_m,
+                                                size_t target_triangles, double* largest) {
+    std::vector<std::pair<double, uint32_t>> candidates;  // (diagonal, feature)
+    size_t left = 0;
+    for (const auto& [f, count] : drawn) {
+        left += count;
+        const Box3d& b = extent.at(f);
+        const double diagonal = std::sqrt(norm2(b.max - b.min));
+        if (diagonal < below_m) candidates.emplace_back(diagonal, f);
+    }
+    std::sort(candidates.begin(), candidates.end());
+    std::unordered_set<uint32_t> out;
+    for (const auto& [diagonal, f] : candidates) {
+        if (left <= target_triangles) break;
+        const size_t count = drawn.at(f);
+        if (count >= left) continue;  // a node must show something
+        out.insert(f);
+        left -= count;
+        *largest = diagonal;
+    }
+    return out;
+}
+
 }  // namespace
 
 SimplifyInput weldTriangles(const std::vector<Triangle>& triangles) {
@@ -455,24 +483,9 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
                 extent[in.feature_id[in.indices[i]]].extend(centred[all_local[i]]);
             std::unordered_map<uint32_t, size_t> drawn;  // triangles of the result, by feature
             for (size_t t = 0; t < chosen.size(); t += 3) ++drawn[featureOf(chosen[t])];
-            std::vector<std::pair<double, uint32_t>> candidates;  // (diagonal, feature)
-            for (const auto& [f, count] : drawn) {
-                const Box3d& b = extent[f];
-                const double diagonal = std::sqrt(norm2(b.max - b.min));
-                if (diagonal < in.drop_features_below_m) candidates.emplace_back(diagonal, f);
-            }
-            std::sort(candidates.begin(), candidates.end());
-            std::unordered_set<uint32_t> dropped;
-            size_t left = chosen.size() / 3;
             double largest_dropped = 0;
-            for (const auto& [diagonal, f] : candidates) {
-                if (left * 3 <= target_indices) break;
-                const size_t count = drawn[f];
-                if (count >= left) continue;  // a node must show something
-                dropped.insert(f);
-                left -= count;
-                largest_dropped = diagonal;
-            }
+            const std::unordered_set<uint32_t> dropped =
+                featuresToLeaveOut(extent, drawn, in.drop_features_below_m, target_indices / 3, &largest_dropped);
             if (!dropped.empty()) {
                 // The rest simplified again on its own: a kept feature's
                 // nearest surface may have been a dropped one's.
