@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <set>
 #include <string>
 
 #include <fmt/format.h>
@@ -25,6 +24,7 @@
 #include "cli/scene_input.h"
 #include "cli/shards.h"
 #include "core/resource_usage.h"
+#include "format/json_splice.h"
 #include "ingest/ingest_report.h"
 #include "tiles/tiles3d_writer.h"
 #include "tiles/tileset.h"
@@ -133,6 +133,9 @@ bool upToDate(const nlohmann::json& report, const std::string& inputs_key, const
 
 using Stages = std::vector<std::pair<std::string, StageCost>>;
 
+// Stands for the report's list of texture digests, written as text (format/json_splice.h).
+constexpr const char* kFingerprintTextures = "cityatlas-fingerprint-textures";
+
 // Each stage's wall and CPU seconds, the cores it kept busy on average (CPU / wall) and its peak memory.
 ordered_json stagesJson(const Stages& stages) {
     ordered_json a = ordered_json::array();
@@ -148,7 +151,7 @@ struct BuildRecord {
     std::string target, working;
     std::string build_hash, inputs_key;
     std::vector<std::string> param_key;
-    std::vector<FileDigest> input_digests, texture_digests;
+    std::vector<FileDigest> input_digests;
     std::string format = "native", web_textures = "webp", bc_quality = "fast";
     int position_bits = 14, uv_bits = 12;
     double position_error_mm = 2.0;
@@ -163,7 +166,7 @@ double unixSeconds() {
 
 BuildRecord recordOf(const BuildCliOptions& opt, const fs::path& target, const fs::path& tmp, const std::string& build_hash,
                      const std::string& inputs_key, const std::vector<std::string>& param_key,
-                     const std::vector<FileDigest>& input_digests, const std::vector<FileDigest>& texture_digests) {
+                     const std::vector<FileDigest>& input_digests) {
     BuildRecord r;
     r.target = target.string();
     r.working = tmp.string();
@@ -171,7 +174,6 @@ BuildRecord recordOf(const BuildCliOptions& opt, const fs::path& target, const f
     r.inputs_key = inputs_key;
     r.param_key = param_key;
     r.input_digests = input_digests;
-    r.texture_digests = texture_digests;
     r.format = opt.format;
     r.web_textures = opt.web_textures;
     r.bc_quality = std::string(tiles::bcQualityName(opt.tiles.bc_quality));
@@ -186,7 +188,7 @@ ordered_json recordJson(const BuildRecord& r, const Stages& stages, const Diagno
     for (const auto& [name, c] : stages) st.push_back({name, c.seconds, c.cpu_seconds, c.peak_rss_mb});
     return {{"target", r.target}, {"working", r.working}, {"build_hash", r.build_hash}, {"inputs_key", r.inputs_key},
             {"param_key", r.param_key}, {"input_digests", toJson(r.input_digests)},
-            {"texture_digests", toJson(r.texture_digests)}, {"format", r.format}, {"web_textures", r.web_textures},
+            {"format", r.format}, {"web_textures", r.web_textures},
             {"bc_quality", r.bc_quality}, {"position_bits", r.position_bits}, {"uv_bits", r.uv_bits},
             {"position_error_mm", r.position_error_mm}, {"features", r.features}, {"triangles", r.triangles},
             {"textured_triangles", r.textured_triangles}, {"textures", r.textures}, {"started_unix", r.started_unix},
@@ -200,7 +202,6 @@ void recordFrom(const nlohmann::json& j, BuildRecord* r, Stages* stages, Diagnos
     r->inputs_key = j.at("inputs_key");
     r->param_key = j.at("param_key").get<std::vector<std::string>>();
     r->input_digests = digestsFromJson(j.at("input_digests"));
-    r->texture_digests = digestsFromJson(j.at("texture_digests"));
     r->format = j.at("format");
     r->web_textures = j.at("web_textures");
     r->bc_quality = j.at("bc_quality");
@@ -240,7 +241,8 @@ ordered_json shardsJson(const atlas::ShardPlan& plan, const BuildCliOptions& opt
 }
 
 // The report, the folder moved into place, the summary on stdout.
-int finishBuild(const BuildRecord& rec, const atlas::AtlasTree& tree, const tiles::TilesStats& ts,
+int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
+                const std::vector<TextureDigest>& texture_digests, const atlas::AtlasTree& tree, const tiles::TilesStats& ts,
                 const tiles::Tiles3dStats& t3, Diagnostics& diagnostics, Stages stages, Progress& progress) {
     const atlas::AtlasStats& as = tree.stats;
     ordered_json report;
@@ -251,7 +253,7 @@ int finishBuild(const BuildRecord& rec, const atlas::AtlasTree& tree, const tile
     report["fingerprint"] = {{"inputs_key", rec.inputs_key},
                              {"parameters", rec.param_key},
                              {"inputs", toJson(rec.input_digests)},
-                             {"textures", toJson(rec.texture_digests)}};
+                             {"textures", kFingerprintTextures}};
     report["shards"] = rec.shards;
     report["counts"] = {{"features", rec.features},
                         {"triangles", rec.triangles},
@@ -335,7 +337,17 @@ int finishBuild(const BuildRecord& rec, const atlas::AtlasTree& tree, const tile
         fs::remove_all(tmp, ignored);
         return fail(progress, s);
     };
-    if (Status s = writeTextAtomically(tmp / "build_report.json", report.dump(2) + "\n"); !s.ok()) return abandon(s);
+    // The texture digests (a million at city scale) as text, not as a DOM.
+    std::vector<size_t> listed;
+    forEachFingerprintTexture(textures, texture_digests, [&](size_t t) { listed.push_back(t); });
+    std::string text = format::spliceArray(report.dump(2), 2, "textures", kFingerprintTextures, listed.size(), [&](size_t i) {
+        const size_t t = listed[i];
+        const nlohmann::json e = {{"path", textures[t].path}, {"bytes", texture_digests[t].bytes},
+                                  {"xxh3", hexDigest(texture_digests[t].xxh3)}};
+        return e.dump(2);
+    });
+    text += '\n';
+    if (Status s = writeTextAtomically(tmp / "build_report.json", text); !s.ok()) return abandon(s);
     if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s);
     progress.finish();
 
@@ -472,18 +484,8 @@ int runBuild(const BuildCliOptions& opt_in) {
     scene_stats.textures = scene.textures.size();
     attachGeoreference(state, scene_stats.bounds_local, scene.georef, read_files.front());
     if (sink.triangles == 0) return abandon(Status::Invalid("the inputs hold no triangles: nothing to build"));
-    std::vector<FileDigest> texture_digests;
-    {
-        std::set<std::string> seen;
-        for (const TextureRef& t : scene.textures) {
-            if (!seen.insert(t.path).second) continue;
-            FileDigest d;
-            if (digestFile(t.path, &d).ok()) texture_digests.push_back(d);  // unreadable ones are ingest warnings
-        }
-    }
-    std::vector<std::string> all = {inputs_key};
-    for (const FileDigest& d : texture_digests) all.push_back(d.path + "=" + d.xxh3);
-    const std::string build_hash = hashStrings(all);
+    const std::vector<TextureDigest> texture_digests = digestTextures(scene.textures);
+    const std::string build_hash = buildHash(inputs_key, scene.textures, texture_digests);
     endStage("read");
 
     // The atlas stage takes the scene's triangles (the tree holds them from
@@ -500,7 +502,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     const bool sharded = shard_plan.shards() > 1 || opt.slurm;
     // What the end of the build needs, here or in the merge job (`merge`).
     auto buildRecord = [&] {
-        BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests, texture_digests);
+        BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests);
         rec.features = feature_count;
         rec.triangles = scene_triangles;
         rec.textured_triangles = scene_stats.textured_triangles;
@@ -530,14 +532,10 @@ int runBuild(const BuildCliOptions& opt_in) {
         };
         if (Status s = decideGlobalsFromSpill(spill, scene, params, &globals, plan_progress); !s.ok()) return abandon(s);
         std::vector<std::string> keys;
-        {
-            std::map<std::string, std::string> digests;
-            for (const FileDigest& d : texture_digests) digests[d.path] = d.xxh3;
-            if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, digests,
-                                     feature_tables, &keys, plan_progress);
-                !s.ok())
-                return abandon(s);
-        }
+        if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, texture_digests,
+                                 feature_tables, &keys, plan_progress);
+            !s.ok())
+            return abandon(s);
         globals = {};
         fs::remove(spill, ec);
         // Incremental: the previous folder's shards with unchanged content keys (not with --force).
@@ -625,7 +623,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     fs::remove_all(work, ec);
 
     BuildRecord rec = buildRecord();
-    return finishBuild(rec, tree, ts, t3, diagnostics, stages, progress);
+    return finishBuild(rec, scene.textures, texture_digests, tree, ts, t3, diagnostics, stages, progress);
 }
 
 }  // namespace
@@ -702,7 +700,7 @@ RunFn addMergeCommand(CLI::App& app) {
             return fail(progress, Status::Io(fmt::format("{}/build.json: {}", opt->plan, e.what())));
         }
         const bool force = j.value("force", false);
-        j = nlohmann::json();  // a million texture digests as JSON: ~0.6 GB, typed in `rec` now
+        j = nlohmann::json();
         StageClock clock;
         // Run by `build` itself: its errors are the build's, and leave no working folder.
         auto failed = [&](const Status& s) {
@@ -717,9 +715,7 @@ RunFn addMergeCommand(CLI::App& app) {
             stages.push_back({"shards", clock.lap()});
         }
         MergeResult merged;
-        std::map<std::string, std::string> digests;
-        for (const FileDigest& d : rec.texture_digests) digests[d.path] = d.xxh3;
-        if (Status s = mergeShards(opt->plan, rec.working, rec.build_hash, diagnostics, report, &merged, digests,
+        if (Status s = mergeShards(opt->plan, rec.working, rec.build_hash, diagnostics, report, &merged,
                                    force ? fs::path() : fs::path(rec.target) / ".cityatlas-cache");
             !s.ok())
             return failed(s);
@@ -735,7 +731,8 @@ RunFn addMergeCommand(CLI::App& app) {
         stages.push_back({"merge", clock.lap()});
         std::error_code ec;
         fs::remove_all(opt->plan, ec);
-        return finishBuild(rec, merged.tree, merged.tiles, {}, diagnostics, stages, progress);
+        return finishBuild(rec, merged.tables.textures, merged.texture_digests, merged.tree, merged.tiles, {}, diagnostics,
+                           stages, progress);
     };
 }
 

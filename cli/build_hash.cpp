@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <fstream>
 #include <memory>
+#include <string_view>
+#include <unordered_map>
+#include <unordered_set>
 
 #include <fmt/format.h>
 #include <xxhash.h>
@@ -51,10 +54,65 @@ std::vector<fs::path> withSidecars(const std::vector<fs::path>& inputs) {
     return unique;
 }
 
+std::vector<TextureDigest> digestTextures(const std::vector<TextureRef>& textures) {
+    std::vector<TextureDigest> out(textures.size());
+    std::unordered_map<std::string_view, size_t> first;  // views of the entries' own paths: no copies
+    first.reserve(textures.size());
+    for (size_t t = 0; t < textures.size(); ++t) {
+        const auto [at, inserted] = first.try_emplace(textures[t].path, t);
+        if (!inserted) {
+            out[t] = out[at->second];
+            continue;
+        }
+        FileDigest d;
+        if (!digestFile(textures[t].path, &d).ok()) continue;  // unreadable ones are ingest warnings
+        out[t] = {std::stoull(d.xxh3, nullptr, 16), d.bytes, true};
+    }
+    return out;
+}
+
+std::string hexDigest(uint64_t xxh3) { return fmt::format("{:016x}", xxh3); }
+
+void forEachFingerprintTexture(const std::vector<TextureRef>& textures, const std::vector<TextureDigest>& digests,
+                               const std::function<void(size_t)>& fn) {
+    std::unordered_set<std::string_view> seen;
+    seen.reserve(textures.size());
+    for (size_t t = 0; t < textures.size() && t < digests.size(); ++t)
+        if (seen.insert(textures[t].path).second && digests[t].readable) fn(t);
+}
+
+namespace {
+// hashStrings, one part at a time.
+class StringsHash {
+public:
+    StringsHash() : state_(XXH3_createState(), &XXH3_freeState) { XXH3_64bits_reset(state_.get()); }
+    void add(std::string_view s) {
+        const std::string prefix = fmt::format("{}:", s.size());
+        XXH3_64bits_update(state_.get(), prefix.data(), prefix.size());
+        XXH3_64bits_update(state_.get(), s.data(), s.size());
+        XXH3_64bits_update(state_.get(), ";", 1);
+    }
+    std::string digest() const { return hexDigest(XXH3_64bits_digest(state_.get())); }
+
+private:
+    std::unique_ptr<XXH3_state_t, decltype(&XXH3_freeState)> state_;
+};
+}  // namespace
+
+std::string buildHash(const std::string& inputs_key, const std::vector<TextureRef>& textures,
+                      const std::vector<TextureDigest>& digests) {
+    StringsHash h;
+    h.add(inputs_key);
+    forEachFingerprintTexture(textures, digests, [&](size_t t) {
+        h.add(fmt::format("{}={}", textures[t].path, hexDigest(digests[t].xxh3)));
+    });
+    return h.digest();
+}
+
 std::string hashStrings(const std::vector<std::string>& parts) {
-    std::string all;
-    for (const std::string& s : parts) all += fmt::format("{}:{};", s.size(), s);
-    return fmt::format("{:016x}", XXH3_64bits(all.data(), all.size()));
+    StringsHash h;
+    for (const std::string& s : parts) h.add(s);
+    return h.digest();
 }
 
 nlohmann::json toJson(const std::vector<FileDigest>& digests) {

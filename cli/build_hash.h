@@ -6,12 +6,14 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "core/status.h"
+#include "ingest/scene.h"
 
 namespace cityatlas::cli {
 
@@ -28,6 +30,28 @@ Status digestFile(const std::filesystem::path& path, FileDigest* out);
 /// The inputs plus the files a reader opens beside them (a shapefile's .shx,
 /// .dbf, .prj, .cpg), in a stable order, duplicates removed.
 std::vector<std::filesystem::path> withSidecars(const std::vector<std::filesystem::path>& inputs);
+
+/// The file digest of each scene texture, aligned with Scene::textures: a
+/// million textures' digests as 17 bytes each, where FileDigest entries (path
+/// and hex text) took ~200, and a map of them as many again.
+struct TextureDigest {
+    uint64_t xxh3 = 0;
+    uint64_t bytes = 0;
+    bool readable = false;  ///< false: the file could not be read (an ingest warning already)
+    friend bool operator==(const TextureDigest&, const TextureDigest&) = default;
+};
+/// Hashes every texture file once (a path that several entries share is read once).
+std::vector<TextureDigest> digestTextures(const std::vector<TextureRef>& textures);
+/// The digest as FileDigest::xxh3 writes it (16 hex digits).
+std::string hexDigest(uint64_t xxh3);
+/// The readable textures as the build fingerprint lists them: each path once,
+/// in first use order (`fn(index of its first entry)`).
+void forEachFingerprintTexture(const std::vector<TextureRef>& textures, const std::vector<TextureDigest>& digests,
+                               const std::function<void(size_t)>& fn);
+/// The build hash: hashStrings of the inputs key and every fingerprint texture
+/// as "path=xxh3", without making that list.
+std::string buildHash(const std::string& inputs_key, const std::vector<TextureRef>& textures,
+                      const std::vector<TextureDigest>& digests);
 
 /// XXH3-64 of a list of strings (length-prefixed), 16 hex digits.
 std::string hashStrings(const std::vector<std::string>& parts);

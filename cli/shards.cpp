@@ -39,7 +39,7 @@ using format::TileMesh;
 
 namespace {
 
-constexpr int kPlanFormat = 1;
+constexpr int kPlanFormat = 2;  // 2: textures and their digests in textures.bin
 static_assert(std::is_trivially_copyable_v<Triangle>, "shard files hold triangles as bytes");
 
 // --- Small serialization helpers. JSON numbers round-trip doubles exactly
@@ -176,10 +176,63 @@ atlas::GlobalDecisions globalsFrom(const json& j) {
 }
 
 // --- Scene tables.
+// Materials and the georeference as JSON (tables.json); the textures, a
+// million at city scale, with their file digests in textures.bin, streamed both
+// ways (as a DOM their JSON took ~0.4 KB each in the plan, every shard and the merge).
+constexpr const char* kTextureTableMagic = "cityatlas-textures-1";
+
+Status writeTextureTable(const fs::path& path, const std::vector<TextureRef>& textures,
+                         const std::vector<TextureDigest>& digests) {
+    std::ofstream f(path, std::ios::binary);
+    if (!f) return Status::Io(fmt::format("{}: cannot create", path.string()));
+    auto put = [&](auto v) { f.write(reinterpret_cast<const char*>(&v), sizeof v); };
+    f.write(kTextureTableMagic, static_cast<std::streamsize>(std::strlen(kTextureTableMagic)));
+    put(static_cast<uint64_t>(textures.size()));
+    for (size_t t = 0; t < textures.size(); ++t) {
+        const TextureRef& r = textures[t];
+        const TextureDigest d = t < digests.size() ? digests[t] : TextureDigest{};
+        put(static_cast<uint32_t>(r.path.size()));
+        f.write(r.path.data(), static_cast<std::streamsize>(r.path.size()));
+        put(static_cast<int32_t>(r.width_px)), put(static_cast<int32_t>(r.height_px)), put(static_cast<int32_t>(r.channels));
+        put(static_cast<uint8_t>(r.wrap)), put(static_cast<uint8_t>(d.readable)), put(d.xxh3), put(d.bytes);
+    }
+    f.close();
+    if (!f) return Status::Io(fmt::format("{}: cannot write (disk full?)", path.string()));
+    return Status::Ok();
+}
+
+Status readTextureTable(const fs::path& path, std::vector<TextureRef>* textures, std::vector<TextureDigest>* digests) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
+    auto get = [&](auto* v) { return static_cast<bool>(f.read(reinterpret_cast<char*>(v), sizeof *v)); };
+    const auto bad = [&](const char* what) { return Status::Io(fmt::format("{}: {}", path.string(), what)); };
+    std::string magic(std::strlen(kTextureTableMagic), '\0');
+    uint64_t n = 0;
+    if (!f.read(magic.data(), static_cast<std::streamsize>(magic.size())) || magic != kTextureTableMagic || !get(&n))
+        return bad("not a texture table of this cityatlas version");
+    textures->clear(), textures->reserve(n);
+    if (digests) digests->clear(), digests->reserve(n);
+    for (uint64_t t = 0; t < n; ++t) {
+        uint32_t len = 0;
+        int32_t w = 0, h = 0, c = 0;
+        uint8_t wrap = 0, readable = 0;
+        TextureDigest d;
+        if (!get(&len) || len > (1u << 20)) return bad("truncated");
+        TextureRef r;
+        r.path.resize(len);
+        if (!f.read(r.path.data(), len) || !get(&w) || !get(&h) || !get(&c) || !get(&wrap) || !get(&readable) ||
+            !get(&d.xxh3) || !get(&d.bytes))
+            return bad("truncated");
+        r.width_px = w, r.height_px = h, r.channels = c, r.wrap = static_cast<WrapMode>(wrap);
+        d.readable = readable != 0;
+        textures->push_back(std::move(r));
+        if (digests) digests->push_back(d);
+    }
+    return Status::Ok();
+}
+
 json tablesJson(const Scene& s) {
-    json textures = json::array(), materials = json::array();
-    for (const TextureRef& t : s.textures)
-        textures.push_back({t.path, t.width_px, t.height_px, t.channels, static_cast<int>(t.wrap)});
+    json materials = json::array();
     for (const Material& m : s.materials) materials.push_back({m.diffuse[0], m.diffuse[1], m.diffuse[2], m.transparency});
     const Georeference& g = s.georef;
     json georef = {{"source_crs", g.source_crs},
@@ -187,11 +240,9 @@ json tablesJson(const Scene& s) {
                    {"grid_frame", g.grid_frame},
                    {"local_to_ecef", g.local_to_ecef ? json(*g.local_to_ecef) : json(nullptr)},
                    {"enu_to_ecef", g.enu_to_ecef ? json(*g.enu_to_ecef) : json(nullptr)}};
-    return {{"textures", textures}, {"materials", materials}, {"georef", georef}};
+    return {{"materials", materials}, {"georef", georef}};
 }
 void tablesFrom(const json& j, Scene* s) {
-    for (const json& t : j.at("textures"))
-        s->textures.push_back({t.at(0), t.at(1), t.at(2), t.at(3), static_cast<WrapMode>(t.at(4).get<int>())});
     for (const json& m : j.at("materials")) s->materials.push_back({{m.at(0), m.at(1), m.at(2)}, m.at(3)});
     const json& g = j.at("georef");
     s->georef.source_crs = g.at("source_crs");
@@ -493,7 +544,7 @@ Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const 
 
 Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill, const atlas::ShardPlan& plan,
                  const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
-                 const tiles::TilesParams& tiles_params, const std::map<std::string, std::string>& texture_digests,
+                 const tiles::TilesParams& tiles_params, const std::vector<TextureDigest>& texture_digests,
                  const tiles::FeatureTables& ft, std::vector<std::string>* keys_out, const ShardProgressFn& progress) {
     std::error_code ec;
     fs::create_directories(dir, ec);
@@ -501,6 +552,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     json feature_tables = json::array();
     for (const format::FileEntry& e : ft.tables) feature_tables.push_back({e.uri, e.bytes});
     if (Status s = writeJson(dir / "tables.json", tablesJson(tables)); !s.ok()) return s;
+    if (Status s = writeTextureTable(dir / "textures.bin", tables.textures, texture_digests); !s.ok()) return s;
 
     // Each shard's triangles in scene order, in one pass over the spill, with their keys.
     std::vector<std::ofstream> files(plan.shards());
@@ -566,10 +618,10 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         for (size_t t = 0; t < tables.textures.size(); ++t) {
             if (!textures_of[k][t]) continue;
             const TextureRef& r = tables.textures[t];
-            const auto digest = texture_digests.find(r.path);
+            const bool known = t < texture_digests.size() && texture_digests[t].readable;
             key.add(fmt::format("texture {} {} {} {} {} {} {} {} {}", t, r.path, r.width_px, r.height_px, r.channels,
                                 static_cast<int>(r.wrap), texture_index[t], globals.promote[t],
-                                digest == texture_digests.end() ? "unreadable" : digest->second));
+                                known ? hexDigest(texture_digests[t].xxh3) : "unreadable"));
         }
         for (size_t m = 0; m < tables.materials.size(); ++m)
             if (materials_of[k][m])
@@ -616,6 +668,7 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     Scene scene;
     tablesFrom(tables, &scene);
+    if (Status s = readTextureTable(dir / "textures.bin", &scene.textures, nullptr); !s.ok()) return s;
     {
         const fs::path tri = dir / fmt::format("{}.tri", shardName(shard));
         std::ifstream f(tri, std::ios::binary | std::ios::ate);
@@ -920,14 +973,14 @@ Status execMergeRunningShards(const fs::path& dir, int workers, int threads, boo
 }
 
 Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
-                   const ShardProgressFn& progress, MergeResult* result,
-                   const std::map<std::string, std::string>& texture_digests, const fs::path& previous_cache) {
+                   const ShardProgressFn& progress, MergeResult* result, const fs::path& previous_cache) {
     json plan, tables;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
     if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     MergeResult& r = *result;
     tablesFrom(tables, &r.tables);
-    tables = json();  // a million textures' entries as JSON are ~1 GB: typed from here on
+    if (Status s = readTextureTable(dir / "textures.bin", &r.tables.textures, &r.texture_digests); !s.ok()) return s;
+    const std::vector<TextureDigest>& texture_digests = r.texture_digests;
     r.scene_triangles = plan.at("scene_triangles");
     const atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
     tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
@@ -1079,10 +1132,10 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         key.add(fmt::format("block {} writer {}", tiles::bcQualityName(tp.bc_quality), tiles::kWriterRevision));
         for (const int32_t t : textures) {
             const TextureRef& ref = r.tables.textures[static_cast<size_t>(t)];
-            const auto digest = texture_digests.find(ref.path);
-            if (digest == texture_digests.end()) return std::string();  // unknown content: not kept
-            key.add(fmt::format("{} {} {} {} {} {}", ref.path, digest->second, ref.width_px, ref.height_px, ref.channels,
-                                static_cast<int>(ref.wrap)));
+            const TextureDigest& digest = texture_digests[static_cast<size_t>(t)];
+            if (!digest.readable) return std::string();  // unknown content: not kept
+            key.add(fmt::format("{} {} {} {} {} {}", ref.path, hexDigest(digest.xxh3), ref.width_px, ref.height_px,
+                                ref.channels, static_cast<int>(ref.wrap)));
         }
         return key.digest();
     };

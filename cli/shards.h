@@ -41,6 +41,7 @@
 
 #include "atlas/atlas_tree.h"
 #include "atlas/shard_plan.h"
+#include "cli/build_hash.h"
 #include "core/resource_usage.h"
 #include "core/status.h"
 #include "ingest/diagnostics.h"
@@ -83,12 +84,13 @@ Status decideGlobalsFromSpill(const std::filesystem::path& spill, const Scene& t
 /// Writes the plan folder `dir` (created) for the scene of `tables` and the
 /// `spill` file; `feature_tables` were written into the build's folder
 /// already (they need nothing of the tree, and the features go before the
-/// plan's passes). `texture_digests` (texture path -> xxh3 of the file) enter
-/// the shards' content keys (`keys`, also in plan.json).
+/// plan's passes). `texture_digests` (aligned with the scene's textures) are
+/// kept with them (textures.bin) and enter the shards' content keys (`keys`,
+/// also in plan.json).
 Status writePlan(const std::filesystem::path& dir, const Scene& tables, const std::filesystem::path& spill,
                  const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
                  const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params,
-                 const std::map<std::string, std::string>& texture_digests, const tiles::FeatureTables& feature_tables,
+                 const std::vector<TextureDigest>& texture_digests, const tiles::FeatureTables& feature_tables,
                  std::vector<std::string>* keys, const ShardProgressFn& progress = {});
 
 /// Where a sharded build keeps its shards, by content key, inside its folder
@@ -120,7 +122,8 @@ Status runShards(const std::filesystem::path& dir, int workers, int threads, con
 Status execMergeRunningShards(const std::filesystem::path& dir, int workers, int threads, bool quiet);
 
 struct MergeResult {
-    Scene tables;               ///< textures, materials, features, georeference (no triangles)
+    Scene tables;               ///< textures, materials, georeference (no triangles, no features)
+    std::vector<TextureDigest> texture_digests;  ///< aligned with tables.textures
     uint64_t scene_triangles = 0;
     atlas::AtlasTree tree;      ///< the whole tree, without triangles; stats summed over the shards
     tiles::TilesStats tiles;
@@ -132,13 +135,12 @@ struct MergeResult {
 };
 
 /// Merges the finished shards of the plan in `dir` into the tile folder
-/// `out_dir`. Original-texture blocks whose content (textures, their
-/// `texture_digests`, the BC quality) a previous build of the folder kept in
+/// `out_dir`. Original-texture blocks whose content (textures, their file
+/// digests from the plan, the BC quality) a previous build of the folder kept in
 /// `previous_cache` (its kBlockCache; empty: none) are linked, not encoded.
 Status mergeShards(const std::filesystem::path& dir, const std::filesystem::path& out_dir,
                    const std::string& build_hash, Diagnostics& diagnostics, const ShardProgressFn& progress,
-                   MergeResult* result, const std::map<std::string, std::string>& texture_digests = {},
-                   const std::filesystem::path& previous_cache = {});
+                   MergeResult* result, const std::filesystem::path& previous_cache = {});
 
 struct SlurmJobs {
     std::string shards, merge;  ///< job ids

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "format/json_splice.h"
 #include "format/tileset_document_json.h"
 
 namespace cityatlas::format {
@@ -495,32 +496,13 @@ json textureJson(const TextureEntry& e) {
 
 // The textures array as dump(1) writes it with its key at `depth`, one entry
 // at a time: a million entries as one JSON value would take ~1 GB.
-void appendTexturesText(const std::vector<TextureEntry>& textures, size_t depth, std::string* out) {
-    if (textures.empty()) {
-        *out += "[]";
-        return;
-    }
-    const std::string pad(depth + 1, ' ');
-    *out += "[\n";
-    for (size_t i = 0; i < textures.size(); ++i) {
-        *out += pad;
-        for (const char c : textureJson(textures[i]).dump(1, ' ', false, json::error_handler_t::replace)) {
-            *out += c;
-            if (c == '\n') *out += pad;
-        }
-        *out += i + 1 < textures.size() ? ",\n" : "\n";
-    }
-    out->append(depth, ' ');
-    *out += ']';
-}
-
 }  // namespace
 
 std::string writeTilesetDocument(const TilesetDocument& doc) {
     json materials = json::array();
     for (const MaterialEntry& m : doc.materials)
         materials.push_back({{"diffuse", json(m.diffuse)}, {"transparency", m.transparency}});
-    // Stands for the textures array in the dump; replaced by appendTexturesText.
+    // Stands for the textures array in the dump; its text is written there (format/json_splice.h).
     const std::string placeholder = "cityatlas-textures-placeholder";
     const json textures = placeholder;
     json blocks = json::array(), tables = json::array();
@@ -556,18 +538,11 @@ std::string writeTilesetDocument(const TilesetDocument& doc) {
     tileset["geometricError"] = doc.geometric_error;
     if (!doc.tiles.empty()) tileset["root"] = tileJson(doc, 0);
     tileset["extras"] = {{"cityatlas", ca}};
-    const std::string text = tileset.dump(1, ' ', false, json::error_handler_t::replace);
-    // Key and value with their quotes: inside a string value of the input's
-    // (a CRS name) the quotes would be escaped, so this is the member itself.
-    const std::string key = "\"textures\": ";
-    const size_t at = text.find(key + '"' + placeholder + '"');
-    const size_t line = text.rfind('\n', at) + 1;
-    const size_t depth = at - line;
-    std::string out;
-    out.reserve(text.size() + doc.textures.size() * 160 + 2);
-    out.append(text, 0, at + key.size());
-    appendTexturesText(doc.textures, depth, &out);
-    out.append(text, at + key.size() + placeholder.size() + 2, std::string::npos);
+    std::string out = spliceArray(tileset.dump(1, ' ', false, json::error_handler_t::replace), 1, "textures",
+                                  placeholder, doc.textures.size(), [&](size_t i) {
+                                      return textureJson(doc.textures[i]).dump(1, ' ', false,
+                                                                                 json::error_handler_t::replace);
+                                  });
     out += '\n';
     return out;
 }

@@ -1,0 +1,48 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// spliceArray must give the text nlohmann's own dump of the whole document
+// gives (the oracle), wherever the array sits and whatever the indent.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "format/json_splice.h"
+
+namespace cityatlas::format {
+namespace {
+using nlohmann::json;
+using nlohmann::ordered_json;
+
+template <typename Json>
+void expectSameAsWholeDump(const Json& elements, int indent) {
+    const std::string placeholder = "splice-here";
+    // Nested two deep, with members before and after it and a string value
+    // that holds the member's text quoted (escaped in the dump: no match).
+    Json doc = {{"a", 1}, {"outer", {{"z", "\"items\": \"splice-here\""}, {"items", placeholder}, {"after", {1, 2}}}}};
+    Json whole = doc;
+    whole["outer"]["items"] = elements;
+    const std::string spliced = spliceArray(doc.dump(indent), indent, "items", placeholder, elements.size(),
+                                            [&](size_t i) { return elements.at(i).dump(indent); });
+    EXPECT_EQ(spliced, whole.dump(indent)) << "indent " << indent << ", " << elements.size() << " elements";
+}
+
+TEST(JsonSplice, GivesTheWholeDumpsTextForAnyIndentAndLength) {
+    const json objects = json::array({{{"path", "a/b.png"}, {"bytes", 12}, {"xxh3", "00ff"}},
+                                      {{"path", "c \"quoted\".png"}, {"bytes", 0}, {"xxh3", "1"}},
+                                      {{"nested", {{"list", {1, 2, 3}}, {"empty", json::array()}}}}});
+    for (int indent : {1, 2, 4})
+        for (size_t n : {0u, 1u, 3u}) {
+            json elements = json::array();
+            for (size_t i = 0; i < n; ++i) elements.push_back(objects[i]);
+            expectSameAsWholeDump(elements, indent);
+            expectSameAsWholeDump(ordered_json(elements), indent);
+        }
+    expectSameAsWholeDump(json::array({1, "two", nullptr, 3.5}), 2);
+}
+
+TEST(JsonSplice, LeavesATextWithoutThePlaceholderAlone) {
+    const std::string text = json{{"items", "something else"}}.dump(2);
+    EXPECT_EQ(spliceArray(text, 2, "items", "splice-here", 2, [](size_t) { return std::string("0"); }), text);
+}
+
+}  // namespace
+}  // namespace cityatlas::format
