@@ -992,13 +992,33 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     const size_t shards = sp.shards();
     r.shards = shards;
 
-    std::vector<json> manifests(shards);
+    // Each manifest typed as it is read: as JSON DOMs the sixteen manifests of
+    // a million buildings took ~1 GB at once.
+    struct Manifest {
+        std::vector<tiles::NodeRecord> records;
+        std::vector<std::pair<size_t, std::vector<int32_t>>> leaf_textures;  // shard node, textures
+        std::vector<uint32_t> root_subtree_features;
+        json stats, warnings;
+    };
+    std::vector<Manifest> manifests(shards);
     std::vector<atlas::AtlasTree> trees(shards);
     for (size_t k = 0; k < shards; ++k) {
         const fs::path m = dir / shardName(static_cast<int>(k)) / "manifest.json";
         if (!fs::exists(m)) return Status::Io(fmt::format("{}: shard {} has not finished", m.string(), k));
-        if (Status s = readJson(m, &manifests[k]); !s.ok()) return s;
-        for (const json& n : manifests[k].at("nodes")) trees[k].nodes.push_back(nodeFrom(n));
+        json j;
+        if (Status s = readJson(m, &j); !s.ok()) return s;
+        try {
+            for (const json& n : j.at("nodes")) trees[k].nodes.push_back(nodeFrom(n));
+            Manifest& typed = manifests[k];
+            for (const json& r : j.at("records")) typed.records.push_back(recordFrom(r));
+            for (const auto& [node, list] : j.at("leaf_textures").items())
+                typed.leaf_textures.emplace_back(std::stoul(node), list.get<std::vector<int32_t>>());
+            typed.root_subtree_features = j.at("root_subtree_features").get<std::vector<uint32_t>>();
+            typed.stats = std::move(j.at("stats"));
+            typed.warnings = std::move(j.at("warnings"));
+        } catch (const std::exception& e) {
+            return Status::Io(fmt::format("{}: not a shard manifest of this cityatlas version: {}", m.string(), e.what()));
+        }
     }
     atlas::AtlasTree& tree = r.tree;
     std::vector<int32_t> shard_root;
@@ -1018,11 +1038,11 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     atlas::GivenHalves given;
     for (size_t k = 0; k < shards; ++k) {
         const fs::path sd = dir / shardName(static_cast<int>(k));
-        const json& m = manifests[k];
+        Manifest& m = manifests[k];
         const int32_t base = shard_root[k];
-        const json& records = m.at("records");
+        const std::vector<tiles::NodeRecord>& records = m.records;
         for (size_t i = 0; i < records.size(); ++i) {
-            tiles::NodeRecord rec = recordFrom(records.at(i));
+            tiles::NodeRecord rec = std::move(m.records[i]);
             const auto g = static_cast<size_t>(base) + i;
             for (size_t l = 0; l < atlas::kLayerCount; ++l) {
                 tiles::LayerRecord& lr = rec.layers[l];
@@ -1039,9 +1059,8 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
             }
             built.records[g] = std::move(rec);
         }
-        for (const auto& [node, list] : m.at("leaf_textures").items())
-            built.leaf_textures[static_cast<size_t>(base) + std::stoul(node)] = list.get<std::vector<int32_t>>();
-        built.subtree_features[base] = m.at("root_subtree_features").get<std::vector<uint32_t>>();
+        for (auto& [node, list] : m.leaf_textures) built.leaf_textures[static_cast<size_t>(base) + node] = std::move(list);
+        built.subtree_features[base] = std::move(m.root_subtree_features);
         atlas::AtlasHalves halves;
         for (int l = 0; l < atlas::kLayerCount; ++l) {
             if (fs::exists(sd / layerFile("root-geometry", l))) {
@@ -1070,9 +1089,9 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
             r.shard_cost.cpu_seconds += step.at(2).get<double>();
             r.shard_cost.peak_rss_mb = std::max(r.shard_cost.peak_rss_mb, step.at(3).get<double>());
         }
-        addStats(m.at("stats"), &tree.stats);
-        addDiagnostics(m.at("warnings"), diagnostics);
-        manifests[k] = json();  // its records are typed now
+        addStats(m.stats, &tree.stats);
+        addDiagnostics(m.warnings, diagnostics);
+        m = Manifest{};
     }
     built.texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
     built.feature_tables = tiles::FeatureTables{};

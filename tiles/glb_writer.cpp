@@ -444,4 +444,18 @@ Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSetti
     return Status::Ok();
 }
 
+int usefulPositionBits(const TileMesh& m, const Vec3d& centre) {
+    Box3d b;
+    for (const Vec3d& p : m.positions) b.extend(p - centre);
+    const Vec3d size = b.max - b.min;
+    const double extent = std::max({size.x, size.y, size.z});
+    const double farthest = std::max({std::abs(b.min.x), std::abs(b.min.y), std::abs(b.min.z), std::abs(b.max.x),
+                                      std::abs(b.max.y), std::abs(b.max.z)});
+    const auto f = static_cast<float>(farthest);
+    const double spacing = static_cast<double>(std::nextafter(f, std::numeric_limits<float>::infinity()) - f);
+    for (int bits = 1; bits < 30; ++bits)
+        if (extent / static_cast<double>((uint64_t{1} << bits) - 1) <= spacing) return bits;
+    return 30;
+}
+
 }  // namespace cityatlas::tiles

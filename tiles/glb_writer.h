@@ -124,4 +124,13 @@ size_t drawableTriangles(const TileMesh& mesh, const Vec3d& centre);
 Status encodeTileGlb(const TileMesh& mesh, const Vec3d& centre, const DracoSettings& settings, GlbResult* out,
                      const nlohmann::json& extras = {});
 
+/// The most position bits that can still lower the error of `mesh` written
+/// relative to `centre` (1..30): the bits whose Draco step is at most the
+/// float32 spacing at the mesh's farthest coordinate. A glb stores float32
+/// positions relative to the centre and a decoder dequantizes in float32, so
+/// finer steps only move which float a position rounds to; 20 km from the
+/// centre (a 2 mm spacing) a 2 mm target cannot be met, and raising the bits
+/// to 30 there cost ~0.7 GB of Draco tables per try and bought nothing.
+int usefulPositionBits(const TileMesh& mesh, const Vec3d& centre);
+
 }  // namespace cityatlas::tiles

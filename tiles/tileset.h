@@ -65,7 +65,7 @@ namespace cityatlas::tiles {
 
 /// Bumped whenever the writer's output changes for the same inputs and
 /// parameters, so `cityatlas build` does not take an older folder as up to date.
-inline constexpr int kWriterRevision = 7;  // 7: above the node budget, buildings smaller than a texel left out (6: tileset textures numbered by scene order)
+inline constexpr int kWriterRevision = 8;  // 8: position bits no finer than float32 resolves at the node (7: above the node budget, buildings smaller than a texel left out; 6: tileset textures numbered by scene order)
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default

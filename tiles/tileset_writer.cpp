@@ -240,7 +240,9 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
                                           {"centre", {centre.x, centre.y, centre.z}}}}};
             DracoSettings draco = params.draco;
             const double target = params.position_error_target_m;
-            if (target > 0) draco.position_bits = std::max(draco.position_bits, bitsFor(mesh, centre, target));
+            const int useful_bits = usefulPositionBits(mesh, centre);
+            if (target > 0)
+                draco.position_bits = std::max(draco.position_bits, std::min(bitsFor(mesh, centre, target), useful_bits));
             const double uv_target = params.uv_original_error_target_texels;
             double texels = 0;  // of the leaf's largest texture
             if (node.leaf() && !mesh.uv_original.empty())
@@ -249,7 +251,8 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
             Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
             // The predictions leave room for float32 rounding; should they not
             // suffice, the measurements decide.
-            while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < 30) {
+            const int most_bits = std::max(draco.position_bits, useful_bits);
+            while (st.ok() && target > 0 && glb.max_position_error_m > target && draco.position_bits < most_bits) {
                 ++draco.position_bits;
                 st = encodeTileGlb(mesh, centre, draco, &glb, extras);
             }

@@ -567,6 +567,37 @@ void expectWiring(const GlbResult& r, const json& expected_extras) {
     }
 }
 
+// A node 40 km across (the root of a city) cannot be written to 2 mm: float32
+// spaces its far corners 2 mm apart. usefulPositionBits stops where more bits
+// buy less than one float32 spacing, and asks for every bit a block needs.
+TEST(TileGlb, PositionBitsStopWhereFloat32StopsResolving) {
+    TileMesh city = gridMesh(64, 40000.0 / 63);
+    for (Vec3d& p : city.positions) p = p + Vec3d{0.3183, 0.2719, 0.1414};  // not binary fractions
+    const Box3d box = boundsOf(city.positions);
+    const Vec3d centre = centreOf(box);
+    const int useful = usefulPositionBits(city, centre);
+    EXPECT_GE(useful, 20);
+    EXPECT_LE(useful, 26);
+    DracoSettings s;
+    s.preserve_order = true;
+    s.position_bits = useful;
+    const GlbResult at_useful = encodeOk(city, centre, s);
+    s.position_bits = 30;
+    const GlbResult at_30 = encodeOk(city, centre, s);
+    const float far = 20000.0f;
+    const double spacing = static_cast<double>(std::nextafter(far, 1e30f) - far);
+    EXPECT_LE(at_useful.max_position_error_m, at_30.max_position_error_m + spacing)
+        << "the bits above " << useful << " would have bought more than a float32 spacing";
+    // One bit fewer would cost more than that: the cap is not lower than it must be.
+    s.position_bits = useful - 2;
+    EXPECT_GT(encodeOk(city, centre, s).max_position_error_m, at_30.max_position_error_m + 0.5 * spacing);
+
+    // A 60 m block keeps the bits a 0.1 mm target asks for (24 at its extent).
+    TileMesh block = gridMesh(16, 4.0);
+    const Vec3d block_centre = centreOf(boundsOf(block.positions));
+    EXPECT_GE(usefulPositionBits(block, block_centre), 24);
+}
+
 TEST(TileGlb, JsonChunkCarriesTheRequiredGltfFieldsAndTheExtensionWiring) {
     const Scene scene = townScene(12);
     const TileMesh in = meshFromScene(scene, {690000, 5336000, 0});
