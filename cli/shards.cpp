@@ -976,6 +976,8 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
                    const ShardProgressFn& progress, MergeResult* result, const fs::path& previous_cache) {
     json plan, tables;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
+    if (plan.value("format", 0) != kPlanFormat)
+        return Status::Invalid(fmt::format("{}: a plan of another cityatlas version", (dir / "plan.json").string()));
     if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     MergeResult& r = *result;
     tablesFrom(tables, &r.tables);
