@@ -649,6 +649,7 @@ RunFn addShardCommand(CLI::App& app) {
         int threads = opt->threads;
         // A Slurm job with --cpus-per-task gets that many cores; the node may have more.
         if (const char* c = std::getenv("SLURM_CPUS_PER_TASK"); threads == 0 && c && std::atoi(c) > 0) threads = std::atoi(c);
+        if (Status s = enterBuildDirectory(&opt->plan); !s.ok()) return cli::fail("shard", s, &progress);
         const Status s = runShard(opt->plan, opt->index, threads, [&](const char* step, uint64_t d, uint64_t t) {
             progress.update(fmt::format("shard {}: {}", opt->index, step).c_str(), d, t);
         });
@@ -681,6 +682,7 @@ RunFn addMergeCommand(CLI::App& app) {
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
     return [opt]() {
         Progress progress(!opt->quiet);
+        if (Status s = enterBuildDirectory(&opt->plan); !s.ok()) return cli::fail("merge", s, &progress);
         nlohmann::json j;
         {
             std::ifstream f(fs::path(opt->plan) / "build.json");

@@ -631,8 +631,27 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         key_list.push_back(key.digest());
     }
     j["shard_keys"] = key_list;
+    // Inputs, textures and the output folder are named as the user gave them:
+    // relative ones start here, wherever a shard or the merge runs.
+    j["working_directory"] = fs::current_path().string();
     if (keys_out) *keys_out = key_list;
     return writeJson(dir / "plan.json", j);  // last: a plan folder with plan.json is complete
+}
+
+Status enterBuildDirectory(std::string* plan) {
+    std::error_code ec;
+    const fs::path abs = fs::absolute(*plan, ec).lexically_normal();
+    if (ec) return Status::Io(fmt::format("{}: {}", *plan, ec.message()));
+    *plan = abs.string();
+    if (!fs::exists(abs / "plan.json")) return Status::Ok();  // the command names what is missing
+    json j;
+    if (Status s = readJson(abs / "plan.json", &j); !s.ok()) return s;
+    const std::string dir = j.value("working_directory", std::string());
+    if (!dir.empty() && ::chdir(dir.c_str()) != 0)
+        return Status::Io(fmt::format("{}: the build's directory {} (where its relative paths start) is not reachable "
+                                      "here: {}",
+                                      (abs / "plan.json").string(), dir, std::strerror(errno)));
+    return Status::Ok();
 }
 
 Status reuseShards(const fs::path& dir, const fs::path& cache, std::vector<int>* reused) {

@@ -106,6 +106,13 @@ inline constexpr const char* kBlockCache = ".cityatlas-cache/blocks";
 /// place instead of being built again; `reused` lists them.
 Status reuseShards(const std::filesystem::path& dir, const std::filesystem::path& cache, std::vector<int>* reused);
 
+/// Makes `plan` absolute and changes into the directory the build ran in
+/// (plan.json's working_directory), where its relative input, texture and
+/// output paths start: a shard or merge job run from anywhere else (a hand-run
+/// job, `sbatch --chdir`) would otherwise find no textures. An error names the
+/// directory when it does not exist on this machine.
+Status enterBuildDirectory(std::string* plan);
+
 /// The shards of the plan in `dir` not finished yet.
 std::vector<int> shardsToBuild(const std::filesystem::path& dir);
 

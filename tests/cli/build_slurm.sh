@@ -38,6 +38,16 @@ json onslurm/build_report.json "[s['name'] for s in j['stages']]" | grep -q "'sh
 "$CITYATLAS" inspect -q onslurm > /dev/null || fail "inspect finds defects in the Slurm build"
 [ ! -e onslurm.partial ] || fail "the working folder was left behind"
 
+# Jobs that start in another directory (sbatch --chdir=/, as a cluster's
+# defaults may): the input, textures and output were named relative to this
+# one, and the jobs still find them (plan.json's working_directory).
+"$CITYATLAS" build -q town/town.gml -o elsewhere --shard-triangles 1000 --slurm --wait --sbatch=--chdir=/ > /dev/null 2> elsewhere.err ||
+  { cat elsewhere.err >&2; cat elsewhere.slurm/*.log >&2 || true; fail "build --slurm with jobs started in / failed"; }
+diff -r -q --exclude build_report.json local elsewhere > diff.txt || { head diff.txt >&2; fail "jobs started in / give another folder"; }
+[ "$(json elsewhere/build_report.json "j['warnings_total']")" = "$(json local/build_report.json "j['warnings_total']")" ] ||
+  fail "jobs started in / warn more than the local build (textures not found?)"
+echo "ok: jobs started in / (sbatch --chdir=/) give the local build's folder"
+
 # One shard through the plan, a shard job and the merge is the single-process build.
 "$CITYATLAS" build -q town/town.gml -o single > /dev/null || fail "the single-shard build failed"
 "$CITYATLAS" build -q town/town.gml -o one_job --slurm --wait > /dev/null || fail "build --slurm --wait with one shard failed"
