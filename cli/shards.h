@@ -6,8 +6,9 @@
 /// - **plan** (writePlan): the whole scene's GlobalDecisions (d_min, its
 ///   enlargement for critical triangles, promotions), the tileset texture
 ///   numbering and the top cuts (atlas/shard_plan.h); writes the plan folder:
-///   `plan.json` (parameters, decisions, the top), `tables.json` (textures,
-///   materials, georeference) and `shard-<k>.tri` (the shard's triangles, in
+///   `plan.json` (parameters, decisions, the top, the build's directory),
+///   `tables.json` (materials, georeference), `textures.bin` (the textures
+///   and their file digests, binary) and `shard-<k>.tri` (the shard's triangles, in
 ///   scene order), and the feature tables into the build's folder. The input
 ///   is read once into a spill file (PlanSink); the plan passes over that
 ///   file, so no step holds every triangle.
