@@ -14,23 +14,35 @@
 namespace cityatlas::cli {
 namespace fs = std::filesystem;
 
-Status digestFile(const fs::path& path, FileDigest* out) {
+namespace {
+// XXH3-64 and size of a file's contents, streamed through one buffer per
+// thread: a fresh 1 MB buffer per file zeroed a terabyte of memory for a
+// million 3 kB textures.
+Status hashFile(const fs::path& path, uint64_t* xxh3, uint64_t* bytes) {
     std::ifstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot open for hashing", path.string()));
     std::unique_ptr<XXH3_state_t, decltype(&XXH3_freeState)> state(XXH3_createState(), &XXH3_freeState);
     XXH3_64bits_reset(state.get());
-    std::vector<char> buffer(1 << 20);
-    uint64_t bytes = 0;
+    thread_local std::vector<char> buffer(1 << 20);
+    *bytes = 0;
     while (f) {
         f.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
         const auto n = static_cast<size_t>(f.gcount());
         XXH3_64bits_update(state.get(), buffer.data(), n);
-        bytes += n;
+        *bytes += n;
     }
     if (f.bad()) return Status::Io(fmt::format("{}: read error while hashing", path.string()));
+    *xxh3 = XXH3_64bits_digest(state.get());
+    return Status::Ok();
+}
+}  // namespace
+
+Status digestFile(const fs::path& path, FileDigest* out) {
+    uint64_t xxh3 = 0, bytes = 0;
+    if (Status s = hashFile(path, &xxh3, &bytes); !s.ok()) return s;
     out->path = path.string();
     out->bytes = bytes;
-    out->xxh3 = fmt::format("{:016x}", XXH3_64bits_digest(state.get()));
+    out->xxh3 = hexDigest(xxh3);
     return Status::Ok();
 }
 
@@ -64,9 +76,8 @@ std::vector<TextureDigest> digestTextures(const std::vector<TextureRef>& texture
             out[t] = out[at->second];
             continue;
         }
-        FileDigest d;
-        if (!digestFile(textures[t].path, &d).ok()) continue;  // unreadable ones are ingest warnings
-        out[t] = {std::stoull(d.xxh3, nullptr, 16), d.bytes, true};
+        TextureDigest& d = out[t];
+        d.readable = hashFile(textures[t].path, &d.xxh3, &d.bytes).ok();  // unreadable ones are ingest warnings
     }
     return out;
 }

@@ -242,7 +242,7 @@ json tablesJson(const Scene& s) {
                    {"enu_to_ecef", g.enu_to_ecef ? json(*g.enu_to_ecef) : json(nullptr)}};
     return {{"materials", materials}, {"georef", georef}};
 }
-void tablesFrom(const json& j, Scene* s) {
+void tablesFromJson(const json& j, Scene* s) {
     for (const json& m : j.at("materials")) s->materials.push_back({{m.at(0), m.at(1), m.at(2)}, m.at(3)});
     const json& g = j.at("georef");
     s->georef.source_crs = g.at("source_crs");
@@ -250,6 +250,14 @@ void tablesFrom(const json& j, Scene* s) {
     s->georef.grid_frame = g.at("grid_frame");
     if (!g.at("local_to_ecef").is_null()) s->georef.local_to_ecef = g.at("local_to_ecef").get<std::array<double, 16>>();
     if (!g.at("enu_to_ecef").is_null()) s->georef.enu_to_ecef = g.at("enu_to_ecef").get<std::array<double, 16>>();
+}
+
+// The plan's scene tables: tables.json and textures.bin (`digests` may be null).
+Status readPlanTables(const fs::path& dir, Scene* s, std::vector<TextureDigest>* digests) {
+    json tables;
+    if (Status st = readJson(dir / "tables.json", &tables); !st.ok()) return st;
+    tablesFromJson(tables, s);
+    return readTextureTable(dir / "textures.bin", &s->textures, digests);
 }
 
 // --- A shard's nodes and records (what the merge needs of them).
@@ -677,17 +685,15 @@ Status reuseShards(const fs::path& dir, const fs::path& cache, std::vector<int>*
 }
 
 Status runShard(const fs::path& dir, int shard, int threads, const ShardProgressFn& progress) {
-    json plan, tables;
+    json plan;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
     if (plan.value("format", 0) != kPlanFormat)
         return Status::Invalid(fmt::format("{}: a plan of another cityatlas version", (dir / "plan.json").string()));
     const auto shards = plan.at("shard_triangles").size();
     if (shard < 0 || static_cast<size_t>(shard) >= shards)
         return Status::Usage(fmt::format("shard {}: the plan has shards 0..{}", shard, shards - 1));
-    if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     Scene scene;
-    tablesFrom(tables, &scene);
-    if (Status s = readTextureTable(dir / "textures.bin", &scene.textures, nullptr); !s.ok()) return s;
+    if (Status s = readPlanTables(dir, &scene, nullptr); !s.ok()) return s;
     {
         const fs::path tri = dir / fmt::format("{}.tri", shardName(shard));
         std::ifstream f(tri, std::ios::binary | std::ios::ate);
@@ -993,14 +999,12 @@ Status execMergeRunningShards(const fs::path& dir, int workers, int threads, boo
 
 Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
                    const ShardProgressFn& progress, MergeResult* result, const fs::path& previous_cache) {
-    json plan, tables;
+    json plan;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
     if (plan.value("format", 0) != kPlanFormat)
         return Status::Invalid(fmt::format("{}: a plan of another cityatlas version", (dir / "plan.json").string()));
-    if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
     MergeResult& r = *result;
-    tablesFrom(tables, &r.tables);
-    if (Status s = readTextureTable(dir / "textures.bin", &r.tables.textures, &r.texture_digests); !s.ok()) return s;
+    if (Status s = readPlanTables(dir, &r.tables, &r.texture_digests); !s.ok()) return s;
     const std::vector<TextureDigest>& texture_digests = r.texture_digests;
     r.scene_triangles = plan.at("scene_triangles");
     const atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
