@@ -14,8 +14,9 @@
 /// small); so the error reported here is MEASURED in double precision. meshopt
 /// runs at a fixed, bound-independent ladder of relative targets (4 per
 /// octave, from the bound converted to meshopt's relative units down to 0),
-/// and the result is the attempt with the fewest triangles whose measured
-/// error fits the bound (in the worst case the welded input itself, error 0).
+/// and the result is the first attempt, from the top, whose measured error
+/// fits the bound (in the worst case the welded input itself, error 0): the
+/// one with the fewest triangles, as a lower target collapses no more.
 /// Since a looser bound only admits more attempts, the triangle count never
 /// grows with the bound while the target does not bind.
 ///
