@@ -14,13 +14,14 @@
 /// and a child's error stays below its own texel, at least half of the node's
 /// texel is left for its own simplification.
 ///
-/// Above the budget even then (atlas seams lock every corner where charts
-/// meet, so meshopt cannot collapse a box building), whole buildings smaller
-/// than the node's world texel are left out, smallest first, until the budget
-/// is met (tiles/simplify.h): such a building covers less than a pixel
-/// wherever the node is drawn. Its error is its bounding-box diagonal (below
-/// the texel), so a node's error is the larger of that and the drawn
-/// buildings' accumulated error; the tileset lists it as dropped. This is what
+/// Above the budget (where atlas seams lock every corner where charts meet,
+/// meshopt cannot collapse a box building), whole buildings smaller than the
+/// node's world texel are left out first, smallest first, until the budget
+/// is met, and the rest is simplified (tiles/simplify.h): such a building
+/// covers less than a pixel wherever the node is drawn. Its error is its
+/// bounding-box diagonal (below the texel), so a node's error is the larger
+/// of that and the drawn buildings' accumulated error; the tileset lists it
+/// as dropped. This is what
 /// keeps the levels above a whole city's shards small (a 100,000-building
 /// root: 32,767 instead of 984,421 triangles).
 

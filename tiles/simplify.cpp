@@ -522,6 +522,10 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
         }
         ladder.push_back(0.0);
 
+        // Already within the target (what is left after features are left
+        // out may be): the target binds before anything collapses.
+        if (kept_l.size() <= target_indices) return {kept_l, identityError()};
+
         std::optional<std::vector<uint32_t>> best;
         double best_error = kInf;
         // meshopt runs one thread per call, and near the root of a large
@@ -575,42 +579,40 @@ SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, do
     std::vector<uint32_t> chosen;
     double chosen_error = 0;
     if (!kept.empty()) {
-        std::vector<uint32_t> all_vertices(n_local);
-        std::iota(all_vertices.begin(), all_vertices.end(), 0u);
-        std::tie(chosen, chosen_error) = fit(kept, all_local, all_vertices);
-        if (in.drop_features_below_m > 0 && !in.feature_id.empty() && chosen.size() > target_indices) {
-            // Still above the target: whole features out, smallest first (simplify.h).
-            auto featureOf = [&](uint32_t local) { return in.feature_id[input_of[local]]; };
+        std::unordered_set<uint32_t> dropped;
+        double largest_dropped = 0;
+        auto featureOf = [&](uint32_t local) { return in.feature_id[input_of[local]]; };
+        if (in.drop_features_below_m > 0 && !in.feature_id.empty() && kept.size() > target_indices) {
+            // Above the target: whole features out first, smallest first,
+            // counting their input triangles (simplify.h).
             std::unordered_map<uint32_t, Box3d> extent;  // over the input surface
             for (size_t i = 0; i < in.indices.size(); ++i)
                 extent[in.feature_id[in.indices[i]]].extend(centred[all_local[i]]);
-            std::unordered_map<uint32_t, size_t> drawn;  // triangles of the result, by feature
-            for (size_t t = 0; t < chosen.size(); t += 3) ++drawn[featureOf(chosen[t])];
-            double largest_dropped = 0;
-            const std::unordered_set<uint32_t> dropped =
-                featuresToLeaveOut(extent, drawn, in.drop_features_below_m, target_indices / 3, &largest_dropped);
-            if (!dropped.empty()) {
-                // The rest simplified again on its own: a kept feature's
-                // nearest surface may have been a dropped one's.
-                auto without = [&](const std::vector<uint32_t>& tris) {
-                    std::vector<uint32_t> out;
-                    for (size_t t = 0; t < tris.size(); t += 3)
-                        if (!dropped.count(featureOf(tris[t])))
-                            out.insert(out.end(), tris.begin() + static_cast<std::ptrdiff_t>(t),
-                                       tris.begin() + static_cast<std::ptrdiff_t>(t + 3));
-                    return out;
-                };
-                std::vector<uint32_t> from;
-                for (uint32_t v = 0; v < n_local; ++v)
-                    if (!dropped.count(featureOf(v))) from.push_back(v);
-                auto [rest, error] = fit(without(kept), without(all_local), from);
-                if (!rest.empty() && rest.size() < chosen.size()) {
-                    chosen = std::move(rest);
-                    chosen_error = error;
-                    result.left_out_diagonal_m = largest_dropped;
-                    result.features_left_out = dropped.size();
-                }
-            }
+            std::unordered_map<uint32_t, size_t> drawn;  // triangles of the input, by feature
+            for (size_t t = 0; t < kept.size(); t += 3) ++drawn[featureOf(kept[t])];
+            dropped = featuresToLeaveOut(extent, drawn, in.drop_features_below_m, target_indices / 3, &largest_dropped);
+        }
+        if (dropped.empty()) {
+            std::vector<uint32_t> all_vertices(n_local);
+            std::iota(all_vertices.begin(), all_vertices.end(), 0u);
+            std::tie(chosen, chosen_error) = fit(kept, all_local, all_vertices);
+        } else {
+            // The rest simplified on its own, and measured against the rest
+            // only: what is left out is not there to be near.
+            auto without = [&](const std::vector<uint32_t>& tris) {
+                std::vector<uint32_t> out;
+                for (size_t t = 0; t < tris.size(); t += 3)
+                    if (!dropped.count(featureOf(tris[t])))
+                        out.insert(out.end(), tris.begin() + static_cast<std::ptrdiff_t>(t),
+                                   tris.begin() + static_cast<std::ptrdiff_t>(t + 3));
+                return out;
+            };
+            std::vector<uint32_t> from;
+            for (uint32_t v = 0; v < n_local; ++v)
+                if (!dropped.count(featureOf(v))) from.push_back(v);
+            std::tie(chosen, chosen_error) = fit(without(kept), without(all_local), from);
+            result.left_out_diagonal_m = largest_dropped;
+            result.features_left_out = dropped.size();
         }
     }
     // else: every triangle has zero area; the result is empty and its error

@@ -52,14 +52,18 @@ struct SimplifyInput {
     /// meshopt treats vertices sharing a position as an attribute seam, which
     /// it only collapses along: every kept corner keeps its uv and ids.
     bool keep_attribute_seams = false;
-    /// When the result is still above the target within the bound, whole
-    /// features whose bounding box (over the input) has a diagonal below this
-    /// are left out, smallest first, until the target is met (never the last
-    /// one), and the rest is simplified again on its own (a kept feature's
-    /// nearest surface may have been a left-out one's). 0: never. A triangle
-    /// belongs to its first corner's feature. The tiles stage passes the
-    /// node's world texel: a building smaller than a texel is below a pixel
-    /// wherever the node is drawn.
+    /// When the input is above the target, whole features whose bounding box
+    /// (over the input) has a diagonal below this are left out first,
+    /// smallest first, until their input triangles left meet the target
+    /// (never the last one), and the rest is simplified on its own. 0: never.
+    /// A triangle belongs to its first corner's feature. The tiles stage
+    /// passes the node's world texel: a building smaller than a texel is
+    /// below a pixel wherever the node is drawn. Leaving out before
+    /// simplifying (not after a first simplification of everything, which
+    /// would keep a few more of them) costs one simplification instead of
+    /// two, and the first one was over the whole merge exactly where most
+    /// buildings go: a million-building city's 42 m level keeps 2.6 M of
+    /// 19.7 M triangles.
     double drop_features_below_m = 0;
 };
 

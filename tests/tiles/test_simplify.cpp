@@ -407,6 +407,32 @@ TEST(Simplify, AboveTheTargetWholeBuildingsSmallerThanTheirBoundLeaveSmallestFir
     EXPECT_EQ(featuresOf(in, one.indices).size(), 1u);
 }
 
+// Buildings are left out before anything is simplified, counting their input
+// triangles: when leaving out the smallest one already meets the target, the
+// rest is drawn exactly as given (nothing collapses, error 0).
+TEST(Simplify, LeavingOutTheSmallestBuildingThatMeetsTheTargetKeepsTheRestAsGiven) {
+    SimplifyInput in = perFaceWeld(town());
+    std::map<uint32_t, Box3d> box;
+    std::map<uint32_t, size_t> triangles;  // by the first corner's feature, as simplify.h counts
+    for (uint32_t i : in.indices) box[in.feature_id[i]].extend(in.positions[i]);
+    for (size_t t = 0; t < in.indices.size(); t += 3) ++triangles[in.feature_id[in.indices[t]]];
+    uint32_t smallest = 0;
+    double smallest_diagonal = std::numeric_limits<double>::infinity();
+    for (const auto& [f, b] : box) {
+        const double d = std::sqrt(dot(b.max - b.min, b.max - b.min));
+        if (d < smallest_diagonal) smallest_diagonal = d, smallest = f;
+    }
+    const size_t n = in.indices.size() / 3;
+    in.drop_features_below_m = 1e6;
+    const SimplifyResult r = simplifyMesh(in, n - triangles[smallest] + 1, 1.0);  // the rest is below the target
+    expectValidIndices(in, r);
+    EXPECT_EQ(r.features_left_out, 1u);
+    EXPECT_EQ(r.features_dropped, std::vector<uint32_t>{smallest});
+    EXPECT_NEAR(r.left_out_diagonal_m, smallest_diagonal, 1e-9);
+    EXPECT_EQ(r.triangles_out, n - triangles[smallest]);
+    EXPECT_EQ(r.geometric_error_m, 0.0);
+}
+
 TEST(Simplify, FlatGridCollapsesToAHandfulAtAnyPositiveBound) {
     // Far from the origin (UTM-sized coordinates): float32 has 0.5 m spacing
     // at 5e6 m, so this fails unless the centre is subtracted in double first.
