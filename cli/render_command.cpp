@@ -3,6 +3,7 @@
 // (EGL, Mesa llvmpipe without a GPU), writes PNG frames and a per-frame JSON
 // report (schemas/render_report.schema.json).
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -54,6 +55,7 @@ struct RenderCliOptions {
     bool cpu_decode = false;
     int threads = 2;
     std::string picks_file;  // JSON [[x, y], ...]: picked after the last frame
+    bool ids = false;        // write the id buffer next to each frame written
     bool quiet = false;
 };
 
@@ -77,6 +79,22 @@ bool parseBytes(const std::string& text, uint64_t* out) {
     if (!(v >= 1 && v < 1.8e19)) return false;
     *out = static_cast<uint64_t>(v);
     return true;
+}
+
+// The id buffer as raw little-endian uint32 (the machines this builds on are
+// little-endian; the static_assert says so), written whole or not at all.
+Status writeIds(const fs::path& path, const std::vector<uint32_t>& ids) {
+    static_assert(std::endian::native == std::endian::little, "ids_*.bin is written little-endian");
+    const fs::path tmp = fs::path(path).concat(".partial");
+    {
+        std::ofstream f(tmp, std::ios::binary);
+        f.write(reinterpret_cast<const char*>(ids.data()), static_cast<std::streamsize>(ids.size() * sizeof(uint32_t)));
+        if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
+    }
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot write: {}", path.string(), ec.message()));
+    return Status::Ok();
 }
 
 bool parseSize(const std::string& text, int* w, int* h) {
@@ -263,7 +281,8 @@ int runRender(const RenderCliOptions& opt) {
     if (opt.frames > 0) frames = std::min(frames, static_cast<size_t>(opt.frames));
 
     const render::GlInfo gl = render::queryGlInfo();
-    auto target = render::OffscreenTarget::create(width, height, &st);
+    if (opt.ids && opt.out_dir.empty()) return usage("--ids needs -o/--output (the id buffers are written next to the frames)");
+    auto target = render::OffscreenTarget::create(width, height, &st, opt.ids);
     if (!target) return fail(st);
     if (Status gs = client->initGl(); !gs.ok()) return fail(gs);
     if (!opt.quiet && client->usesCpuDecode())
@@ -310,6 +329,7 @@ int runRender(const RenderCliOptions& opt) {
     Progress progress(!opt.quiet);
     json frame_list = json::array();
     std::vector<uint8_t> pixels;
+    std::vector<uint32_t> ids;
     const auto start = Clock::now();
     for (size_t i = 0; i < frames; ++i) {
         const render::CameraSample s = render::sampleFrame(path, i);
@@ -338,6 +358,11 @@ int runRender(const RenderCliOptions& opt) {
             std::string why;
             if (!writePng(fs::path(opt.out_dir) / image, width, height, pixels, &why))
                 return fail(Status::Io(fmt::format("{}: cannot write: {}", (fs::path(opt.out_dir) / image).string(), why)));
+            if (opt.ids) {
+                const fs::path ids_path = fs::path(opt.out_dir) / fmt::format("ids_{:05d}.bin", i);
+                target->readIds(&ids);
+                if (Status ws = writeIds(ids_path, ids); !ws.ok()) return fail(ws);
+            }
         }
         // The building at the image centre, as `view` picks on a click.
         const render::PickHit centre = client->pick(cam, 0.5 * width, 0.5 * height);
@@ -351,6 +376,11 @@ int runRender(const RenderCliOptions& opt) {
         for (const auto& [px, py] : picks) {
             const render::PickHit hit = client->pick(cam, px, py);
             json p = {{"x", px}, {"y", py}, {"hit", hit.hit}};
+            // What the id buffer holds at that pixel (the last frame's), next to the ray cast's answer.
+            if (opt.ids) {
+                const uint32_t id = target->idAt(static_cast<int>(std::floor(px)), static_cast<int>(std::floor(py)));
+                p["id_buffer"] = id == render::OffscreenTarget::kNoFeature ? json(nullptr) : json(id);
+            }
             if (hit.hit) {
                 p["feature"] = hit.feature;
                 p["distance_m"] = hit.distance_m;
@@ -470,6 +500,10 @@ RunFn addRenderCommand(CLI::App& app) {
     cmd->add_option("--picks", opt->picks_file,
                     "JSON file [[x, y], ...]: after the last frame, pick the building at each pixel (from the top "
                     "left) as `view` does on a click; the report's \"picks\" gives feature, gml_id and distance");
+    cmd->add_flag("--ids", opt->ids,
+                  "Also write each frame's id buffer as ids_NNNNN.bin next to its PNG: width x height uint32 "
+                  "(little-endian, top row first), the building index drawn at each pixel, 0xFFFFFFFF for none; "
+                  "with --picks, each pick also gives the id buffer's value at its pixel");
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress and no summary line");
     return [opt]() { return runRender(*opt); };
 }

@@ -98,7 +98,10 @@ int runView(const ViewCliOptions& opt) {
     auto overlay = render::Overlay::create(*window, &st);
     if (!overlay) return fail(st);
 
-    // An sRGB-incapable default framebuffer: draw offscreen and blit.
+    // Frames are drawn offscreen and blitted to the window: the target's id
+    // buffer is what a click picks from (the last frame shown, one pixel
+    // read back instead of a ray cast over every drawn triangle), and the
+    // window's default framebuffer need not be sRGB-capable.
     std::unique_ptr<render::OffscreenTarget> target;
     float tau = static_cast<float>(opt.tau);
     float budget_mb = static_cast<float>(opt.budget_mb);
@@ -149,12 +152,14 @@ int runView(const ViewCliOptions& opt) {
             int ww = 0, wh = 0;
             glfwGetWindowSize(window->handle(), &ww, &wh);
             const double scale = ww > 0 ? static_cast<double>(fbw) / ww : 1.0;
-            const render::PickHit hit = client->pick(nav.camera, mx * scale, my * scale);
-            picked = hit.hit ? fmt::format("building {} at {:.1f} m", hit.feature, hit.distance_m) : "nothing there";
+            const uint32_t feature = target ? target->idAt(static_cast<int>(mx * scale), static_cast<int>(my * scale))
+                                            : render::OffscreenTarget::kNoFeature;
+            const bool hit = feature != render::OffscreenTarget::kNoFeature;
+            picked = hit ? fmt::format("building {}", feature) : "nothing there";
             picked_record.clear();
-            if (hit.hit) {
+            if (hit) {
                 std::string record;
-                const Status rs = client->featureRecord(hit.feature, &record);
+                const Status rs = client->featureRecord(feature, &record);
                 picked_record = rs.ok() ? record : rs.error;
             }
         }
@@ -180,15 +185,14 @@ int runView(const ViewCliOptions& opt) {
         if (fw <= 0 || fh <= 0) continue;  // minimised
         nav.camera.width_px = fw;
         nav.camera.height_px = fh;
-        if (!window->srgbFramebuffer() && (!target || target->width() != fw || target->height() != fh)) {
-            target = render::OffscreenTarget::create(fw, fh, &st);
+        if (!target || target->width() != fw || target->height() != fh) {
+            target = render::OffscreenTarget::create(fw, fh, &st, /*with_ids=*/true);
             if (!target) return fail(st);
         }
-        if (target) target->bind();
-        else render::bindDefaultFramebuffer(fw, fh);
+        target->bind();
         rec = client->frame(nav.camera);
         loaded_total += rec.bytes_loaded;
-        if (target) target->blitToDefault(fw, fh);
+        target->blitToDefault(fw, fh);
         render::bindDefaultFramebuffer(fw, fh);
 
         overlay->newFrame();

@@ -17,7 +17,7 @@ namespace cityatlas::render {
 namespace {
 
 // Attribute locations, fixed in the shader so VAOs need no program.
-constexpr GLuint kPosition = 0, kUvAtlas = 1, kUvOriginal = 2, kMaterial = 3;
+constexpr GLuint kPosition = 0, kUvAtlas = 1, kUvOriginal = 2, kMaterial = 3, kFeature = 4;
 
 // Shader modes: what a fragment's colour comes from.
 constexpr int kModeTextured = 0;  // material colour if material_id >= 0, else the texture
@@ -29,29 +29,34 @@ layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec2 a_uv_atlas;
 layout(location = 2) in vec2 a_uv_original;
 layout(location = 3) in int a_material;
+layout(location = 4) in uint a_feature;
 uniform mat4 u_view_projection;  // projection * viewRotation: no translation
 uniform vec3 u_offset;           // node centre - camera position, computed in double
 uniform int u_uv_set;            // 0: uv_atlas, 1: uv_original
 out vec2 v_uv;
 flat out int v_material;
+flat out uint v_feature;
 void main() {
     gl_Position = u_view_projection * vec4(a_position + u_offset, 1.0);
     vec2 uv = u_uv_set == 1 ? a_uv_original : a_uv_atlas;
     v_uv = vec2(uv.x, 1.0 - uv.y);  // v = 0 at the image bottom; texture rows are stored top first
     v_material = a_material;
+    v_feature = a_feature;
 }
 )";
 
 constexpr const char* kFragmentShader = R"(#version 330 core
 in vec2 v_uv;
 flat in int v_material;
+flat in uint v_feature;
 uniform sampler2D u_texture;
 uniform samplerBuffer u_materials;  // linear rgb, alpha = 1 - transparency
 uniform int u_material_count;
 uniform int u_mode;
 uniform bool u_opaque;
 uniform float u_grey;
-out vec4 o_colour;
+layout(location = 0) out vec4 o_colour;
+layout(location = 1) out uint o_feature;  // the id buffer, where the target has one
 void main() {
     vec4 c;
     if (u_mode == 2) {
@@ -64,6 +69,7 @@ void main() {
         c = vec4(vec3(u_grey), 1.0);
     }
     o_colour = vec4(c.rgb, u_opaque ? 1.0 : c.a);
+    o_feature = v_feature;
 }
 )";
 
@@ -175,6 +181,8 @@ Status checkMesh(const MeshData& m) {
         return Status::Invalid(fmt::format("mesh: {} uv_original values for {} vertices", m.uv_original.size(), n));
     if (!m.material_id.empty() && m.material_id.size() != n)
         return Status::Invalid(fmt::format("mesh: {} material ids for {} vertices", m.material_id.size(), n));
+    if (!m.feature_id.empty() && m.feature_id.size() != n)
+        return Status::Invalid(fmt::format("mesh: {} feature ids for {} vertices", m.feature_id.size(), n));
     if (m.indices.size() % 3 != 0) return Status::Invalid("mesh: index count is not a multiple of 3");
     if (m.indices.size() > std::numeric_limits<uint32_t>::max()) return Status::Invalid("mesh: too many indices");
     for (size_t i = 0; i < m.indices.size(); ++i) {
@@ -205,7 +213,7 @@ void setSampling(bool wrap, bool anisotropic, float anisotropy, int levels) {
 
 // ---------------------------------------------------------------- OffscreenTarget
 
-std::unique_ptr<OffscreenTarget> OffscreenTarget::create(int width, int height, Status* status) {
+std::unique_ptr<OffscreenTarget> OffscreenTarget::create(int width, int height, Status* status, bool with_ids) {
     GLint max_size = 0;
     glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
     if (width < 1 || height < 1 || width > max_size || height > max_size) {
@@ -226,10 +234,18 @@ std::unique_ptr<OffscreenTarget> OffscreenTarget::create(int width, int height, 
     glBindFramebuffer(GL_FRAMEBUFFER, t->fbo_);
     glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, t->colour_);
     glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t->depth_);
+    if (with_ids) {
+        glGenRenderbuffers(1, &t->ids_);
+        glBindRenderbuffer(GL_RENDERBUFFER, t->ids_);
+        glRenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, width, height);
+        glBindRenderbuffer(GL_RENDERBUFFER, 0);
+        glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_RENDERBUFFER, t->ids_);
+    }
+    t->setDrawBuffers();
     const GLenum complete = glCheckFramebufferStatus(GL_FRAMEBUFFER);
     if (complete != GL_FRAMEBUFFER_COMPLETE) {
-        *status = Status::Unsupported(fmt::format("offscreen target: {}x{} sRGB8_ALPHA8 + depth24 framebuffer is "
-                                           "incomplete (0x{:x})", width, height, complete));
+        *status = Status::Unsupported(fmt::format("offscreen target: {}x{} sRGB8_ALPHA8{} + depth24 framebuffer is "
+                                           "incomplete (0x{:x})", width, height, with_ids ? " + R32UI" : "", complete));
         return nullptr;
     }
     *status = Status::Ok();
@@ -240,6 +256,12 @@ OffscreenTarget::~OffscreenTarget() {
     if (fbo_ != 0) glDeleteFramebuffers(1, &fbo_);
     if (colour_ != 0) glDeleteRenderbuffers(1, &colour_);
     if (depth_ != 0) glDeleteRenderbuffers(1, &depth_);
+    if (ids_ != 0) glDeleteRenderbuffers(1, &ids_);
+}
+
+void OffscreenTarget::setDrawBuffers() const {
+    const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glDrawBuffers(ids_ != 0 ? 2 : 1, buffers);
 }
 
 void OffscreenTarget::bind() const {
@@ -251,12 +273,39 @@ void OffscreenTarget::readPixels(std::vector<uint8_t>* rgba) const {
     const size_t row = static_cast<size_t>(width_) * 4;
     std::vector<uint8_t> bottom_up(row * height_);
     glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, bottom_up.data());
     // GL's first row is the bottom one; callers get images in file order.
     rgba->resize(bottom_up.size());
     for (int y = 0; y < height_; ++y)
         std::copy_n(bottom_up.data() + row * (height_ - 1 - y), row, rgba->data() + row * y);
+}
+
+bool OffscreenTarget::readIds(std::vector<uint32_t>* ids) const {
+    if (ids_ == 0) return false;
+    const size_t row = static_cast<size_t>(width_);
+    std::vector<uint32_t> bottom_up(row * height_);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    glReadBuffer(GL_COLOR_ATTACHMENT1);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, width_, height_, GL_RED_INTEGER, GL_UNSIGNED_INT, bottom_up.data());
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    ids->resize(bottom_up.size());
+    for (int y = 0; y < height_; ++y)
+        std::copy_n(bottom_up.data() + row * (height_ - 1 - y), row, ids->data() + row * y);
+    return true;
+}
+
+uint32_t OffscreenTarget::idAt(int x, int y) const {
+    if (ids_ == 0 || x < 0 || y < 0 || x >= width_ || y >= height_) return kNoFeature;
+    GLuint id = kNoFeature;
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    glReadBuffer(GL_COLOR_ATTACHMENT1);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(x, height_ - 1 - y, 1, 1, GL_RED_INTEGER, GL_UNSIGNED_INT, &id);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    return id;
 }
 
 void bindDefaultFramebuffer(int width, int height) {
@@ -266,6 +315,7 @@ void bindDefaultFramebuffer(int width, int height) {
 
 void OffscreenTarget::blitToDefault(int width, int height) const {
     glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
     glBlitFramebuffer(0, 0, width_, height_, 0, 0, width, height, GL_COLOR_BUFFER_BIT, GL_LINEAR);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -377,6 +427,7 @@ GpuMesh GlRenderer::upload(const MeshData& m, Status* status) {
     g.has_uv_atlas = !m.uv_atlas.empty();
     g.has_uv_original = !m.uv_original.empty();
     g.has_material_id = !m.material_id.empty();
+    g.has_feature_id = !m.feature_id.empty();
     g.texture_ranges = m.texture_ranges;
 
     // One buffer, one block per attribute (no interleaving: absent attributes cost nothing).
@@ -384,8 +435,10 @@ GpuMesh GlRenderer::upload(const MeshData& m, Status* status) {
     const size_t atlas_bytes = m.uv_atlas.size() * sizeof(float);
     const size_t orig_bytes = m.uv_original.size() * sizeof(float);
     const size_t mat_bytes = m.material_id.size() * sizeof(int32_t);
+    const size_t feature_bytes = m.feature_id.size() * sizeof(uint32_t);
     const size_t atlas_at = pos_bytes, orig_at = atlas_at + atlas_bytes, mat_at = orig_at + orig_bytes;
-    const size_t vbo_bytes = mat_at + mat_bytes;
+    const size_t feature_at = mat_at + mat_bytes;
+    const size_t vbo_bytes = feature_at + feature_bytes;
 
     glGenVertexArrays(1, &g.vao);
     glBindVertexArray(g.vao);
@@ -413,6 +466,12 @@ GpuMesh GlRenderer::upload(const MeshData& m, Status* status) {
                         m.material_id.data());
         glEnableVertexAttribArray(kMaterial);
         glVertexAttribIPointer(kMaterial, 1, GL_INT, 0, at(mat_at));
+    }
+    if (g.has_feature_id) {
+        glBufferSubData(GL_ARRAY_BUFFER, static_cast<GLintptr>(feature_at), static_cast<GLsizeiptr>(feature_bytes),
+                        m.feature_id.data());
+        glEnableVertexAttribArray(kFeature);
+        glVertexAttribIPointer(kFeature, 1, GL_UNSIGNED_INT, 0, at(feature_at));
     }
 
     // 16-bit indices when they fit: half the index memory for most nodes.
@@ -516,6 +575,14 @@ void GlRenderer::beginFrame(const Camera& camera, const std::array<float, 4>& cl
     glClearColor(clear_linear[0], clear_linear[1], clear_linear[2], clear_linear[3]);
     glClearDepth(1.0);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    // glClear leaves an integer buffer undefined: the id buffer (an
+    // OffscreenTarget's draw buffer 1) gets its own clear, to "no feature".
+    GLint ids = GL_NONE;
+    glGetIntegerv(GL_DRAW_BUFFER1, &ids);
+    if (ids != GL_NONE) {
+        const GLuint none[4] = {OffscreenTarget::kNoFeature, 0, 0, 0};
+        glClearBufferuiv(GL_COLOR, 1, none);
+    }
 }
 
 int GlRenderer::beginNode(const Vec3d& node_centre, int layer) {
@@ -595,6 +662,7 @@ void GlRenderer::issue(const Draw& d, FrameStats* stats) {
     if (!mesh.has_uv_atlas) glVertexAttrib2f(kUvAtlas, 0, 0);
     if (!mesh.has_uv_original) glVertexAttrib2f(kUvOriginal, 0, 0);
     if (!mesh.has_material_id) glVertexAttribI4i(kMaterial, -1, 0, 0, 0);
+    if (!mesh.has_feature_id) glVertexAttribI4ui(kFeature, OffscreenTarget::kNoFeature, 0, 0, 0);
     const size_t index_size = mesh.index_type == GL_UNSIGNED_SHORT ? 2 : 4;
     glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(d.index_count), mesh.index_type,
                    reinterpret_cast<const void*>(static_cast<size_t>(d.first_index) * index_size));

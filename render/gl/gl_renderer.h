@@ -49,12 +49,24 @@
 namespace cityatlas::render {
 
 /// A framebuffer object to render into without a window: GL_SRGB8_ALPHA8
-/// colour and 24-bit depth renderbuffers.
+/// colour and 24-bit depth renderbuffers, and optionally an id buffer.
+///
+/// The id buffer (`with_ids`) is a GL_R32UI colour attachment (draw buffer 1)
+/// that every draw writes its fragments' feature ids into (the GLB's
+/// _FEATURE_ID_0, the building index; kNoFeature where nothing was drawn).
+/// Integer attachments are not blended, so an alpha-layer fragment in front
+/// of the opaque surface writes its own id: the id is the nearest drawn
+/// surface's, as the CPU ray cast (render/core/picking.h) finds it, except
+/// where two translucent surfaces of one node overlap (a node's triangles
+/// are drawn in order, without depth writes in the alpha layer).
 class OffscreenTarget {
 public:
+    /// The id buffer's value where nothing was drawn.
+    static constexpr uint32_t kNoFeature = 0xFFFFFFFFu;
+
     /// Fails (nullptr, one line) on a non-positive size, a size above
     /// GL_MAX_RENDERBUFFER_SIZE or an incomplete framebuffer.
-    static std::unique_ptr<OffscreenTarget> create(int width, int height, Status* status);
+    static std::unique_ptr<OffscreenTarget> create(int width, int height, Status* status, bool with_ids = false);
     ~OffscreenTarget();
     OffscreenTarget(const OffscreenTarget&) = delete;
     OffscreenTarget& operator=(const OffscreenTarget&) = delete;
@@ -64,6 +76,13 @@ public:
     /// The colour buffer as RGBA8 (sRGB-encoded bytes, as stored), rows top-down
     /// (first row = top of the picture), width * height * 4 bytes.
     void readPixels(std::vector<uint8_t>* rgba) const;
+    /// The id buffer, width * height feature ids, rows top-down; false (and
+    /// nothing read) for a target made without one.
+    bool readIds(std::vector<uint32_t>* ids) const;
+    /// The feature id at pixel (x, y) from the top left; kNoFeature outside
+    /// the target, where nothing was drawn, or without an id buffer.
+    uint32_t idAt(int x, int y) const;
+    bool hasIds() const { return ids_ != 0; }
     /// Copies the colour buffer to the window's default framebuffer (same
     /// size or scaled), for windows whose default framebuffer is not sRGB.
     void blitToDefault(int width, int height) const;
@@ -74,8 +93,9 @@ public:
 
 private:
     OffscreenTarget() = default;
+    void setDrawBuffers() const;
     int width_ = 0, height_ = 0;
-    uint32_t fbo_ = 0, colour_ = 0, depth_ = 0;
+    uint32_t fbo_ = 0, colour_ = 0, depth_ = 0, ids_ = 0;
 };
 
 /// Binds the window's default framebuffer for drawing, viewport (0, 0, w, h).
@@ -87,7 +107,7 @@ struct GpuMesh {
     uint32_t vao = 0, vbo = 0, ibo = 0;
     uint32_t vertex_count = 0, index_count = 0;
     uint32_t index_type = 0;          ///< GL_UNSIGNED_SHORT up to 65536 vertices, else GL_UNSIGNED_INT
-    bool has_uv_atlas = false, has_uv_original = false, has_material_id = false;
+    bool has_uv_atlas = false, has_uv_original = false, has_material_id = false, has_feature_id = false;
     std::vector<MeshData::TextureRange> texture_ranges;  ///< leaves: per original texture (MeshData's)
     uint64_t gpu_bytes = 0;           ///< vertex + index buffer bytes
     bool valid() const { return vao != 0; }

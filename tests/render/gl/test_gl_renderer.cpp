@@ -420,10 +420,16 @@ TEST_F(GlTest, UploadsRefuseMalformedDataWithOneLine) {
     EXPECT_FALSE(r->upload(bad_uv, &status).valid());
     EXPECT_FALSE(status.ok());
 
+    MeshData bad_ids = m;
+    bad_ids.feature_id.push_back(0);
+    EXPECT_FALSE(r->upload(bad_ids, &status).valid());
+    EXPECT_NE(status.error.find("5 feature ids for 4 vertices"), std::string::npos) << status.error;
+
+    ASSERT_EQ(m.feature_id.size(), 4U);
     GpuMesh ok = r->upload(m, &status);
     EXPECT_TRUE(status.ok() && ok.valid());
-    // 4 vertices x (xyz + 2 uv sets + material id) + 6 16-bit indices.
-    EXPECT_EQ(ok.gpu_bytes, 4U * (12 + 8 + 8 + 4) + 6U * 2);
+    // 4 vertices x (xyz + 2 uv sets + material id + feature id) + 6 16-bit indices.
+    EXPECT_EQ(ok.gpu_bytes, 4U * (12 + 8 + 8 + 4 + 4) + 6U * 2);
     r->release(&ok);
 }
 
@@ -717,6 +723,61 @@ TEST_F(GlTest, AlphaLayerDrawsAfterOpaqueAndFarToNearWhateverTheCallOrder) {
     EXPECT_LE(maxRgbDiff(centre(), want), 2) << str(centre()) << " vs " << str(want);
 
     for (GpuMesh* g : {&red, &blue, &green}) r->release(g);
+}
+
+// The id buffer (OffscreenTarget with_ids): each pixel holds the feature id of
+// the nearest surface drawn there, opaque or alpha, and kNoFeature elsewhere;
+// a mesh without ids draws kNoFeature; the colour is what it is without ids.
+TEST_F(GlTest, IdBufferHoldsTheNearestFeatureOpaqueOrAlphaAndNoneElsewhere) {
+    constexpr int kSize = 16;
+    const std::vector<MaterialInfo> materials{{{0.8F, 0.05F, 0.05F}, 0}, {{0.05F, 0.05F, 0.9F}, 0.5F}};
+    auto r = renderer(materials);
+    Status status;
+    auto t = OffscreenTarget::create(kSize, kSize, &status, /*with_ids=*/true);
+    ASSERT_TRUE(status.ok()) << status.error;
+    ASSERT_TRUE(t->hasIds());
+    auto quad = [&](float x0, float x1, int32_t material, uint32_t feature, bool with_ids = true) {
+        MeshData m;
+        addQuad(&m, x0, x1, -1, 1, {}, {}, material);
+        if (with_ids) std::fill(m.feature_id.begin(), m.feature_id.end(), feature);
+        else m.feature_id.clear();
+        return r->upload(m);
+    };
+    // Left half: opaque feature 7 at 2 m behind alpha feature 3000000000 at 1 m.
+    // Right half: nothing, then (second frame) a quad without ids.
+    GpuMesh back = quad(-1, 0, 0, 7), front = quad(-1, 0, 1, 3000000000u), bare = quad(0, 1, 0, 0, false);
+    t->bind();
+    r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+    r->drawAtlas(front, nullptr, {0, 1, 0}, 1);
+    r->drawAtlas(back, nullptr, {0, 2, 0}, 0);
+    r->endFrame();
+    std::vector<uint32_t> ids;
+    ASSERT_TRUE(t->readIds(&ids));
+    ASSERT_EQ(ids.size(), static_cast<size_t>(kSize * kSize));
+    // Fov 90: the front quad (x in [-1, 0], 1 m) covers pixel columns 0-7,
+    // the back one (2 m) columns 4-7 and rows 4-11, behind it.
+    EXPECT_EQ(ids[4 * kSize + 2], 3000000000u);
+    EXPECT_EQ(ids[4 * kSize + 13], OffscreenTarget::kNoFeature);
+    EXPECT_EQ(t->idAt(6, 8), 3000000000u) << "the alpha surface in front of the opaque one";
+    EXPECT_EQ(t->idAt(2, 4), 3000000000u);
+    EXPECT_EQ(t->idAt(13, 4), OffscreenTarget::kNoFeature);
+    EXPECT_EQ(t->idAt(-1, 4), OffscreenTarget::kNoFeature);
+    // Without the alpha quad the opaque one shows; the quad without ids reads as none.
+    r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+    r->drawAtlas(back, nullptr, {0, 2, 0}, 0);
+    r->drawAtlas(bare, nullptr, {0, 1, 0}, 0);
+    r->endFrame();
+    EXPECT_EQ(t->idAt(6, 8), 7u);
+    EXPECT_EQ(t->idAt(2, 4), OffscreenTarget::kNoFeature) << "cleared again";
+    EXPECT_EQ(t->idAt(13, 4), OffscreenTarget::kNoFeature);
+    std::vector<uint8_t> px;
+    t->readPixels(&px);
+    EXPECT_GT(pixelAt(px, kSize, 13, 4).r, 100) << "the quad without ids is drawn (red) all the same";
+    // A target without an id buffer has nothing to read.
+    auto plain = OffscreenTarget::create(kSize, kSize, &status);
+    EXPECT_FALSE(plain->readIds(&ids));
+    EXPECT_EQ(plain->idAt(2, 4), OffscreenTarget::kNoFeature);
+    for (GpuMesh* g : {&back, &front, &bare}) r->release(g);
 }
 
 }  // namespace
