@@ -522,9 +522,11 @@ int runBuild(const BuildCliOptions& opt_in) {
         // The feature tables need nothing of the tree: written first, the
         // features leave memory before the plan's passes over the triangles.
         tiles::FeatureTables feature_tables;
-        if (Status s = tiles::writeFeatureTables(scene.features, opt.tiles.feature_block_size, tmp, &feature_tables);
+        if (Status s = tiles::writeFeatureTables(scene.features, sink.bounds.finish(scene.features.size()),
+                                                 opt.tiles.feature_block_size, tmp, &feature_tables);
             !s.ok())
             return abandon(s);
+        sink.bounds.clear();
         std::vector<Feature>().swap(scene.features);
         atlas::GlobalDecisions globals;
         const auto plan_progress = [&](const char* step, uint64_t done, uint64_t total) {
@@ -584,6 +586,14 @@ int runBuild(const BuildCliOptions& opt_in) {
         return abandon(execMergeRunningShards(plan_dir, opt.workers, params.threads, opt.quiet));  // returns on failure only
     } else {
         // One shard: the whole tree in this process, from the scene in memory.
+        // The feature tables first, from what the read gathered (the atlas
+        // stage takes the triangles).
+        tiles::FeatureTables feature_tables;
+        if (Status s = tiles::writeFeatureTables(scene.features, sink.bounds.finish(scene.features.size()),
+                                                 opt.tiles.feature_block_size, tmp, &feature_tables);
+            !s.ok())
+            return abandon(s);
+        sink.bounds.clear();
         if (Status s = readSpill(spill, &scene.triangles); !s.ok()) return abandon(s);
         fs::remove_all(plan_dir, ec);
         // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
@@ -601,7 +611,8 @@ int runBuild(const BuildCliOptions& opt_in) {
 
         const Status written = tiles::writeTileset(
             scene, single_tree, work, opt.tiles, tmp, build_hash, diagnostics,
-            [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts, &encoded);
+            [&](const char* step, uint64_t done, uint64_t total) { progress.update(step, done, total); }, &ts, &encoded,
+            nullptr, &feature_tables);
         if (!written.ok()) return abandon(written);
         endStage("tiles");
     }
@@ -817,6 +828,12 @@ RunFn addBuildCommand(CLI::App& app) {
                     "geometric error below the node's world texel size")
         ->default_val(32768)
         ->check(CLI::Range(size_t{64}, size_t{1} << 24))
+        ->group(g);
+    cmd->add_option("--feature-block", opt->tiles.feature_block_size,
+                    "Features per table: features/<k>.json (attributes, fetched on a pick) and features/bounds/<k>.bin "
+                    "(boxes, base heights, wall azimuths) hold ids k * N onwards")
+        ->default_val(4096)
+        ->check(CLI::Range(1, 1 << 24))
         ->group(g);
     auto* w = "3D Tiles";
     cmd->add_option("--format", opt->format,

@@ -39,7 +39,7 @@ using format::TileMesh;
 
 namespace {
 
-constexpr int kPlanFormat = 2;  // 2: textures and their digests in textures.bin
+constexpr int kPlanFormat = 3;  // 2: textures and their digests in textures.bin; 3: feature_bounds
 static_assert(std::is_trivially_copyable_v<Triangle>, "shard files hold triangles as bytes");
 
 // --- Small serialization helpers. JSON numbers round-trip doubles exactly
@@ -524,6 +524,7 @@ void PlanSink::addTriangles(std::vector<Triangle>& t) {
     for (const Triangle& tri : t) {
         stats.add(tri);
         features.add(tri);
+        bounds.add(tri);
     }
     file_.write(reinterpret_cast<const char*>(t.data()), static_cast<std::streamsize>(t.size() * sizeof(Triangle)));
     triangles += t.size();
@@ -557,8 +558,9 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
-    json feature_tables = json::array();
+    json feature_tables = json::array(), feature_bounds = json::array();
     for (const format::FileEntry& e : ft.tables) feature_tables.push_back({e.uri, e.bytes});
+    for (const format::FileEntry& e : ft.bounds) feature_bounds.push_back({e.uri, e.bytes});
     if (Status s = writeJson(dir / "tables.json", tablesJson(tables)); !s.ok()) return s;
     if (Status s = writeTextureTable(dir / "textures.bin", tables.textures, texture_digests); !s.ok()) return s;
 
@@ -609,6 +611,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
               {"shard_triangles", plan.shard_triangles},
               {"scene_triangles", scene_triangles},
               {"feature_tables", feature_tables},
+              {"feature_bounds", feature_bounds},
               {"feature_count", ft.features}};
     // Besides its triangles, a shard depends on the parameters, the distance
     // every node is built for, its level, and the textures and materials it
@@ -1121,6 +1124,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     built.texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
     built.feature_tables = tiles::FeatureTables{};
     for (const json& e : plan.at("feature_tables")) built.feature_tables->tables.push_back({e.at(0), e.at(1)});
+    for (const json& e : plan.at("feature_bounds")) built.feature_tables->bounds.push_back({e.at(0), e.at(1)});
     built.feature_tables->features = plan.at("feature_count");
     // The shards, by content key, for the next build of this folder (reuseShards).
     const auto keys = plan.at("shard_keys").get<std::vector<std::string>>();

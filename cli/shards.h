@@ -48,6 +48,7 @@
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
 #include "ingest/scene_sink.h"
+#include "tiles/feature_bounds.h"
 #include "tiles/tileset.h"
 
 namespace cityatlas::cli {
@@ -62,6 +63,7 @@ public:
     explicit PlanSink(std::filesystem::path spill);
     // SceneCollector::scene holds the tables (textures, materials, features, georeference), never triangles.
     atlas::FeatureSummaries features;
+    tiles::FeatureBoundsAccumulator bounds;  ///< for the feature tables (features/bounds/<k>.bin)
     SceneStatsAccumulator stats;
     uint64_t triangles = 0;
     Status finish();                   ///< closes the spill; an error when a write failed

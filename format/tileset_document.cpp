@@ -473,7 +473,16 @@ Status readTilesetDocument(const std::string& text, const std::string& where, Ti
         const std::string fw = "extras.cityatlas.features";
         doc.feature_count = count(features, "count", fw);
         doc.feature_block_size = integer(features, "block_size", fw, 1, INT32_MAX);
-        for (const json& t : arrayMember(features, "tables", fw)) doc.feature_tables.push_back(fileEntry(t, "feature table"));
+        const json& tables = arrayMember(features, "tables", fw);
+        for (size_t k = 0; k < tables.size(); ++k) {
+            const std::string tw = fmt::format("feature table {}", k);
+            doc.feature_tables.push_back(fileEntry(tables[k], tw));
+            // Bounds come with every table or with none (older folders).
+            if (const json* b = find(tables[k], "bounds", tw)) doc.feature_bounds.push_back(fileEntry(*b, tw + " bounds"));
+            else if (!doc.feature_bounds.empty()) fail(fmt::format("{}: no \"bounds\" where table 0 has them", tw));
+        }
+        if (!doc.feature_bounds.empty() && doc.feature_bounds.size() != doc.feature_tables.size())
+            fail("feature table 0: \"bounds\" where a later table has none");
         if (const json* totals = find(ca, "totals", "extras.cityatlas")) doc.totals = readTotals(*totals);
 
         readTree(member(j, "root", "tileset"), -1, 0, doc);
@@ -507,7 +516,11 @@ std::string writeTilesetDocument(const TilesetDocument& doc) {
     const json textures = placeholder;
     json blocks = json::array(), tables = json::array();
     for (const FileEntry& b : doc.texture_blocks) blocks.push_back(file(b));
-    for (const FileEntry& t : doc.feature_tables) tables.push_back(file(t));
+    for (size_t k = 0; k < doc.feature_tables.size(); ++k) {
+        json t = file(doc.feature_tables[k]);
+        if (k < doc.feature_bounds.size()) t["bounds"] = file(doc.feature_bounds[k]);
+        tables.push_back(std::move(t));
+    }
     const GeoreferenceEntry& g = doc.georeference;
     const TotalsEntry& s = doc.totals;
     json ca = {{"format_version", doc.format_version},

@@ -137,6 +137,9 @@ struct TilesetDocument {
     uint64_t feature_count = 0;
     int64_t feature_block_size = 1;
     std::vector<FileEntry> feature_tables;
+    /// features/bounds/<k>.bin, one per table (format/feature_bounds.h);
+    /// empty for folders written before them (tables[k].bounds absent).
+    std::vector<FileEntry> feature_bounds;
     TotalsEntry totals;
 };
 

@@ -31,6 +31,7 @@
 #include <valijson/validation_results.hpp>
 #include <valijson/validator.hpp>
 
+#include "format/feature_bounds.h"
 #include "format/tileset_document_json.h"
 #include "format/tileset_index.h"
 #include "tiles/glb_writer.h"
@@ -649,12 +650,51 @@ void checkBlock(const json& entry, const json& textures, const std::vector<size_
     if (end < size && layout) d.push_back(fmt::format("{}: bytes {}..{} belong to no texture", uri, end, size));
 }
 
+// A feature table's bounds file (format/feature_bounds.h): one 32-byte record
+// per feature of the table, known flags, and a box (min <= max) wherever the
+// record says the feature has geometry.
+void checkBounds(const json& entry, int64_t features, Folder& folder, std::atomic<uint64_t>& bytes_total, Defects& d) {
+    const std::string uri = text(entry, "uri");
+    const int64_t size = count(entry, "bytes");
+    bytes_total += static_cast<uint64_t>(size);
+    if (!folder.check(uri, size, d)) return;
+    if (size != features * static_cast<int64_t>(format::kFeatureBoundsBytes)) {
+        d.push_back(fmt::format("{}: {} bytes, {} features need {}", uri, size, features,
+                                features * static_cast<int64_t>(format::kFeatureBoundsBytes)));
+        return;
+    }
+    std::ifstream f(folder.path(uri), std::ios::binary);
+    std::vector<uint8_t> bytes(static_cast<size_t>(size));
+    if (!f.read(reinterpret_cast<char*>(bytes.data()), size)) {
+        d.push_back(fmt::format("{}: cannot read", uri));
+        return;
+    }
+    std::vector<format::FeatureBoundsRecord> records;
+    if (Status s = format::decodeFeatureBounds(bytes, uri, &records); !s.ok()) {
+        d.push_back(s.error);
+        return;
+    }
+    for (size_t i = 0; i < records.size(); ++i) {
+        const format::FeatureBoundsRecord& r = records[i];
+        if (!(r.flags & format::FeatureBoundsRecord::kHasGeometry)) continue;
+        for (int a = 0; a < 3; ++a)
+            if (!(r.min[a] <= r.max[a])) {  // also NaN
+                d.push_back(fmt::format("{}: record {} has min {} above max {} on axis {}", uri, i, r.min[a], r.max[a], a));
+                return;
+            }
+    }
+}
+
 // Feature table k: ids k * block_size on, as many as the count leaves for it.
 void checkTable(const json& entry, size_t k, const Index& ix, Folder& folder, std::atomic<uint64_t>& bytes_total,
                 Defects& d) {
     const std::string uri = text(entry, "uri");
     const int64_t size = count(entry, "bytes");
     bytes_total += static_cast<uint64_t>(size);
+    if (const json* bounds = entry.is_object() && entry.contains("bounds") ? &entry.at("bounds") : nullptr) {
+        const auto first = static_cast<int64_t>(k) * ix.block_size;
+        checkBounds(*bounds, std::clamp<int64_t>(ix.feature_count - first, 0, ix.block_size), folder, bytes_total, d);
+    }
     if (!folder.check(uri, size, d)) return;
     json t;
     try {

@@ -14,6 +14,8 @@
 ///   textures/<block>.bin         originals of the textures some leaf's atlas holds below their own
 ///                                resolution (all used textures with all_originals): DDS files back to back
 ///   features/<table>.json        feature attributes, `block_size` consecutive ids per table
+///   features/bounds/<table>.bin  the same features' boxes, base heights and longest-wall azimuths,
+///                                32 bytes each (format/feature_bounds.h)
 ///   build_report.json            written by `cityatlas build` (schemas/build_report.schema.json)
 /// <layer> is "opaque" or "alpha"; <node> the node index (depth-first preorder).
 ///
@@ -46,6 +48,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -55,6 +58,7 @@
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
 #include "core/status.h"
+#include "format/feature_bounds.h"
 #include "format/tileset_document.h"
 #include "tiles/glb_writer.h"
 #include "tiles/node_geometry.h"
@@ -65,7 +69,7 @@ namespace cityatlas::tiles {
 
 /// Bumped whenever the writer's output changes for the same inputs and
 /// parameters, so `cityatlas build` does not take an older folder as up to date.
-inline constexpr int kWriterRevision = 8;  // 8: position bits no finer than float32 resolves at the node (7: above the node budget, buildings smaller than a texel left out; 6: tileset textures numbered by scene order)
+inline constexpr int kWriterRevision = 9;  // 9: sub-texel buildings left out before simplifying, features/bounds/<k>.bin (8: position bits no finer than float32 resolves at the node (7: above the node budget, buildings smaller than a texel left out; 6: tileset textures numbered by scene order)
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default
@@ -216,13 +220,16 @@ Status writeSubtreeFiles(const Scene& scene, const atlas::AtlasTree& tree, const
                          const std::filesystem::path& out_dir, const TilesProgressFn& progress,
                          const EncodedAtlases* encoded, SubtreeFiles* out);
 
-/// The feature attribute tables as written: features/<k>.json, `block_size` features each.
+/// The feature tables as written: features/<k>.json (attributes) and
+/// features/bounds/<k>.bin (format/feature_bounds.h), `block_size` features each.
 struct FeatureTables {
     std::vector<format::FileEntry> tables;
+    std::vector<format::FileEntry> bounds;  ///< one per table, the same features
     uint64_t features = 0;
 };
-Status writeFeatureTables(const std::vector<Feature>& features, int block_size, const std::filesystem::path& out_dir,
-                          FeatureTables* out);
+/// `bounds` has one record per feature (tiles/feature_bounds.h).
+Status writeFeatureTables(const std::vector<Feature>& features, std::span<const format::FeatureBoundsRecord> bounds,
+                          int block_size, const std::filesystem::path& out_dir, FeatureTables* out);
 
 /// The parts of a tree whose files shards wrote (cli/shards.h): writeTileset
 /// then builds only the nodes above them, from their root geometry, and
@@ -248,7 +255,8 @@ struct BuiltSubtrees {
 Status writeTileset(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
                     const TilesParams& params, const std::filesystem::path& out_dir, const std::string& build_hash,
                     Diagnostics& diagnostics, const TilesProgressFn& progress, TilesStats* stats,
-                    const EncodedAtlases* encoded = nullptr, BuiltSubtrees* built = nullptr);
+                    const EncodedAtlases* encoded = nullptr, BuiltSubtrees* built = nullptr,
+                    const FeatureTables* feature_tables = nullptr);
 
 /// The schema of tileset.json (schemas/tileset.schema.json, compiled in).
 const nlohmann::json& tilesetSchema();

@@ -24,6 +24,7 @@
 #include "cityatlas_version.h"
 #include "core/resource_usage.h"
 #include "format/tileset_document.h"
+#include "tiles/feature_bounds.h"
 #include "tiles/node_geometry.h"
 #include "tiles/texture_blocks.h"
 #include "tiles/tileset.h"
@@ -401,13 +402,16 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
 
 }  // namespace
 
-Status writeFeatureTables(const std::vector<Feature>& features, int block_size, const fs::path& out_dir,
-                          FeatureTables* out) {
+Status writeFeatureTables(const std::vector<Feature>& features, std::span<const format::FeatureBoundsRecord> bounds,
+                          int block_size, const fs::path& out_dir, FeatureTables* out) {
+    if (bounds.size() != features.size())
+        return Status::Invalid(fmt::format("feature tables: {} bounds records for {} features", bounds.size(), features.size()));
     std::error_code ec;
-    fs::create_directories(out_dir / "features", ec);
-    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "features").string(), ec.message()));
+    fs::create_directories(out_dir / "features" / "bounds", ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "features" / "bounds").string(), ec.message()));
     const auto bs = static_cast<size_t>(std::max(1, block_size));
     out->tables.clear();
+    out->bounds.clear();
     out->features = features.size();
     for (size_t first = 0; first < features.size(); first += bs) {
         json list = json::array();
@@ -430,6 +434,11 @@ Status writeFeatureTables(const std::vector<Feature>& features, int block_size, 
         const std::string uri = fmt::format("features/{}.json", first / bs);
         if (Status w = writeBytes(out_dir / uri, text.data(), text.size()); !w.ok()) return w;
         out->tables.push_back({uri, text.size()});
+        const std::vector<uint8_t> box_bytes =
+            format::encodeFeatureBounds(bounds.subspan(first, std::min(features.size(), first + bs) - first));
+        const std::string box_uri = fmt::format("features/bounds/{}.bin", first / bs);
+        if (Status w = writeBytes(out_dir / box_uri, box_bytes.data(), box_bytes.size()); !w.ok()) return w;
+        out->bounds.push_back({box_uri, box_bytes.size()});
     }
     return Status::Ok();
 }
@@ -453,7 +462,7 @@ Status writeSubtreeFiles(const Scene& scene, const AtlasTree& tree, const fs::pa
 Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
                     const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
                     const TilesProgressFn& progress, TilesStats* stats_out, const EncodedAtlases* encoded,
-                    BuiltSubtrees* built) {
+                    BuiltSubtrees* built, const FeatureTables* feature_tables) {
     TilesStats stats;
     const size_t n_nodes = tree.nodes.size();
     if (n_nodes == 0) return Status::Io("tiles: the atlas tree has no nodes");
@@ -498,19 +507,26 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     if (!tex_status.ok()) return tex_status;
     endStep("geometry, atlases and textures");
 
-    // --- Feature tables (a sharded build's plan wrote them already).
+    // --- Feature tables (the caller may have written them already: a
+    // sharded build's plan does, and `build` from what its read gathered).
     format::TilesetDocument doc;
     const auto bs = static_cast<size_t>(std::max(1, params.feature_block_size));
-    if (built && built->feature_tables) {
-        doc.feature_tables = built->feature_tables->tables;
-        doc.feature_count = built->feature_tables->features;
+    if (!feature_tables && built && built->feature_tables) feature_tables = &*built->feature_tables;
+    if (feature_tables) {
+        doc.feature_tables = feature_tables->tables;
+        doc.feature_bounds = feature_tables->bounds;
+        doc.feature_count = feature_tables->features;
     } else {
         FeatureTables ft;
-        if (Status w = writeFeatureTables(scene.features, params.feature_block_size, out_dir, &ft); !w.ok()) return w;
+        if (Status w = writeFeatureTables(scene.features, featureBounds(scene), params.feature_block_size, out_dir, &ft);
+            !w.ok())
+            return w;
         doc.feature_tables = ft.tables;
+        doc.feature_bounds = ft.bounds;
         doc.feature_count = ft.features;
     }
     for (const format::FileEntry& f : doc.feature_tables) stats.bytes_features += f.bytes;
+    for (const format::FileEntry& f : doc.feature_bounds) stats.bytes_features += f.bytes;
     stats.feature_tables = doc.feature_tables.size();
     doc.feature_block_size = static_cast<int64_t>(bs);
 

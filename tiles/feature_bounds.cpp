@@ -1,0 +1,70 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "tiles/feature_bounds.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <meshoptimizer.h>
+
+namespace cityatlas::tiles {
+
+void FeatureBoundsAccumulator::add(const Triangle& t) {
+    if (t.feature >= acc_.size()) acc_.resize(static_cast<size_t>(t.feature) + 1);
+    Acc& a = acc_[t.feature];
+    const auto& p = t.position_local;
+    for (const Vec3d& v : p) a.box.extend(v);
+    if (t.semantic == SurfaceSemantic::Ground)
+        a.ground_min_z = std::min({a.ground_min_z, p[0].z, p[1].z, p[2].z});
+    if (t.texture >= 0) a.textured = true;
+
+    const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);
+    const double n2 = dot(n, n);
+    const bool vertical = n2 > 0 && n.z * n.z <= 0.01 * n2;  // within ~5.7 degrees of vertical
+    const bool wall = t.semantic == SurfaceSemantic::Wall || (t.semantic == SurfaceSemantic::Unclassified && vertical);
+    if (!wall || !(n.x != 0 || n.y != 0)) return;
+    double span = 0;
+    for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j) span = std::max(span, std::hypot(p[i].x - p[j].x, p[i].y - p[j].y));
+    // Clockwise from +y: atan2(east, north).
+    double az = std::atan2(n.x, n.y) * 180.0 / std::numbers::pi;
+    if (az < 0) az += 360.0;
+    if (az >= 360.0) az = 0.0;
+    // Equal spans keep the smaller azimuth: the record does not depend on
+    // the order triangles come in (a streaming read and a reordered scene agree).
+    if (span < a.wall_span_m || (span == a.wall_span_m && az >= a.azimuth_deg)) return;
+    a.wall_span_m = span;
+    a.azimuth_deg = az;
+}
+
+std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t features) const {
+    std::vector<format::FeatureBoundsRecord> out(features);
+    for (size_t f = 0; f < features && f < acc_.size(); ++f) {
+        const Acc& a = acc_[f];
+        if (a.box.empty()) continue;
+        format::FeatureBoundsRecord& r = out[f];
+        const double lo[3] = {a.box.min.x, a.box.min.y, a.box.min.z}, hi[3] = {a.box.max.x, a.box.max.y, a.box.max.z};
+        for (int k = 0; k < 3; ++k) {
+            r.min[k] = static_cast<float>(lo[k]);
+            r.max[k] = static_cast<float>(hi[k]);
+        }
+        r.base_z = static_cast<float>(a.ground_min_z < 1e300 ? a.ground_min_z : a.box.min.z);
+        r.flags = format::FeatureBoundsRecord::kHasGeometry;
+        if (a.textured) r.flags |= format::FeatureBoundsRecord::kTextured;
+        if (a.wall_span_m >= 0) {
+            r.flags |= format::FeatureBoundsRecord::kHasWall;
+            // binary16 rounds 359.9 up to 360: that is north, 0.
+            const unsigned short h = meshopt_quantizeHalf(static_cast<float>(a.azimuth_deg));
+            r.azimuth_half = h == meshopt_quantizeHalf(360.0F) ? 0 : h;
+        }
+    }
+    return out;
+}
+
+std::vector<format::FeatureBoundsRecord> featureBounds(const Scene& scene) {
+    FeatureBoundsAccumulator acc;
+    for (const Triangle& t : scene.triangles) acc.add(t);
+    return acc.finish(scene.features.size());
+}
+
+}  // namespace cityatlas::tiles

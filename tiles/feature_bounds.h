@@ -1,0 +1,49 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// Per-feature bounds (format/feature_bounds.h) gathered one triangle at a
+/// time, so a streaming read (cli/shards.h PlanSink) and a scene in memory
+/// give the same records: in double until the records are made.
+///
+/// The longest wall: among a feature's wall triangles (semantic Wall, or
+/// unclassified and within ~6 degrees of vertical, as LOD1 blocks without
+/// semantics have them), the one whose corners lie farthest apart
+/// horizontally. A wall polygon triangulated from a rectangle has two
+/// triangles that each span its whole length, so that is the longest wall's
+/// length, whatever the wall's height (a gable end is high but short). Its
+/// outward normal is the triangle's (corners counter-clockwise seen from
+/// outside, ingest/scene.h). Equal spans keep the smaller azimuth, so the
+/// records do not depend on the order the triangles come in.
+
+#include <cstddef>
+#include <vector>
+
+#include "format/feature_bounds.h"
+#include "ingest/scene.h"
+
+namespace cityatlas::tiles {
+
+class FeatureBoundsAccumulator {
+public:
+    void add(const Triangle& t);
+    /// Records for features 0 .. features - 1 (those no triangle named are
+    /// all zero, without kHasGeometry).
+    std::vector<format::FeatureBoundsRecord> finish(size_t features) const;
+    /// Frees what add() gathered.
+    void clear() { std::vector<Acc>().swap(acc_); }
+
+private:
+    struct Acc {
+        Box3d box;
+        double ground_min_z = 1e300;
+        double wall_span_m = -1;    ///< horizontal span of the longest wall triangle so far; < 0: none
+        double azimuth_deg = 0;
+        bool textured = false;
+    };
+    std::vector<Acc> acc_;
+};
+
+/// The records of a whole scene in memory.
+std::vector<format::FeatureBoundsRecord> featureBounds(const Scene& scene);
+
+}  // namespace cityatlas::tiles
