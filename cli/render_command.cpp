@@ -147,6 +147,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"resident_bytes", r.resident_bytes},
             {"requested_bytes", r.requested_bytes},
             {"budget_bytes", r.budget_bytes},
+            {"pinned_bytes", r.pinned_bytes},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
             {"requests_in_flight", r.requests_in_flight},
@@ -181,7 +182,9 @@ json summaryJson(const json& frames, const std::vector<size_t>& cut_frames, cons
         binds_max = std::max(binds_max, f["texture_binds"].get<uint64_t>());
         resident_max = std::max(resident_max, f["resident_bytes"].get<uint64_t>());
         bytes += f["bytes_loaded"].get<uint64_t>();
-        over_budget += f["resident_bytes"].get<uint64_t>() > f["budget_bytes"].get<uint64_t>() ? 1 : 0;
+        over_budget += f["resident_bytes"].get<uint64_t>() + f["pinned_bytes"].get<uint64_t>() > f["budget_bytes"].get<uint64_t>()
+                           ? 1
+                           : 0;
         root_missing += f["root_missing"].get<bool>() ? 1 : 0;
     }
     const double n = frames.empty() ? 1.0 : static_cast<double>(frames.size());

@@ -201,8 +201,8 @@ int runView(const ViewCliOptions& opt) {
         ImGui::Text("%.1f fps, frame %.1f ms", fps, rec.frame_ms);
         ImGui::Text("nodes %u atlas, %u originals, %u coarse", rec.nodes_atlas, rec.nodes_originals, rec.nodes_coarse);
         ImGui::Text("texture binds %u, draw calls %u, %u triangles", rec.texture_binds, rec.draw_calls, rec.triangles);
-        ImGui::Text("resident %s of %s (GPU %s)", humanBytes(rec.resident_bytes).c_str(), humanBytes(rec.budget_bytes).c_str(),
-                    humanBytes(rec.gpu_bytes).c_str());
+        ImGui::Text("resident %s + %s bounds of %s (GPU %s)", humanBytes(rec.resident_bytes).c_str(),
+                    humanBytes(rec.pinned_bytes).c_str(), humanBytes(rec.budget_bytes).c_str(), humanBytes(rec.gpu_bytes).c_str());
         ImGui::Text("queue %u, ideal set %u blocks, %u missing (%u needed)", rec.requests_in_flight, rec.ideal_blocks,
                     rec.ideal_missing, rec.needed_missing);
         ImGui::Text("loaded %s, errors %llu", humanBytes(loaded_total).c_str(), static_cast<unsigned long long>(rec.errors));

@@ -61,7 +61,12 @@ TilesetIndex indexOf(const TilesetDocument& doc) {
                                   t.wrap != "clamp"});
     index.feature_count = doc.feature_count;
     index.feature_block_size = static_cast<int>(doc.feature_block_size);
-    for (const FileEntry& f : doc.feature_tables) index.feature_tables.push_back({f.uri, f.bytes});
+    for (size_t k = 0; k < doc.feature_tables.size(); ++k) {
+        const FileEntry& f = doc.feature_tables[k];
+        FeatureTableInfo t{f.uri, f.bytes, {}, 0};
+        if (k < doc.feature_bounds.size()) t.bounds_uri = doc.feature_bounds[k].uri, t.bounds_bytes = doc.feature_bounds[k].bytes;
+        index.feature_tables.push_back(std::move(t));
+    }
     index.nodes.resize(doc.tiles.size());
     for (size_t i = 0; i < doc.tiles.size(); ++i) {
         const TileEntry& e = doc.tiles[i];

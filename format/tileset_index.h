@@ -95,6 +95,8 @@ struct BuildInfo {
 struct FeatureTableInfo {
     std::string uri;
     uint64_t bytes = 0;
+    std::string bounds_uri;     ///< features/bounds/<k>.bin; empty in folders written before them
+    uint64_t bounds_bytes = 0;
 };
 
 struct TilesetIndex {

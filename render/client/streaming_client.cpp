@@ -77,11 +77,19 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
         c->errors_.push_back(st.error);
         std::this_thread::sleep_for(std::chrono::milliseconds(250 << (attempt - 1)));
     }
-    if (Status st = BlockManager::checkBudget(c->index_, options.budget_bytes); !st.ok()) {
-        *status = Status::Io(fmt::format("{}: {}", base, st.error));
+    c->loadFeatureBounds();
+    if (c->pinned_bytes_ > options.budget_bytes) {
+        *status = Status::Io(fmt::format("{}: memory budget {} bytes is smaller than the feature bounds ({} bytes), which "
+                                         "are always resident",
+                                         base, options.budget_bytes, c->pinned_bytes_));
         return nullptr;
     }
-    c->manager_ = std::make_unique<BlockManager>(c->index_, BudgetParams{options.budget_bytes, options.max_requests});
+    if (Status st = BlockManager::checkBudget(c->index_, options.budget_bytes - c->pinned_bytes_); !st.ok()) {
+        *status = Status::Io(fmt::format("{}: {} (after the feature bounds' {} bytes)", base, st.error, c->pinned_bytes_));
+        return nullptr;
+    }
+    c->manager_ = std::make_unique<BlockManager>(
+        c->index_, BudgetParams{options.budget_bytes - c->pinned_bytes_, options.max_requests});
     c->loader_ = Loader::open(base, c->index_, options.loader, status);
     if (!c->loader_) return nullptr;
     c->resident_ = std::make_unique<Resident>();
@@ -115,7 +123,34 @@ bool StreamingClient::usesCpuDecode() const { return gl_ && gl_->decodesOnCpu();
 
 void StreamingClient::setBudget(uint64_t bytes) {
     options_.budget_bytes = bytes;
-    manager_->setBudget(bytes);
+    manager_->setBudget(bytes > pinned_bytes_ ? bytes - pinned_bytes_ : 0);
+}
+
+void StreamingClient::loadFeatureBounds() {
+    feature_bounds_.assign(index_.feature_count, format::FeatureBoundsRecord{});
+    const size_t block = static_cast<size_t>(std::max(1, index_.feature_block_size));
+    for (size_t k = 0; k < index_.feature_tables.size(); ++k) {
+        const FeatureTableInfo& t = index_.feature_tables[k];
+        if (t.bounds_uri.empty()) continue;
+        std::string bytes;
+        std::vector<format::FeatureBoundsRecord> records;
+        Status st = fetchText(base_, t.bounds_uri, &bytes);
+        if (st.ok() && bytes.size() != t.bounds_bytes)
+            st = Status::Io(fmt::format("{}: {} bytes, the index says {}", t.bounds_uri, bytes.size(), t.bounds_bytes));
+        if (st.ok())
+            st = format::decodeFeatureBounds(
+                std::span(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()), t.bounds_uri, &records);
+        const size_t first = k * block;
+        const size_t want = first < feature_bounds_.size() ? std::min(block, feature_bounds_.size() - first) : 0;
+        if (st.ok() && records.size() != want)
+            st = Status::Io(fmt::format("{}: {} records, table {} holds {} features", t.bounds_uri, records.size(), k, want));
+        if (!st.ok()) {
+            errors_.push_back(st.error);
+            continue;
+        }
+        std::copy(records.begin(), records.end(), feature_bounds_.begin() + static_cast<std::ptrdiff_t>(first));
+        pinned_bytes_ += t.bounds_bytes;
+    }
 }
 
 Classification StreamingClient::classify(const Camera& camera) const {
@@ -370,6 +405,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.resident_bytes = b.resident_bytes;
     rec.requested_bytes = b.requested_bytes;
     rec.budget_bytes = options_.budget_bytes;
+    rec.pinned_bytes = pinned_bytes_;
     rec.gpu_bytes = r.gpu_bytes;
     const LoaderStats ls = loader_->stats();
     rec.bytes_loaded = ls.bytes_fetched - bytes_fetched_seen_;

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "render/core/block_manager.h"
+#include "format/feature_bounds.h"
 #include "render/core/picking.h"
 #include "render/core/selection.h"
 #include "render/core/tileset_index.h"
@@ -57,6 +58,7 @@ struct FrameRecord {
     uint32_t draw_calls = 0, texture_binds = 0, triangles = 0;
     bool root_missing = false;   ///< nothing could be drawn (the root is not resident yet)
     uint64_t resident_bytes = 0, requested_bytes = 0, budget_bytes = 0;
+    uint64_t pinned_bytes = 0;   ///< the feature bounds, held from open on, inside the budget (blocks get the rest)
     uint64_t gpu_bytes = 0;      ///< meshes and textures as stored on the GPU
     uint64_t bytes_loaded = 0;   ///< fetched since the previous frame
     uint32_t requests_in_flight = 0;
@@ -69,8 +71,11 @@ struct FrameRecord {
 
 class StreamingClient {
 public:
-    /// Reads BASE/tileset.json (a folder or an http(s) URL), checks that the
-    /// root fits the budget and starts the loader. One line on failure.
+    /// Reads BASE/tileset.json (a folder or an http(s) URL) and the feature
+    /// bounds (format/feature_bounds.h: pinned, counted in the budget), checks
+    /// that they and the root fit the budget and starts the loader. One line
+    /// on failure; a bounds file that cannot be read or decoded is an error
+    /// in errors() and leaves its features without bounds.
     static std::unique_ptr<StreamingClient> open(const std::string& base, const ClientOptions& options, Status* status);
     ~StreamingClient();
     StreamingClient(const StreamingClient&) = delete;
@@ -104,6 +109,11 @@ public:
     Status featureRecord(uint32_t feature, std::string* json_text);
 
     const TilesetIndex& index() const { return index_; }
+    /// Per feature id (index().feature_count of them); a record without
+    /// kHasGeometry where the folder has no bounds for the feature.
+    const std::vector<format::FeatureBoundsRecord>& featureBounds() const { return feature_bounds_; }
+    /// Bytes of the feature bounds, inside the budget.
+    uint64_t pinnedBytes() const { return pinned_bytes_; }
     const ClientOptions& options() const { return options_; }
     void setBudget(uint64_t bytes);
     void setTau(double tau) { options_.selection.tau = tau; }
@@ -116,6 +126,7 @@ public:
 private:
     StreamingClient() = default;
     struct Resident;
+    void loadFeatureBounds();
     Classification classify(const Camera& camera) const;
     void plan(const Camera& camera);
     void takeResults();
@@ -134,6 +145,8 @@ private:
     std::vector<std::string> errors_;
     std::vector<int32_t> last_drawn_;                    ///< nodes of the last frame
     std::map<size_t, std::string> feature_tables_;       ///< fetched tables by index
+    std::vector<format::FeatureBoundsRecord> feature_bounds_;
+    uint64_t pinned_bytes_ = 0;
     uint64_t bytes_fetched_seen_ = 0;
 };
 

@@ -92,3 +92,14 @@ struct.pack_into("<f", b, 32 * 3, hi + 1); struct.pack_into("<f", b, 32 * 3 + 12
 open(p, "wb").write(bytes(b))
 PY
 expect 1 "features/bounds/1.bin: record 3 has min .* above max" -- inspect flipped -q
+
+# The client holds the bounds from the start, inside its budget: pinned bytes
+# are the files' bytes; a budget below them is one clear line; a damaged
+# file is an error in the report and the rest still load.
+"$CITYATLAS" render tiles --frames 1 --size 64x48 -o r -q
+total=$(json tiles/tileset.json "sum(t['bounds']['bytes'] for t in j['extras']['cityatlas']['features']['tables'])")
+check_eq "render: pinned bytes = the bounds files" "$total" "$(json r/report.json "j['frames'][0]['pinned_bytes']")"
+expect 1 "smaller than the feature bounds \\($total bytes\\)" -- render tiles --frames 1 --size 64x48 --budget $((total - 1)) -o r2 -q
+"$CITYATLAS" render short --frames 1 --size 64x48 -o r3 -q
+check_eq "render: a damaged bounds file is left out" "$((total - 512))" "$(json r3/report.json "j['frames'][0]['pinned_bytes']")"
+check_eq "render: ... and reported" "True" "$(json r3/report.json "any('features/bounds/0.bin' in m for m in j['summary']['error_messages'])")"

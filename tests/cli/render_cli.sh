@@ -125,7 +125,10 @@ if [ $rc -eq 0 ]; then
   trap 'bash "$NGINX_SERVE" stop "$PWD/nginx" || true' EXIT
   budget=$(json tiles/tileset.json "(j['extras']['cityatlas']['totals']['bytes']['atlases'] + j['extras']['cityatlas']['totals']['bytes']['textures']) // 10")
   "$CITYATLAS" render "http://127.0.0.1:$PORT/" --path stream.json --size 320x240 --budget "$budget" --anisotropy 1 -o stream -q
-  check_eq "streaming: frames over the budget" "0" "$(json stream/report.json "sum(f['resident_bytes'] > $budget for f in j['frames'])")"
+  check_eq "streaming: frames over the budget" "0" "$(json stream/report.json "sum(f['resident_bytes'] + f['pinned_bytes'] > $budget for f in j['frames'])")"
+  check_eq "streaming: the feature bounds are pinned inside the budget" \
+    "$(json tiles/tileset.json "sum(t['bounds']['bytes'] for t in j['extras']['cityatlas']['features']['tables'])")" \
+    "$(json stream/report.json "max(f['pinned_bytes'] for f in j['frames'])")"
   check_eq "streaming: frames without the root (untextured)" "0" "$(json stream/report.json "j['summary']['frames_root_missing']")"
   check_eq "streaming: load errors" "0" "$(json stream/report.json "j['summary']['errors']")"
   check_eq "streaming: needed blocks missing at the end of the hold" "0" "$(json stream/report.json "j['frames'][-1]['refinement']['needed_missing']")"
