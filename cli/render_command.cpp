@@ -39,6 +39,7 @@ struct RenderCliOptions {
     std::string path_file;
     std::string size = "1280x720";
     std::string budget = "512M";
+    std::string ram_budget;  // empty: twice the budget
     std::string out_dir;
     std::string report;
     std::string mode = "atlas";
@@ -148,6 +149,10 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"requested_bytes", r.requested_bytes},
             {"budget_bytes", r.budget_bytes},
             {"pinned_bytes", r.pinned_bytes},
+            {"ideal_bytes", r.ideal_bytes},
+            {"ram_hits", r.ram_hits},
+            {"ram_bytes", r.ram_bytes},
+            {"ram_budget_bytes", r.ram_budget_bytes},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
             {"requests_in_flight", r.requests_in_flight},
@@ -249,6 +254,11 @@ int runRender(const RenderCliOptions& opt) {
 
     render::ClientOptions co;
     co.budget_bytes = budget;
+    uint64_t ram_budget = 2 * budget;
+    if (!opt.ram_budget.empty() && opt.ram_budget != "0" && !parseBytes(opt.ram_budget, &ram_budget))
+        return usage(fmt::format("--ram-budget {}: expected bytes, e.g. 1G, or 0 (off)", opt.ram_budget));
+    if (opt.ram_budget == "0") ram_budget = 0;
+    co.loader.ram_budget_bytes = ram_budget;
     co.max_requests = static_cast<uint32_t>(opt.max_requests);
     co.upload_ms_per_frame = opt.upload_ms;
     co.selection.tau = opt.tau;
@@ -468,6 +478,10 @@ RunFn addRenderCommand(CLI::App& app) {
     cmd->add_option("--size", opt->size, "Frame size WxH")->default_val("1280x720");
     cmd->add_option("--budget", opt->budget, "Memory budget for resident blocks (tileset.json sizes): bytes or 512M, 2G")
         ->default_val("512M");
+    cmd->add_option("--ram-budget", opt->ram_budget,
+                    "The RAM level below the budget: block bytes as fetched, kept after the GPU lets them go, least "
+                    "recently in an ideal set evicted first; a request finds them there without I/O. Bytes, e.g. 1G; "
+                    "0: off; default twice --budget");
     cmd->add_option("-o,--output", opt->out_dir, "Folder for the PNG frames (and report.json unless --report)");
     cmd->add_option("--report", opt->report, "Per-frame JSON report (default OUTPUT/report.json)");
     cmd->add_option("--every", opt->every, "Write every n-th frame as PNG")->default_val(1)->check(CLI::Range(1, 1000000));

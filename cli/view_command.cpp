@@ -30,6 +30,7 @@ struct ViewCliOptions {
     std::string source;
     int width = 1600, height = 900;
     double budget_mb = 512;
+    double ram_budget_mb = -1;  // < 0: twice the budget
     double tau = 1;
     std::string mode = "atlas";
     std::string priority = "distance";
@@ -67,6 +68,8 @@ int runView(const ViewCliOptions& opt) {
     auto fail = [](const Status& s) { return cli::fail("view", s); };
     render::ClientOptions co;
     co.budget_bytes = static_cast<uint64_t>(opt.budget_mb * 1024 * 1024);
+    co.loader.ram_budget_bytes =
+        opt.ram_budget_mb < 0 ? 2 * co.budget_bytes : static_cast<uint64_t>(opt.ram_budget_mb * 1024 * 1024);
     co.selection.tau = opt.tau;
     co.selection.priority = opt.priority == "view" ? render::PriorityMode::ViewWeighted : render::PriorityMode::Distance;
     co.mode = opt.mode == "original" ? render::TextureMode::Original
@@ -206,6 +209,7 @@ int runView(const ViewCliOptions& opt) {
         ImGui::Text("queue %u, ideal set %u blocks, %u missing (%u needed)", rec.requests_in_flight, rec.ideal_blocks,
                     rec.ideal_missing, rec.needed_missing);
         ImGui::Text("loaded %s, errors %llu", humanBytes(loaded_total).c_str(), static_cast<unsigned long long>(rec.errors));
+        ImGui::Text("RAM level %s of %s", humanBytes(rec.ram_bytes).c_str(), humanBytes(rec.ram_budget_bytes).c_str());
         if (!client->errors().empty()) ImGui::TextWrapped("last error: %s", client->errors().back().c_str());
         if (ImGui::SliderFloat("tau", &tau, 0.25F, 8.0F, "%.2f px/texel")) client->setTau(tau);
         if (ImGui::SliderFloat("budget MB", &budget_mb, 16.0F, 8192.0F, "%.0f")) {
@@ -247,6 +251,10 @@ RunFn addViewCommand(CLI::App& app) {
     cmd->add_option("--height", opt->height, "Window height")->default_val(900)->check(CLI::Range(64, 16384));
     cmd->add_option("--budget-mb", opt->budget_mb, "Memory budget for resident blocks, MiB")->default_val(512)
         ->check(CLI::Range(1.0, 1e6));
+    cmd->add_option("--ram-budget-mb", opt->ram_budget_mb,
+                    "The RAM level below the budget (block bytes kept after the GPU lets them go), MiB; 0: off; "
+                    "default twice --budget-mb")
+        ->check(CLI::Range(0.0, 1e7));
     cmd->add_option("--tau", opt->tau, "Pixels per texel accepted")->default_val(1.0)->check(CLI::Range(0.1, 64.0));
     cmd->add_option("--mode", opt->mode, "atlas, original or dummy")->default_val("atlas")
         ->check(CLI::IsMember({"atlas", "original", "dummy"}));

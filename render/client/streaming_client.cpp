@@ -182,6 +182,7 @@ void StreamingClient::plan(const Camera& camera) {
     for (const BlockId b : actions.cancel) loader_->cancel(b);
     for (const BlockId b : actions.evict) release(b);
     for (const BlockId b : actions.request) loader_->request(b);
+    if (options_.loader.ram_budget_bytes > 0) loader_->touch(manager_->idealSet(), ++plans_);
 }
 
 void StreamingClient::takeResults() {
@@ -410,6 +411,11 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     const LoaderStats ls = loader_->stats();
     rec.bytes_loaded = ls.bytes_fetched - bytes_fetched_seen_;
     bytes_fetched_seen_ = ls.bytes_fetched;
+    rec.ram_hits = ls.ram_hits - ram_hits_seen_;
+    ram_hits_seen_ = ls.ram_hits;
+    rec.ram_bytes = ls.ram_bytes;
+    rec.ram_budget_bytes = options_.loader.ram_budget_bytes;
+    rec.ideal_bytes = b.ideal_bytes;
     rec.requests_in_flight = b.requested_blocks;
     rec.ideal_blocks = b.ideal_blocks;
     rec.ideal_missing = b.ideal_missing;

@@ -60,7 +60,11 @@ struct FrameRecord {
     uint64_t resident_bytes = 0, requested_bytes = 0, budget_bytes = 0;
     uint64_t pinned_bytes = 0;   ///< the feature bounds, held from open on, inside the budget (blocks get the rest)
     uint64_t gpu_bytes = 0;      ///< meshes and textures as stored on the GPU
-    uint64_t bytes_loaded = 0;   ///< fetched since the previous frame
+    uint64_t bytes_loaded = 0;   ///< fetched since the previous frame (files read or transferred; not RAM hits)
+    uint64_t ram_hits = 0;       ///< requests served from the RAM level since the previous frame
+    uint64_t ram_bytes = 0;      ///< bytes the RAM level holds (<= ram_budget_bytes)
+    uint64_t ram_budget_bytes = 0;
+    uint64_t ideal_bytes = 0;    ///< bytes of this frame's ideal set
     uint32_t requests_in_flight = 0;
     uint32_t ideal_blocks = 0, ideal_missing = 0, needed_missing = 0;
     bool ideal_cut = false;
@@ -148,6 +152,8 @@ private:
     std::vector<format::FeatureBoundsRecord> feature_bounds_;
     uint64_t pinned_bytes_ = 0;
     uint64_t bytes_fetched_seen_ = 0;
+    uint64_t ram_hits_seen_ = 0;
+    uint64_t plans_ = 0;  ///< frames planned: the RAM level's clock
 };
 
 }  // namespace cityatlas::render

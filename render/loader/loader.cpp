@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "render/loader/loader.h"
 
+#include "render/loader/byte_cache.h"
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -18,6 +20,7 @@
 #include <fmt/format.h>
 
 #include "render/loader/block_decoder.h"
+#include "render/loader/byte_cache.h"
 
 namespace cityatlas::render {
 namespace {
@@ -130,8 +133,9 @@ struct Loader::Impl {
 
     struct Job {
         BlockId id = kNoBlock;
-        std::vector<uint8_t> bytes;  ///< fetched already (HTTP); empty: read the file
+        std::vector<uint8_t> bytes;  ///< fetched already (HTTP) or from the RAM level; empty: read the file
         bool fetched = false;
+        bool from_ram = false;       ///< the bytes came from the RAM level (kept there already)
         int attempts = 1;
         Clock::time_point started;
     };
@@ -141,6 +145,7 @@ struct Loader::Impl {
     std::map<BlockId, Clock::time_point> requested_at;
     std::vector<LoadResult> results;
     LoaderStats stats;
+    ByteCache ram;
     std::vector<std::thread> workers;
     std::thread network;
     CURLM* multi = nullptr;
@@ -201,6 +206,12 @@ struct Loader::Impl {
             r.seconds = std::chrono::duration<double>(Clock::now() - job.started).count();
             std::lock_guard lock(mutex);
             if (!job.fetched) stats.bytes_fetched += r.bytes_fetched;
+            if (job.from_ram) r.bytes_fetched = 0;
+            // Good bytes stay in RAM for the next request (a GPU eviction keeps them).
+            if (r.error == LoadError::None && !job.from_ram && ram.budget() > 0) {
+                ram.put(job.id, std::move(bytes));
+                stats.ram_bytes = ram.bytes();
+            }
             deliver(std::move(r));
         }
     }
@@ -348,6 +359,7 @@ std::unique_ptr<Loader> Loader::open(const std::string& source, const TilesetInd
     m.options.max_connections = std::max(1, options.max_connections);
     m.base = baseOf(source);
     m.http = isUrl(source);
+    m.ram = ByteCache(options.ram_budget_bytes);
     if (m.http) {
         globalCurlInit();
         m.multi = curl_multi_init();
@@ -386,6 +398,16 @@ void Loader::request(BlockId id) {
         m.pending.insert(id);
         m.requested_at[id] = Clock::now();
         ++m.stats.requests;
+        Impl::Job held;
+        if (m.ram.get(id, &held.bytes)) {  // the RAM level: decode only
+            ++m.stats.ram_hits;
+            held.id = id;
+            held.fetched = held.from_ram = true;
+            held.started = Clock::now();
+            m.work.push_back(std::move(held));
+            m.work_ready.notify_one();
+            return;
+        }
         if (m.http) {
             m.to_fetch.push_back(id);
         } else {
@@ -397,6 +419,11 @@ void Loader::request(BlockId id) {
         }
     }
     if (m.http) curl_multi_wakeup(m.multi);
+}
+
+void Loader::touch(const std::vector<BlockId>& ideal, uint64_t frame) {
+    std::lock_guard lock(impl_->mutex);
+    impl_->ram.touch(ideal, frame);
 }
 
 void Loader::cancel(BlockId id) {

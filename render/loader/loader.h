@@ -29,6 +29,9 @@ struct LoaderOptions {
     int retries = 3;              ///< further attempts after a retryable failure
     double retry_backoff_s = 0.25;  ///< first wait; doubles per attempt
     double timeout_s = 30;        ///< per transfer (and 10 s to connect)
+    /// The RAM level (byte_cache.h): block bytes kept after a load, so a
+    /// request for a block held there is decoded without I/O. 0: off.
+    uint64_t ram_budget_bytes = 0;
 };
 
 enum class LoadError : uint8_t { None, NotFound, Http, Network, Timeout, Truncated, Corrupt };
@@ -47,6 +50,8 @@ struct LoadResult {
 
 struct LoaderStats {
     uint64_t requests = 0, completed = 0, failed = 0, cancelled = 0, retries = 0, bytes_fetched = 0;
+    uint64_t ram_hits = 0;   ///< requests served from the RAM level (no file read, no transfer)
+    uint64_t ram_bytes = 0;  ///< bytes the RAM level holds now (<= LoaderOptions::ram_budget_bytes)
     std::array<uint64_t, kLoadErrorKinds> errors_by_kind{};
 };
 
@@ -70,7 +75,10 @@ public:
     Loader(const Loader&) = delete;
     Loader& operator=(const Loader&) = delete;
 
-    void request(BlockId id);          ///< idempotent while pending; served first come first served
+    void request(BlockId id);          ///< idempotent while pending; served first come first served (RAM level first)
+    /// This frame's ideal set: the RAM level stamps the blocks it holds with
+    /// `frame` (increasing), which orders its evictions.
+    void touch(const std::vector<BlockId>& ideal, uint64_t frame);
     void cancel(BlockId id);           ///< dropped if queued, aborted if in flight; no result is delivered
     std::vector<LoadResult> poll();    ///< finished results (non-blocking)
     bool waitForAny(double timeout_s); ///< until a result is ready (true) or the timeout passes

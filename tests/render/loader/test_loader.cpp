@@ -10,6 +10,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <random>
 #include <set>
 #include <thread>
 
@@ -17,6 +18,7 @@
 
 #include "render/client/streaming_client.h"
 #include "render/loader/block_decoder.h"
+#include "render/loader/byte_cache.h"
 #include "render/loader/loader.h"
 #include "tests/render/town_fixture.h"
 #include "tiles/texture_codec.h"
@@ -50,6 +52,57 @@ std::vector<LoadResult> loadAll(Loader& loader, size_t count, double timeout_s =
         for (LoadResult& r : loader.poll()) out.push_back(std::move(r));
     }
     return out;
+}
+
+// The RAM level (byte_cache.h): least recently in an ideal set goes first,
+// ties take the larger block id, nothing larger than the budget is kept, and
+// the bytes come back as they went in.
+TEST(ByteCache, EvictsTheLeastRecentlyInAnIdealSetFirstWithinItsBudget) {
+    ByteCache c(100);
+    auto bytes = [](uint8_t fill, size_t n) { return std::vector<uint8_t>(n, fill); };
+    c.put(1, bytes(1, 40));
+    c.put(2, bytes(2, 40));
+    c.touch({1}, 1);                 // 1 was in the ideal set at frame 1, 2 only at frame 0
+    c.put(3, bytes(3, 40));          // stamped 1; 2 goes
+    EXPECT_TRUE(c.holds(1));
+    EXPECT_FALSE(c.holds(2));
+    EXPECT_TRUE(c.holds(3));
+    EXPECT_EQ(c.bytes(), 80u);
+    c.put(4, bytes(4, 40));          // 1 and 3 both stamped 1: the larger id, 3, goes
+    EXPECT_TRUE(c.holds(1));
+    EXPECT_FALSE(c.holds(3));
+    EXPECT_TRUE(c.holds(4));
+    std::vector<uint8_t> out;
+    ASSERT_TRUE(c.get(4, &out));
+    EXPECT_EQ(out, bytes(4, 40));
+    EXPECT_FALSE(c.get(2, &out));
+    EXPECT_EQ(c.hits(), 1u);
+    c.put(5, bytes(5, 101));         // larger than the whole budget: not kept, nothing evicted
+    EXPECT_FALSE(c.holds(5));
+    EXPECT_EQ(c.bytes(), 80u);
+    ByteCache off(0);
+    off.put(1, bytes(1, 1));
+    EXPECT_FALSE(off.holds(1));
+
+    // Random puts, touches and gets against a plain model of the sizes held.
+    std::mt19937 rng(4);
+    ByteCache r(1000);
+    for (int step = 0; step < 20000; ++step) {
+        const BlockId id = rng() % 64;
+        switch (rng() % 3) {
+            case 0: r.put(id, bytes(static_cast<uint8_t>(id), 1 + rng() % 300)); break;
+            case 1: r.touch({id, static_cast<BlockId>(rng() % 64)}, static_cast<uint64_t>(step)); break;
+            default:
+                if (r.get(id, &out)) {
+                    ASSERT_TRUE(std::all_of(out.begin(), out.end(), [&](uint8_t b) { return b == id; }));
+                }
+        }
+        ASSERT_LE(r.bytes(), 1000u) << "step " << step;
+        uint64_t held = 0;
+        for (BlockId b = 0; b < 64; ++b)
+            if (r.holds(b) && r.get(b, &out)) held += out.size();
+        ASSERT_EQ(held, r.bytes()) << "step " << step;
+    }
 }
 
 TEST(BlockDecoder, EveryBlockOfATownDecodes) {
