@@ -40,6 +40,8 @@ struct RenderCliOptions {
     std::string size = "1280x720";
     std::string budget = "512M";
     std::string ram_budget;  // empty: twice the budget
+    double speed_limit = 0;
+    double tau_speed = 0;
     std::string out_dir;
     std::string report;
     std::string mode = "atlas";
@@ -153,6 +155,9 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"ram_hits", r.ram_hits},
             {"ram_bytes", r.ram_bytes},
             {"ram_budget_bytes", r.ram_budget_bytes},
+            {"speed_mps", r.speed_mps},
+            {"speed_limited", r.speed_limited},
+            {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]}}},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
             {"requests_in_flight", r.requests_in_flight},
@@ -259,6 +264,8 @@ int runRender(const RenderCliOptions& opt) {
         return usage(fmt::format("--ram-budget {}: expected bytes, e.g. 1G, or 0 (off)", opt.ram_budget));
     if (opt.ram_budget == "0") ram_budget = 0;
     co.loader.ram_budget_bytes = ram_budget;
+    co.speed_limit_mps = opt.speed_limit;
+    co.tau_speed_mps = opt.tau_speed;
     co.max_requests = static_cast<uint32_t>(opt.max_requests);
     co.upload_ms_per_frame = opt.upload_ms;
     co.selection.tau = opt.tau;
@@ -347,6 +354,15 @@ int runRender(const RenderCliOptions& opt) {
     for (size_t i = 0; i < frames; ++i) {
         const render::CameraSample s = render::sampleFrame(path, i);
         const render::Camera cam = cameraFor(s);
+        // The camera's speed over the path time since the previous frame; a cut is a teleport, not motion.
+        const bool cut_here = std::find(cut_frames.begin(), cut_frames.end(), i) != cut_frames.end();
+        if (i > 0 && !cut_here) {
+            const render::CameraSample prev = render::sampleFrame(path, i - 1);
+            const double dt = s.time_s - prev.time_s;
+            client->setCameraSpeed(dt > 0 ? length(s.position - prev.position) / dt : 0.0);
+        } else {
+            client->setCameraSpeed(0);
+        }
         double waited_ms = 0;
         bool complete = true;
         if (opt.wait) {
@@ -482,6 +498,16 @@ RunFn addRenderCommand(CLI::App& app) {
                     "The RAM level below the budget: block bytes as fetched, kept after the GPU lets them go, least "
                     "recently in an ideal set evicted first; a request finds them there without I/O. Bytes, e.g. 1G; "
                     "0: off; default twice --budget");
+    cmd->add_option("--speed-limit", opt->speed_limit,
+                    "Speed policy: while the camera moves faster than this (m/s of path time), request only the "
+                    "blocks on screen at atlas levels (no original textures, no prefetch); 0: off")
+        ->default_val(0)
+        ->check(CLI::Range(0.0, 1e9));
+    cmd->add_option("--tau-speed", opt->tau_speed,
+                    "Continuous speed policy: tau grows to tau * max(1, speed / K) while moving (coarser atlases "
+                    "suffice); K in m/s, 0: off")
+        ->default_val(0)
+        ->check(CLI::Range(0.0, 1e9));
     cmd->add_option("-o,--output", opt->out_dir, "Folder for the PNG frames (and report.json unless --report)");
     cmd->add_option("--report", opt->report, "Per-frame JSON report (default OUTPUT/report.json)");
     cmd->add_option("--every", opt->every, "Write every n-th frame as PNG")->default_val(1)->check(CLI::Range(1, 1000000));

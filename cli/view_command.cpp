@@ -31,6 +31,7 @@ struct ViewCliOptions {
     int width = 1600, height = 900;
     double budget_mb = 512;
     double ram_budget_mb = -1;  // < 0: twice the budget
+    double speed_limit = 0, tau_speed = 0;
     double tau = 1;
     std::string mode = "atlas";
     std::string priority = "distance";
@@ -68,6 +69,8 @@ int runView(const ViewCliOptions& opt) {
     auto fail = [](const Status& s) { return cli::fail("view", s); };
     render::ClientOptions co;
     co.budget_bytes = static_cast<uint64_t>(opt.budget_mb * 1024 * 1024);
+    co.speed_limit_mps = opt.speed_limit;
+    co.tau_speed_mps = opt.tau_speed;
     co.loader.ram_budget_bytes =
         opt.ram_budget_mb < 0 ? 2 * co.budget_bytes : static_cast<uint64_t>(opt.ram_budget_mb * 1024 * 1024);
     co.selection.tau = opt.tau;
@@ -115,6 +118,7 @@ int runView(const ViewCliOptions& opt) {
     uint64_t loaded_total = 0;
     std::string picked, picked_record;
     int frame_count = 0;
+    Vec3d last_position = nav.camera.position;
     while (!window->shouldClose() && (opt.frames == 0 || frame_count++ < opt.frames)) {
         window->pollEvents();
         const auto now = Clock::now();
@@ -193,6 +197,9 @@ int runView(const ViewCliOptions& opt) {
             if (!target) return fail(st);
         }
         target->bind();
+        // The camera's speed over the last frame, for the speed policies.
+        client->setCameraSpeed(dt > 0 ? length(nav.camera.position - last_position) / dt : 0.0);
+        last_position = nav.camera.position;
         rec = client->frame(nav.camera);
         loaded_total += rec.bytes_loaded;
         target->blitToDefault(fw, fh);
@@ -255,6 +262,11 @@ RunFn addViewCommand(CLI::App& app) {
                     "The RAM level below the budget (block bytes kept after the GPU lets them go), MiB; 0: off; "
                     "default twice --budget-mb")
         ->check(CLI::Range(0.0, 1e7));
+    cmd->add_option("--speed-limit", opt->speed_limit,
+                    "While flying faster than this (m/s), request only blocks on screen at atlas levels; 0: off")
+        ->check(CLI::Range(0.0, 1e9));
+    cmd->add_option("--tau-speed", opt->tau_speed, "tau grows to tau * max(1, speed / K) while moving; K in m/s, 0: off")
+        ->check(CLI::Range(0.0, 1e9));
     cmd->add_option("--tau", opt->tau, "Pixels per texel accepted")->default_val(1.0)->check(CLI::Range(0.1, 64.0));
     cmd->add_option("--mode", opt->mode, "atlas, original or dummy")->default_val("atlas")
         ->check(CLI::IsMember({"atlas", "original", "dummy"}));

@@ -153,8 +153,23 @@ void StreamingClient::loadFeatureBounds() {
     }
 }
 
+SelectionParams StreamingClient::selectionNow() const {
+    SelectionParams p = options_.selection;
+    if (options_.tau_speed_mps > 0) p.tau *= std::max(1.0, speed_mps_ / options_.tau_speed_mps);
+    return p;
+}
+
 Classification StreamingClient::classify(const Camera& camera) const {
-    if (options_.mode != TextureMode::Original) return classifyBlocks(index_, camera, options_.selection);
+    if (options_.mode != TextureMode::Original) {
+        Classification c = classifyBlocks(index_, camera, selectionNow());
+        if (!speedLimited()) return c;
+        // Moving fast: what is on screen now, at the atlas levels, and nothing else.
+        for (BlockId b = 0; b < index_.blocks.size(); ++b)
+            if (index_.blocks[b].kind == BlockKind::Textures || c.priority[b].usage != Usage::Needed)
+                c.priority[b].usage = Usage::Unused;
+        orderCandidates(index_, &c);
+        return c;
+    }
     // The reference: every leaf's geometry, atlas (the fallback for an unreadable
     // original) and original textures, nearest first; the root stays pinned.
     Classification c;
@@ -181,7 +196,10 @@ void StreamingClient::plan(const Camera& camera) {
     const BlockActions actions = manager_->update(classify(camera));
     for (const BlockId b : actions.cancel) loader_->cancel(b);
     for (const BlockId b : actions.evict) release(b);
-    for (const BlockId b : actions.request) loader_->request(b);
+    for (const BlockId b : actions.request) {
+        loader_->request(b);
+        ++requests_[static_cast<size_t>(index_.blocks[b].kind)];
+    }
     if (options_.loader.ram_budget_bytes > 0) loader_->touch(manager_->idealSet(), ++plans_);
 }
 
@@ -280,7 +298,7 @@ void StreamingClient::release(BlockId id) {
 
 Selection StreamingClient::selectForMode(const Camera& camera) const {
     const auto resident = [&](BlockId b) { return manager_->resident(b); };
-    if (options_.mode != TextureMode::Original) return selectDraws(index_, camera, options_.selection, resident);
+    if (options_.mode != TextureMode::Original) return selectDraws(index_, camera, selectionNow(), resident);
     // Every leaf in view with its originals, as far as it is loaded.
     Selection s;
     const Frustum frustum = frustumOf(camera);
@@ -416,6 +434,10 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.ram_bytes = ls.ram_bytes;
     rec.ram_budget_bytes = options_.loader.ram_budget_bytes;
     rec.ideal_bytes = b.ideal_bytes;
+    rec.speed_mps = speed_mps_;
+    rec.speed_limited = speedLimited();
+    rec.requests = requests_;
+    requests_ = {};
     rec.requests_in_flight = b.requested_blocks;
     rec.ideal_blocks = b.ideal_blocks;
     rec.ideal_missing = b.ideal_missing;

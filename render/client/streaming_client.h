@@ -47,6 +47,14 @@ struct ClientOptions {
     float max_anisotropy = 4;              ///< 1 = off
     bool cpu_decode = false;               ///< S3TC decoded on the CPU, RGBA8 on the GPU (slow compressed sampling, llvmpipe)
     LoaderOptions loader;
+    /// Speed policy (papers/004 §4.5): while the camera moves faster than
+    /// this (m/s, setCameraSpeed), only Needed geometry and atlas blocks are
+    /// requested: no original textures, no prefetch of culled or
+    /// parent-needed blocks. 0: off.
+    double speed_limit_mps = 0;
+    /// The continuous alternative: tau grows with speed, tau * max(1, v / k)
+    /// (coarser atlases suffice while moving). 0: off.
+    double tau_speed_mps = 0;
 };
 
 /// What one frame did; the per-frame report of `cityatlas render`.
@@ -65,6 +73,9 @@ struct FrameRecord {
     uint64_t ram_bytes = 0;      ///< bytes the RAM level holds (<= ram_budget_bytes)
     uint64_t ram_budget_bytes = 0;
     uint64_t ideal_bytes = 0;    ///< bytes of this frame's ideal set
+    double speed_mps = 0;        ///< the camera speed the frame was planned with
+    bool speed_limited = false;  ///< the speed policy held requests back
+    std::array<uint32_t, 3> requests{};  ///< requests made since the previous frame, by BlockKind
     uint32_t requests_in_flight = 0;
     uint32_t ideal_blocks = 0, ideal_missing = 0, needed_missing = 0;
     bool ideal_cut = false;
@@ -121,6 +132,8 @@ public:
     const ClientOptions& options() const { return options_; }
     void setBudget(uint64_t bytes);
     void setTau(double tau) { options_.selection.tau = tau; }
+    /// The camera's speed (m/s) for the speed policies; 0 at a teleport.
+    void setCameraSpeed(double mps) { speed_mps_ = mps; }
     void setMode(TextureMode mode) { options_.mode = mode; }
     /// Every load error so far, one line each (uri: what), in order.
     const std::vector<std::string>& errors() const { return errors_; }
@@ -137,6 +150,9 @@ private:
     uint32_t upload(double budget_ms, double* spent_ms);
     void release(BlockId id);
     Selection selectForMode(const Camera& camera) const;
+    /// The selection parameters at the current camera speed (tau_speed_mps).
+    SelectionParams selectionNow() const;
+    bool speedLimited() const { return options_.speed_limit_mps > 0 && speed_mps_ > options_.speed_limit_mps; }
 
     std::string base_;
     ClientOptions options_;
@@ -154,6 +170,8 @@ private:
     uint64_t bytes_fetched_seen_ = 0;
     uint64_t ram_hits_seen_ = 0;
     uint64_t plans_ = 0;  ///< frames planned: the RAM level's clock
+    double speed_mps_ = 0;
+    std::array<uint32_t, 3> requests_{};  ///< by BlockKind, since the last frame record
 };
 
 }  // namespace cityatlas::render
