@@ -42,6 +42,7 @@ struct RenderCliOptions {
     std::string ram_budget;  // empty: twice the budget
     double speed_limit = 0;
     double tau_speed = 0;
+    int preload_levels = -1;
     std::string out_dir;
     std::string report;
     std::string mode = "atlas";
@@ -157,11 +158,15 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"ram_budget_bytes", r.ram_budget_bytes},
             {"speed_mps", r.speed_mps},
             {"speed_limited", r.speed_limited},
+            {"coarse_level_min", r.coarse_level_min},
             {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]}}},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
             {"requests_in_flight", r.requests_in_flight},
             {"refinement", {{"ideal_blocks", r.ideal_blocks},
+                            {"ideal_blocks_by_kind", {{"geometry", r.ideal_blocks_by_kind[0]},
+                                                      {"atlas", r.ideal_blocks_by_kind[1]},
+                                                      {"textures", r.ideal_blocks_by_kind[2]}}},
                             {"ideal_missing", r.ideal_missing},
                             {"needed_missing", r.needed_missing},
                             {"ideal_cut_by_budget", r.ideal_cut}}},
@@ -266,6 +271,7 @@ int runRender(const RenderCliOptions& opt) {
     co.loader.ram_budget_bytes = ram_budget;
     co.speed_limit_mps = opt.speed_limit;
     co.tau_speed_mps = opt.tau_speed;
+    co.preload_levels = opt.preload_levels;
     co.max_requests = static_cast<uint32_t>(opt.max_requests);
     co.upload_ms_per_frame = opt.upload_ms;
     co.selection.tau = opt.tau;
@@ -431,6 +437,10 @@ int runRender(const RenderCliOptions& opt) {
                    {"tileset_version", client->index().tileset_version},
                    {"settings", {{"size", {width, height}},
                                  {"budget_bytes", budget},
+                                 {"ram_budget_bytes", co.loader.ram_budget_bytes},
+                                 {"speed_limit_mps", co.speed_limit_mps},
+                                 {"tau_speed_mps", co.tau_speed_mps},
+                                 {"preload_level", client->preloadLevel()},
                                  {"mode", render::textureModeName(co.mode)},
                                  {"priority", render::priorityModeName(co.selection.priority)},
                                  {"tau", opt.tau},
@@ -503,6 +513,11 @@ RunFn addRenderCommand(CLI::App& app) {
                     "blocks on screen at atlas levels (no original textures, no prefetch); 0: off")
         ->default_val(0)
         ->check(CLI::Range(0.0, 1e9));
+    cmd->add_option("--preload-levels", opt->preload_levels,
+                    "Keep every node of level <= L resident wherever the camera is (lowered until they fit a quarter "
+                    "of the budget), so no frame after a teleport is coarser than level L; -1: off")
+        ->default_val(-1)
+        ->check(CLI::Range(-1, 64));
     cmd->add_option("--tau-speed", opt->tau_speed,
                     "Continuous speed policy: tau grows to tau * max(1, speed / K) while moving (coarser atlases "
                     "suffice); K in m/s, 0: off")

@@ -78,6 +78,7 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
         std::this_thread::sleep_for(std::chrono::milliseconds(250 << (attempt - 1)));
     }
     c->loadFeatureBounds();
+    c->choosePreloadLevel();
     if (c->pinned_bytes_ > options.budget_bytes) {
         *status = Status::Io(fmt::format("{}: memory budget {} bytes is smaller than the feature bounds ({} bytes), which "
                                          "are always resident",
@@ -124,6 +125,28 @@ bool StreamingClient::usesCpuDecode() const { return gl_ && gl_->decodesOnCpu();
 void StreamingClient::setBudget(uint64_t bytes) {
     options_.budget_bytes = bytes;
     manager_->setBudget(bytes > pinned_bytes_ ? bytes - pinned_bytes_ : 0);
+    choosePreloadLevel();
+}
+
+void StreamingClient::choosePreloadLevel() {
+    // The deepest level L <= preload_levels whose nodes' geometry and atlases
+    // fit a quarter of the budget (levels grow monotonically in bytes).
+    std::vector<uint64_t> by_level;
+    for (const TileNode& n : index_.nodes) {
+        if (by_level.size() <= static_cast<size_t>(n.level)) by_level.resize(static_cast<size_t>(n.level) + 1, 0);
+        for (const NodeLayer& l : n.layers) {
+            if (!l.present) continue;
+            by_level[static_cast<size_t>(n.level)] += index_.blocks[l.geometry].bytes;
+            if (l.atlas != kNoBlock) by_level[static_cast<size_t>(n.level)] += index_.blocks[l.atlas].bytes;
+        }
+    }
+    preload_level_ = -1;
+    uint64_t sum = 0;
+    for (int L = 0; L <= options_.preload_levels && static_cast<size_t>(L) < by_level.size(); ++L) {
+        sum += by_level[static_cast<size_t>(L)];
+        if (sum > options_.budget_bytes / 4) break;
+        preload_level_ = L;
+    }
 }
 
 void StreamingClient::loadFeatureBounds() {
@@ -162,11 +185,21 @@ SelectionParams StreamingClient::selectionNow() const {
 Classification StreamingClient::classify(const Camera& camera) const {
     if (options_.mode != TextureMode::Original) {
         Classification c = classifyBlocks(index_, camera, selectionNow());
-        if (!speedLimited()) return c;
+        if (!speedLimited() && preload_level_ < 0) return c;
         // Moving fast: what is on screen now, at the atlas levels, and nothing else.
-        for (BlockId b = 0; b < index_.blocks.size(); ++b)
-            if (index_.blocks[b].kind == BlockKind::Textures || c.priority[b].usage != Usage::Needed)
-                c.priority[b].usage = Usage::Unused;
+        if (speedLimited())
+            for (BlockId b = 0; b < index_.blocks.size(); ++b)
+                if (index_.blocks[b].kind == BlockKind::Textures || c.priority[b].usage != Usage::Needed)
+                    c.priority[b].usage = Usage::Unused;
+        // Preloaded levels lead, coarsest first, wherever the camera is.
+        for (const TileNode& n : index_.nodes) {
+            if (n.level > preload_level_) continue;
+            for (const NodeLayer& l : n.layers) {
+                if (!l.present) continue;
+                c.priority[l.geometry] = {Usage::Needed, -1.0, n.level};
+                if (l.atlas != kNoBlock) c.priority[l.atlas] = {Usage::Needed, -1.0, n.level};
+            }
+        }
         orderCandidates(index_, &c);
         return c;
     }
@@ -410,6 +443,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
         }
         (d.mode == DrawMode::Originals ? rec.nodes_originals : rec.nodes_atlas) += 1;
         rec.nodes_coarse += d.coarse ? 1 : 0;
+        if (d.coarse && (rec.coarse_level_min < 0 || n.level < rec.coarse_level_min)) rec.coarse_level_min = n.level;
     }
     last_drawn_.clear();
     for (const DrawItem& d : sel.draws) last_drawn_.push_back(d.node);
@@ -438,6 +472,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.speed_limited = speedLimited();
     rec.requests = requests_;
     requests_ = {};
+    for (const BlockId id : manager_->idealSet()) ++rec.ideal_blocks_by_kind[static_cast<size_t>(index_.blocks[id].kind)];
     rec.requests_in_flight = b.requested_blocks;
     rec.ideal_blocks = b.ideal_blocks;
     rec.ideal_missing = b.ideal_missing;

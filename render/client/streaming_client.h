@@ -55,6 +55,12 @@ struct ClientOptions {
     /// The continuous alternative: tau grows with speed, tau * max(1, v / k)
     /// (coarser atlases suffice while moving). 0: off.
     double tau_speed_mps = 0;
+    /// Preload (papers/004's low resolution for the whole model): the
+    /// geometry and atlases of every node of level <= L lead the priorities
+    /// whatever the camera, so no frame after a teleport is coarser than
+    /// level L. L is lowered until those blocks fit a quarter of the budget
+    /// (preloadLevel() says which L). -1: off.
+    int preload_levels = -1;
 };
 
 /// What one frame did; the per-frame report of `cityatlas render`.
@@ -63,6 +69,7 @@ struct FrameRecord {
     double upload_ms = 0;
     uint32_t uploads = 0;
     uint32_t nodes_atlas = 0, nodes_originals = 0, nodes_coarse = 0;
+    int coarse_level_min = -1;   ///< the lowest level drawn coarse (its refinement not possible yet); -1: none
     uint32_t draw_calls = 0, texture_binds = 0, triangles = 0;
     bool root_missing = false;   ///< nothing could be drawn (the root is not resident yet)
     uint64_t resident_bytes = 0, requested_bytes = 0, budget_bytes = 0;
@@ -76,6 +83,7 @@ struct FrameRecord {
     double speed_mps = 0;        ///< the camera speed the frame was planned with
     bool speed_limited = false;  ///< the speed policy held requests back
     std::array<uint32_t, 3> requests{};  ///< requests made since the previous frame, by BlockKind
+    std::array<uint32_t, 3> ideal_blocks_by_kind{};  ///< this frame's ideal set, by BlockKind
     uint32_t requests_in_flight = 0;
     uint32_t ideal_blocks = 0, ideal_missing = 0, needed_missing = 0;
     bool ideal_cut = false;
@@ -129,6 +137,8 @@ public:
     const std::vector<format::FeatureBoundsRecord>& featureBounds() const { return feature_bounds_; }
     /// Bytes of the feature bounds, inside the budget.
     uint64_t pinnedBytes() const { return pinned_bytes_; }
+    /// The level up to which every node is preloaded (ClientOptions::preload_levels, lowered to fit); -1: none.
+    int preloadLevel() const { return preload_level_; }
     const ClientOptions& options() const { return options_; }
     void setBudget(uint64_t bytes);
     void setTau(double tau) { options_.selection.tau = tau; }
@@ -144,6 +154,7 @@ private:
     StreamingClient() = default;
     struct Resident;
     void loadFeatureBounds();
+    void choosePreloadLevel();
     Classification classify(const Camera& camera) const;
     void plan(const Camera& camera);
     void takeResults();
@@ -171,6 +182,7 @@ private:
     uint64_t ram_hits_seen_ = 0;
     uint64_t plans_ = 0;  ///< frames planned: the RAM level's clock
     double speed_mps_ = 0;
+    int preload_level_ = -1;
     std::array<uint32_t, 3> requests_{};  ///< by BlockKind, since the last frame record
 };
 

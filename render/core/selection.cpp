@@ -108,8 +108,14 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         const bool sharp = distance[static_cast<size_t>(id)] >= n.min_distance_m * scale;
         if (sharp) {
             // Drawn with its own atlas: the next refinement step is prefetched.
+            // A leaf's next step is its originals, one octave of distance
+            // away as an inner node's children are: prefetched within twice
+            // its min distance, not from anywhere (a high camera over a town
+            // of sharp leaves would fetch every original in view:
+            // papers/004's height rule).
             if (n.leaf()) {
-                if (params.originals) markTextures(id, Usage::ParentNeeded);
+                if (params.originals && distance[static_cast<size_t>(id)] < 2 * n.min_distance_m * scale)
+                    markTextures(id, Usage::ParentNeeded);
             } else {
                 for (const int32_t ch : n.children) {
                     markNode(ch, Usage::ParentNeeded);

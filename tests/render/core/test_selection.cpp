@@ -13,9 +13,10 @@
 //     leaf [100,125]: behind       -> Culled
 //     leaf [125,150]: d = 0 < 25   -> originals: Needed, its textures Needed
 //     leaf [150,175]: d = 10 < 25  -> originals: Needed, textures Needed
-//     leaf [175,200]: d = 35 >= 25 -> atlas: Needed, textures Parent needed
-//   c2: d = 60 < 100               -> refined, Needed; its leaves d >= 60 >= 25 -> atlas, Needed,
-//                                     textures Parent needed
+//     leaf [175,200]: d = 35 >= 25 -> atlas: Needed; d < 2 x 25: textures Parent needed
+//   c2: d = 60 < 100               -> refined, Needed; its leaves d >= 60 >= 25 -> atlas, Needed;
+//                                     d >= 2 x 25: textures Unused (originals are prefetched
+//                                     within one octave of a leaf's min distance only)
 //   c3: d = 160 >= 100             -> atlas, Needed; its leaves Parent needed, their textures Unused
 //   c0's leaves and textures, leaf [100,125]'s textures: Unused
 #include <gtest/gtest.h>
@@ -92,7 +93,7 @@ TEST(Selection, UsageCategoriesAsPapersDefineThem) {
     const std::map<int, Usage> textures = {
         {2, Usage::Unused},        {3, Usage::Unused},        {4, Usage::Unused},        {5, Usage::Unused},
         {7, Usage::Unused},        {8, Usage::Needed},        {9, Usage::Needed},        {10, Usage::ParentNeeded},
-        {12, Usage::ParentNeeded}, {13, Usage::ParentNeeded}, {14, Usage::ParentNeeded}, {15, Usage::ParentNeeded},
+        {12, Usage::Unused},       {13, Usage::Unused},       {14, Usage::Unused},       {15, Usage::Unused},
         {17, Usage::Unused},       {18, Usage::Unused},       {19, Usage::Unused},       {20, Usage::Unused}};
     for (const auto& [leaf, usage] : textures)
         EXPECT_EQ(usageName(f.textureUsage(c, leaf)), std::string(usageName(usage))) << "textures of leaf " << leaf;
