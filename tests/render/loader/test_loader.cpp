@@ -7,6 +7,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -17,9 +19,12 @@
 #include <httplib.h>
 
 #include "render/client/streaming_client.h"
+#include "render/core/block_manager.h"
+#include "render/core/selection.h"
 #include "render/loader/block_decoder.h"
 #include "render/loader/byte_cache.h"
 #include "render/loader/loader.h"
+#include "tests/render/core/scripted_tree.h"
 #include "tests/render/town_fixture.h"
 #include "tiles/texture_codec.h"
 
@@ -103,6 +108,66 @@ TEST(ByteCache, EvictsTheLeastRecentlyInAnIdealSetFirstWithinItsBudget) {
             if (r.holds(b) && r.get(b, &out)) held += out.size();
         ASSERT_EQ(held, r.bytes()) << "step " << step;
     }
+}
+
+// The spec's H1: on 100 random paths over the built town (smooth stretches
+// and teleports, cameras anywhere from street level to far above) with a GPU
+// budget of 1/20 of the folder and a RAM level of twice that, fed and
+// stamped as the loader and client do (bytes in when a load finishes, the
+// ideal set stamped each frame, RAM asked first): every frame keeps resident
+// + requested within the GPU budget and the RAM level within its own.
+TEST(ByteCache, HundredRandomPathsKeepTheGpuAndRamBudgets) {
+    const TilesetIndex& ix = townIndex();
+    const Box3d box = ix.nodes[0].bounds;
+    const Vec3d size = box.max - box.min;
+    const uint64_t budget = std::max<uint64_t>(ix.bytes_total / 20, 1);
+    ASSERT_TRUE(BlockManager::checkBudget(ix, budget).ok()) << "the root must fit 1/20 of the folder";
+    std::mt19937 rng(18);
+    std::uniform_real_distribution<double> u(0, 1);
+    uint64_t frames = 0, ram_hits = 0, fetched = 0;
+    for (int path = 0; path < 100; ++path) {
+        BlockManager m(ix, {budget, 8});
+        ByteCache ram(2 * budget);
+        std::set<BlockId> in_flight;
+        auto spot = [&] {
+            return Vec3d{box.min.x + (1.4 * u(rng) - 0.2) * size.x, box.min.y + (1.4 * u(rng) - 0.2) * size.y,
+                         box.min.z + 1.7 + std::pow(u(rng), 3) * 3 * std::max(size.x, size.y)};
+        };
+        Vec3d from = spot(), to = spot();
+        for (int frame = 0; frame < 60; ++frame, ++frames) {
+            if (frame % 15 == 0) from = to, to = spot();  // a new stretch; a teleport when it is the first frame
+            const double t = (frame % 15) / 15.0;
+            Camera cam = test::unitCamera(from + t * (to - from), normalized(Vec3d{u(rng) - 0.5, u(rng) - 0.5, -0.3 * u(rng)}));
+            const BlockActions a = m.update(classifyBlocks(ix, cam, {}));
+            ram.touch(m.idealSet(), static_cast<uint64_t>(frames) + 1);
+            for (const BlockId b : a.cancel) in_flight.erase(b);
+            for (const BlockId b : a.request) in_flight.insert(b);
+            const BudgetStats& st = m.stats();
+            ASSERT_LE(st.resident_bytes + st.requested_bytes, budget) << "path " << path << " frame " << frame;
+            // Some loads finish: from RAM when it holds them, else fetched (and kept).
+            std::vector<BlockId> pending(in_flight.begin(), in_flight.end());
+            std::shuffle(pending.begin(), pending.end(), rng);
+            for (size_t i = 0; i < pending.size() && i < 1 + rng() % 6; ++i) {
+                const BlockId b = pending[i];
+                std::vector<uint8_t> bytes;
+                if (ram.get(b, &bytes)) {
+                    ++ram_hits;
+                    ASSERT_EQ(bytes.size(), ix.blocks[b].bytes);
+                } else {
+                    fetched += ix.blocks[b].bytes;
+                    ram.put(b, std::vector<uint8_t>(ix.blocks[b].bytes, 7));
+                }
+                m.finished(b, true);
+                in_flight.erase(b);
+                ASSERT_LE(ram.bytes(), ram.budget()) << "path " << path << " frame " << frame;
+            }
+            ASSERT_LE(m.stats().resident_bytes, budget);
+        }
+    }
+    std::printf("  %llu frames on 100 paths at budget/20 (%llu bytes): %llu RAM hits, %llu bytes fetched\n",
+                static_cast<unsigned long long>(frames), static_cast<unsigned long long>(budget),
+                static_cast<unsigned long long>(ram_hits), static_cast<unsigned long long>(fetched));
+    EXPECT_GT(ram_hits, 0u) << "the paths never came back to anything";
 }
 
 TEST(BlockDecoder, EveryBlockOfATownDecodes) {
