@@ -43,6 +43,7 @@ struct RenderCliOptions {
     double speed_limit = 0;
     double tau_speed = 0;
     int preload_levels = -1;
+    double lookahead_s = 0;
     std::string out_dir;
     std::string report;
     std::string mode = "atlas";
@@ -272,6 +273,7 @@ int runRender(const RenderCliOptions& opt) {
     co.speed_limit_mps = opt.speed_limit;
     co.tau_speed_mps = opt.tau_speed;
     co.preload_levels = opt.preload_levels;
+    co.lookahead_s = opt.lookahead_s;
     co.max_requests = static_cast<uint32_t>(opt.max_requests);
     co.upload_ms_per_frame = opt.upload_ms;
     co.selection.tau = opt.tau;
@@ -365,9 +367,9 @@ int runRender(const RenderCliOptions& opt) {
         if (i > 0 && !cut_here) {
             const render::CameraSample prev = render::sampleFrame(path, i - 1);
             const double dt = s.time_s - prev.time_s;
-            client->setCameraSpeed(dt > 0 ? length(s.position - prev.position) / dt : 0.0);
+            client->setCameraVelocity(dt > 0 ? (1.0 / dt) * (s.position - prev.position) : Vec3d{0, 0, 0});
         } else {
-            client->setCameraSpeed(0);
+            client->setCameraVelocity({0, 0, 0});
         }
         double waited_ms = 0;
         bool complete = true;
@@ -441,6 +443,7 @@ int runRender(const RenderCliOptions& opt) {
                                  {"speed_limit_mps", co.speed_limit_mps},
                                  {"tau_speed_mps", co.tau_speed_mps},
                                  {"preload_level", client->preloadLevel()},
+                                 {"lookahead_s", co.lookahead_s},
                                  {"mode", render::textureModeName(co.mode)},
                                  {"priority", render::priorityModeName(co.selection.priority)},
                                  {"tau", opt.tau},
@@ -518,6 +521,11 @@ RunFn addRenderCommand(CLI::App& app) {
                     "of the budget), so no frame after a teleport is coarser than level L; -1: off")
         ->default_val(-1)
         ->check(CLI::Range(-1, 64));
+    cmd->add_option("--lookahead-s", opt->lookahead_s,
+                    "Also plan for the camera moved by its velocity times this many seconds (each block keeps the "
+                    "better of its two priorities, one budget); 0: off")
+        ->default_val(0)
+        ->check(CLI::Range(0.0, 3600.0));
     cmd->add_option("--tau-speed", opt->tau_speed,
                     "Continuous speed policy: tau grows to tau * max(1, speed / K) while moving (coarser atlases "
                     "suffice); K in m/s, 0: off")

@@ -198,7 +198,7 @@ int runView(const ViewCliOptions& opt) {
         }
         target->bind();
         // The camera's speed over the last frame, for the speed policies.
-        client->setCameraSpeed(dt > 0 ? length(nav.camera.position - last_position) / dt : 0.0);
+        client->setCameraVelocity(dt > 0 ? (1.0 / dt) * (nav.camera.position - last_position) : Vec3d{0, 0, 0});
         last_position = nav.camera.position;
         rec = client->frame(nav.camera);
         loaded_total += rec.bytes_loaded;

@@ -185,6 +185,15 @@ SelectionParams StreamingClient::selectionNow() const {
 Classification StreamingClient::classify(const Camera& camera) const {
     if (options_.mode != TextureMode::Original) {
         Classification c = classifyBlocks(index_, camera, selectionNow());
+        if (options_.lookahead_s > 0 && speed_mps_ > 0) {
+            // Where the camera will be: each block keeps the better of its two priorities.
+            Camera ahead = camera;
+            ahead.position = camera.position + options_.lookahead_s * velocity_;
+            const Classification later = classifyBlocks(index_, ahead, selectionNow());
+            for (BlockId b = 0; b < index_.blocks.size(); ++b)
+                if (before(later.priority[b], b, c.priority[b], b)) c.priority[b] = later.priority[b];
+            orderCandidates(index_, &c);
+        }
         if (!speedLimited() && preload_level_ < 0) return c;
         // Moving fast: what is on screen now, at the atlas levels, and nothing else.
         if (speedLimited())

@@ -61,6 +61,12 @@ struct ClientOptions {
     /// level L. L is lowered until those blocks fit a quarter of the budget
     /// (preloadLevel() says which L). -1: off.
     int preload_levels = -1;
+    /// Look-ahead (papers/004 §3.1: what "will be close to the viewing
+    /// point in the near future"): blocks are classified for the camera and
+    /// for the camera moved by its velocity times this many seconds, each
+    /// block keeping the better of its two priorities, under the same budget.
+    /// 0: off.
+    double lookahead_s = 0;
 };
 
 /// What one frame did; the per-frame report of `cityatlas render`.
@@ -142,8 +148,12 @@ public:
     const ClientOptions& options() const { return options_; }
     void setBudget(uint64_t bytes);
     void setTau(double tau) { options_.selection.tau = tau; }
-    /// The camera's speed (m/s) for the speed policies; 0 at a teleport.
-    void setCameraSpeed(double mps) { speed_mps_ = mps; }
+    /// The camera's velocity (m/s, local frame) for the speed policies and
+    /// the look-ahead; zero at a teleport.
+    void setCameraVelocity(const Vec3d& v) {
+        velocity_ = v;
+        speed_mps_ = length(v);
+    }
     void setMode(TextureMode mode) { options_.mode = mode; }
     /// Every load error so far, one line each (uri: what), in order.
     const std::vector<std::string>& errors() const { return errors_; }
@@ -182,6 +192,7 @@ private:
     uint64_t ram_hits_seen_ = 0;
     uint64_t plans_ = 0;  ///< frames planned: the RAM level's clock
     double speed_mps_ = 0;
+    Vec3d velocity_{0, 0, 0};
     int preload_level_ = -1;
     std::array<uint32_t, 3> requests_{};  ///< by BlockKind, since the last frame record
 };

@@ -6,7 +6,9 @@
 # - after slowing down, the same frames as without the policy (the ideal set
 #   is the full one again), with the budget held throughout;
 # - --tau-speed asks for less while fast (smaller ideal sets: coarser atlases
-#   are sharp enough) and the same at rest.
+#   are sharp enough) and the same at rest;
+# - --lookahead-s asks for more while moving (what the camera will need) and
+#   the same at rest.
 source "$(dirname "$0")/lib.sh" "$@"
 
 "$CITYATLAS" synth --buildings 30 --seed 3 --texture-size 512 -o town -q > /dev/null
@@ -34,6 +36,7 @@ budget=$(json probe/report.json "int(1.5 * max(f['ideal_bytes'] for f in j['fram
 run off "$budget"
 run limited "$budget" --speed-limit 40
 run tau "$budget" --tau-speed 20
+run ahead "$budget" --lookahead-s 0.1
 "$PY" - <<'PY' || fail "speed policies (above)"
 import json, sys
 bad = False
@@ -41,7 +44,7 @@ def check(ok, what):
     global bad
     print(("ok: " if ok else "FAIL: ") + what); bad |= not ok
 def frames(name): return json.load(open(f"{name}/report.json"))["frames"]
-off, lim, tau = frames("off"), frames("limited"), frames("tau")
+off, lim, tau, ahead = frames("off"), frames("limited"), frames("tau"), frames("ahead")
 fast = [i for i, f in enumerate(off) if f["speed_mps"] > 40]
 slow_after = [i for i, f in enumerate(off) if i > max(fast) + 1]
 check(len(fast) >= 5 and all(abs(off[i]["speed_mps"] - 200) < 1 for i in fast[1:-1]),
@@ -60,5 +63,12 @@ check(all(f["resident_bytes"] + f["pinned_bytes"] <= f["budget_bytes"] for f in 
 check(sum(tau[i]["ideal_bytes"] for i in fast) < sum(off[i]["ideal_bytes"] for i in fast),
       f"--tau-speed: ideal sets of {sum(tau[i]['ideal_bytes'] for i in fast)} bytes while fast against {sum(off[i]['ideal_bytes'] for i in fast)}")
 check(all(tau[i]["triangles"] == off[i]["triangles"] for i in slow_after[1:]), "--tau-speed: the same frames at rest")
+# Look-ahead: while moving, the ideal set also holds what 0.1 s ahead (20 m) needs.
+check(all(ahead[i]["refinement"]["ideal_blocks"] >= off[i]["refinement"]["ideal_blocks"] for i in fast)
+      and any(ahead[i]["refinement"]["ideal_blocks"] > off[i]["refinement"]["ideal_blocks"] for i in fast),
+      f"--lookahead-s: ideal sets while moving {[ahead[i]['refinement']['ideal_blocks'] for i in fast]} against "
+      f"{[off[i]['refinement']['ideal_blocks'] for i in fast]}")
+check(all(ahead[i]["ideal_bytes"] == off[i]["ideal_bytes"] for i in slow_after[1:]), "--lookahead-s: the same ideal sets at rest")
+check(all(f["resident_bytes"] + f["pinned_bytes"] <= f["budget_bytes"] for f in ahead), "--lookahead-s: budget held")
 sys.exit(1 if bad else 0)
 PY
