@@ -33,11 +33,25 @@ layout(location = 4) in uint a_feature;
 uniform mat4 u_view_projection;  // projection * viewRotation: no translation
 uniform vec3 u_offset;           // node centre - camera position, computed in double
 uniform int u_uv_set;            // 0: uv_atlas, 1: uv_original
+uniform bool u_styled;           // per-feature lens styles are set (lenses.h)
+uniform usamplerBuffer u_styles; // per feature: 0 normal, 1 discard, 2 x-ray, 3 flatten
+uniform samplerBuffer u_bases;   // per feature: base z minus the camera's z
+uniform float u_flatten;         // flatten: z' = base + (z - base) * u_flatten
 out vec2 v_uv;
+out vec3 v_rel;                  // position relative to the camera (metres)
 flat out int v_material;
 flat out uint v_feature;
+flat out uint v_style;
 void main() {
-    gl_Position = u_view_projection * vec4(a_position + u_offset, 1.0);
+    vec3 p = a_position + u_offset;
+    v_style = 0u;
+    if (u_styled && a_feature < uint(textureSize(u_styles))) v_style = texelFetch(u_styles, int(a_feature)).r;
+    if (v_style == 3u) {
+        float base = texelFetch(u_bases, int(a_feature)).r;
+        p.z = base + (p.z - base) * u_flatten;
+    }
+    v_rel = p;
+    gl_Position = u_view_projection * vec4(p, 1.0);
     vec2 uv = u_uv_set == 1 ? a_uv_original : a_uv_atlas;
     v_uv = vec2(uv.x, 1.0 - uv.y);  // v = 0 at the image bottom; texture rows are stored top first
     v_material = a_material;
@@ -49,7 +63,17 @@ constexpr const char* kFragmentShader = R"(#version 330 core
 in vec2 v_uv;
 flat in int v_material;
 flat in uint v_feature;
+flat in uint v_style;
+in vec3 v_rel;
 uniform sampler2D u_texture;
+uniform int u_pass;               // 0: opaque, 1: alpha layer, 2: x-ray (features styled x-ray only)
+uniform float u_xray_falloff;     // x-ray opacity 1 - |N.V|^e (papers/003 eq. 3.19)
+uniform bool u_tinted;            // per-feature tint colours are set
+uniform samplerBuffer u_tints;    // per feature: linear rgb and the mix weight
+uniform int u_lens;               // analytic colour lens: 0 none, 1 sphere, 2 vertical cylinder
+uniform vec3 u_lens_centre;       // relative to the camera
+uniform float u_lens_radius;
+uniform vec2 u_context;           // outside the lens: saturation, brightness
 uniform samplerBuffer u_materials;  // linear rgb, alpha = 1 - transparency
 uniform int u_material_count;
 uniform int u_mode;
@@ -68,7 +92,28 @@ void main() {
     } else {
         c = vec4(vec3(u_grey), 1.0);
     }
-    o_colour = vec4(c.rgb, u_opaque ? 1.0 : c.a);
+    if (v_style == 1u) discard;                        // the discard lens
+    if ((v_style == 2u) != (u_pass == 2)) discard;      // x-ray faces only in their own pass
+    if (u_tinted && v_feature < uint(textureSize(u_tints))) {
+        vec4 t = texelFetch(u_tints, int(v_feature));
+        c.rgb = mix(c.rgb, t.rgb, t.a);
+    }
+    if (u_lens != 0) {
+        vec3 d = v_rel - u_lens_centre;
+        float r = u_lens == 1 ? length(d) : length(d.xy);
+        if (!(r < u_lens_radius)) {  // context: desaturated and darkened
+            float grey = dot(c.rgb, vec3(0.2126, 0.7152, 0.0722));
+            c.rgb = mix(vec3(grey), c.rgb, u_context.x) * u_context.y;
+        }
+    }
+    float alpha = u_opaque ? 1.0 : c.a;
+    if (u_pass == 2) {
+        // The face's normal from the screen-space derivatives (tiles carry no normals).
+        vec3 n = normalize(cross(dFdx(v_rel), dFdy(v_rel)));
+        vec3 v = normalize(-v_rel);
+        alpha = 1.0 - pow(abs(dot(n, v)), u_xray_falloff);
+    }
+    o_colour = vec4(c.rgb, alpha);
     o_feature = v_feature;
 }
 )";
@@ -357,9 +402,13 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
     r->u_texture_ = glGetUniformLocation(p, "u_texture");
     r->u_materials_ = glGetUniformLocation(p, "u_materials");
     r->u_material_count_ = glGetUniformLocation(p, "u_material_count");
+    r->u_pass_ = glGetUniformLocation(p, "u_pass");
     glUseProgram(p);
     glUniform1i(r->u_texture_, 0);
     glUniform1i(r->u_materials_, 1);
+    glUniform1i(glGetUniformLocation(p, "u_styles"), 2);
+    glUniform1i(glGetUniformLocation(p, "u_bases"), 3);
+    glUniform1i(glGetUniformLocation(p, "u_tints"), 4);
     glUniform1i(r->u_material_count_, static_cast<GLint>(materials.size()));
     glUniform1f(glGetUniformLocation(p, "u_grey"), kNeutralGrey);
     glUseProgram(0);
@@ -407,6 +456,10 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
 GlRenderer::~GlRenderer() {
     if (program_ != 0) glDeleteProgram(program_);
     if (material_texture_ != 0) glDeleteTextures(1, &material_texture_);
+    for (uint32_t* t : {&style_texture_, &base_texture_, &tint_texture_})
+        if (*t != 0) glDeleteTextures(1, t);
+    for (uint32_t* b : {&style_buffer_, &base_buffer_, &tint_buffer_})
+        if (*b != 0) glDeleteBuffers(1, b);
     if (material_buffer_ != 0) glDeleteBuffers(1, &material_buffer_);
     release(&dummy_);
 }
@@ -646,6 +699,35 @@ void GlRenderer::drawDummy(const GpuMesh& mesh, const Vec3d& node_centre, int la
     queue(mesh, &dummy_, kModeDummy, false, 0, mesh.index_count);
 }
 
+namespace {
+// A buffer texture over `bytes` (created on first use; at least one texel: a TBO needs a store).
+void fillBufferTexture(uint32_t* buffer, uint32_t* texture, GLenum format, const void* data, size_t bytes,
+                       size_t texel_bytes) {
+    if (*buffer == 0) glGenBuffers(1, buffer);
+    if (*texture == 0) glGenTextures(1, texture);
+    std::vector<uint8_t> zero;
+    if (bytes == 0) {
+        zero.assign(texel_bytes, 0);
+        data = zero.data();
+        bytes = texel_bytes;
+    }
+    glBindBuffer(GL_TEXTURE_BUFFER, *buffer);
+    glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(bytes), data, GL_DYNAMIC_DRAW);
+    glBindTexture(GL_TEXTURE_BUFFER, *texture);
+    glTexBuffer(GL_TEXTURE_BUFFER, format, *buffer);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+}
+}  // namespace
+
+void GlRenderer::setLens(const LensStyle& lens) {
+    lens_ = lens;
+    any_xray_ = std::find(lens.style.begin(), lens.style.end(), LensStyle::kXRay) != lens.style.end();
+    fillBufferTexture(&style_buffer_, &style_texture_, GL_R8UI, lens.style.data(), lens.style.size(), 1);
+    fillBufferTexture(&base_buffer_, &base_texture_, GL_R32F, lens.base_z.data(), lens.base_z.size() * sizeof(float), 4);
+    fillBufferTexture(&tint_buffer_, &tint_texture_, GL_RGBA32F, lens.tint.data(), lens.tint.size() * sizeof(float) * 4, 16);
+}
+
 void GlRenderer::issue(const Draw& d, FrameStats* stats) {
     const GpuMesh& mesh = *d.mesh;
     const NodeDraw& node = nodes_[static_cast<size_t>(d.node)];
@@ -683,7 +765,31 @@ FrameStats GlRenderer::endFrame() {
     glUniformMatrix4fv(u_view_projection_, 1, GL_FALSE, view_projection.data());
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_BUFFER, material_texture_);
+    // The lenses' tables (units 2-4) and parameters; every lens off without setLens.
+    const bool styled = !lens_.style.empty(), tinted = !lens_.tint.empty();
+    if (styled || tinted) {
+        if (style_texture_ == 0) setLens(lens_);  // the empty tables, so the samplers are complete
+        glActiveTexture(GL_TEXTURE2);
+        glBindTexture(GL_TEXTURE_BUFFER, style_texture_);
+        glActiveTexture(GL_TEXTURE3);
+        glBindTexture(GL_TEXTURE_BUFFER, base_texture_);
+        glActiveTexture(GL_TEXTURE4);
+        glBindTexture(GL_TEXTURE_BUFFER, tint_texture_);
+    }
     glActiveTexture(GL_TEXTURE0);
+    glUniform1i(glGetUniformLocation(program_, "u_styled"), styled ? 1 : 0);
+    glUniform1i(glGetUniformLocation(program_, "u_tinted"), tinted ? 1 : 0);
+    glUniform1f(glGetUniformLocation(program_, "u_flatten"), lens_.flatten);
+    glUniform1f(glGetUniformLocation(program_, "u_xray_falloff"), lens_.xray_falloff);
+    glUniform1i(glGetUniformLocation(program_, "u_lens"), lens_.lens);
+    {
+        // The lens centre relative to the camera, in double until here.
+        const Vec3d c = lens_.lens_centre - camera_.position;
+        glUniform3f(glGetUniformLocation(program_, "u_lens_centre"), static_cast<float>(c.x), static_cast<float>(c.y),
+                    static_cast<float>(c.z));
+        glUniform1f(glGetUniformLocation(program_, "u_lens_radius"), static_cast<float>(lens_.lens_radius_m));
+        glUniform2f(glGetUniformLocation(program_, "u_context"), lens_.context_saturation, lens_.context_brightness);
+    }
     bound_texture_ = 0;  // uploads and other code bind textures too: issue the first bind
     glEnable(GL_FRAMEBUFFER_SRGB);
     glEnable(GL_DEPTH_TEST);
@@ -694,8 +800,23 @@ FrameStats GlRenderer::endFrame() {
     glDisable(GL_BLEND);
     glDepthMask(GL_TRUE);
     glUniform1i(u_opaque_, 1);
+    glUniform1i(u_pass_, 0);
     for (const Draw& d : draws_) {
         if (nodes_[static_cast<size_t>(d.node)].layer == 0) issue(d, &stats);
+    }
+    // X-ray faces: every draw once more, only x-ray features' fragments, blended
+    // over what is behind them, without depth or id writes (picking sees through).
+    if (any_xray_) {
+        glEnable(GL_BLEND);
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        glDepthMask(GL_FALSE);
+        glColorMaski(1, GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+        glUniform1i(u_pass_, 2);
+        for (const Draw& d : draws_) issue(d, &stats);
+        glColorMaski(1, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+        glDepthMask(GL_TRUE);
+        glDisable(GL_BLEND);
+        glUniform1i(u_pass_, 0);
     }
 
     // Then the alpha layer, far nodes first (per node: triangles within a node
@@ -712,6 +833,7 @@ FrameStats GlRenderer::endFrame() {
         glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
         glDepthMask(GL_FALSE);
         glUniform1i(u_opaque_, 0);
+        glUniform1i(u_pass_, 1);
         for (const Draw* d : alpha) issue(*d, &stats);
     }
 

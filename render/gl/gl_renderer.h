@@ -137,6 +137,22 @@ struct FrameStats {
     uint64_t upload_bytes = 0;   ///< GPU bytes uploaded since the previous endFrame
 };
 
+/// What the lenses (render/core/lenses.h) ask of the renderer: per-feature
+/// styles and tints, and an analytic colour lens. Features are building
+/// indices (_FEATURE_ID_0); features past the arrays draw normally.
+struct LensStyle {
+    enum : uint8_t { kNormal = 0, kDiscard = 1, kXRay = 2, kFlatten = 3 };
+    std::vector<uint8_t> style;                 ///< per feature, one of the above; empty: none
+    std::vector<float> base_z;                  ///< per feature (local frame), for kFlatten
+    float flatten = 0.02F;                      ///< z' = base + (z - base) * flatten
+    float xray_falloff = 0.5F;                  ///< opacity 1 - |cos angle|^e (papers/003 eq. 3.19)
+    std::vector<std::array<float, 4>> tint;     ///< per feature: linear rgb and its weight (0: none); empty: none
+    int lens = 0;                               ///< 0 none, 1 sphere, 2 vertical cylinder
+    Vec3d lens_centre;                          ///< local frame
+    double lens_radius_m = 0;
+    float context_saturation = 0.15F, context_brightness = 0.55F;  ///< outside the lens
+};
+
 struct RendererOptions {
     /// Test hook: decode BC1/BC3 on the CPU even when the context samples
     /// S3TC, to compare both paths (see GlRenderer::decodesOnCpu).
@@ -202,6 +218,8 @@ public:
     /// Draws the whole mesh with one shared dummy texture (uv_atlas), materials
     /// ignored: the papers' upper bound with no texture switches.
     void drawDummy(const GpuMesh& mesh, const Vec3d& node_centre, int layer);
+    /// The lenses from the next frame on (uploads the per-feature tables).
+    void setLens(const LensStyle& lens);
     /// Issues the queued draws: the opaque layer in call order with depth
     /// writes, then the alpha layer, far nodes first, blended (src alpha, one
     /// minus src alpha) with depth test on and depth writes off. Leaves
@@ -238,7 +256,11 @@ private:
     float anisotropy_ = 1;
     uint32_t program_ = 0;
     int u_view_projection_ = -1, u_offset_ = -1, u_uv_set_ = -1, u_mode_ = -1, u_opaque_ = -1,
-        u_texture_ = -1, u_materials_ = -1, u_material_count_ = -1;
+        u_texture_ = -1, u_materials_ = -1, u_material_count_ = -1, u_pass_ = -1;
+    LensStyle lens_;
+    bool any_xray_ = false;
+    uint32_t style_buffer_ = 0, style_texture_ = 0, base_buffer_ = 0, base_texture_ = 0, tint_buffer_ = 0,
+             tint_texture_ = 0;
     uint32_t material_buffer_ = 0, material_texture_ = 0;
     int material_count_ = 0;
     GpuTexture dummy_;

@@ -27,6 +27,7 @@
 #include <epoxy/gl.h>
 
 #include "render/gl/gl_context.h"
+#include "render/core/picking.h"
 #include "render/gl/gl_renderer.h"
 #include "render/loader/block_decoder.h"
 #include "tiles/texture_codec.h"
@@ -778,6 +779,142 @@ TEST_F(GlTest, IdBufferHoldsTheNearestFeatureOpaqueOrAlphaAndNoneElsewhere) {
     EXPECT_FALSE(plain->readIds(&ids));
     EXPECT_EQ(plain->idAt(2, 4), OffscreenTarget::kNoFeature);
     for (GpuMesh* g : {&back, &front, &bare}) r->release(g);
+}
+
+// ---------------------------------------------------------------- lenses (render/core/lenses.h, papers/003)
+
+// A vertical quad through `centre`, spanning `along` (horizontal, unit) by
+// [z0, z1], one feature and one material.
+MeshData wall(const Vec3d& centre, const Vec3d& along, double half, double z0, double z1, uint32_t feature,
+              int32_t material) {
+    MeshData m;
+    const Vec3d a = centre - half * along, b = centre + half * along;
+    for (const Vec3d& p : {Vec3d{a.x, a.y, z0}, Vec3d{b.x, b.y, z0}, Vec3d{b.x, b.y, z1}, Vec3d{a.x, a.y, z1}}) {
+        m.positions.insert(m.positions.end(), {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
+        m.material_id.push_back(material);
+        m.feature_id.push_back(feature);
+    }
+    m.indices = {0, 1, 2, 0, 2, 3};
+    return m;
+}
+
+// L3: a wall on a 3-4-5 rotation seen along an axis has |cos| exactly 0.8 or
+// 0.6 at the image centre, so x-ray composites over the background with
+// opacity 1 - |cos|^e, within 1 LSB; picking (the id buffer) sees through it.
+TEST_F(GlTest, XRayWallOnA345RotationHasTheFormulasOpacity) {
+    constexpr int kSize = 64;
+    const std::vector<MaterialInfo> materials{{{0.8F, 0.1F, 0.05F}, 0}};
+    auto r = renderer(materials);
+    Status status;
+    auto t = OffscreenTarget::create(kSize, kSize, &status, true);
+    ASSERT_TRUE(status.ok()) << status.error;
+    const std::array<float, 4> clear{0.2F, 0.3F, 0.4F, 1.0F};
+    for (const auto& [along, cosine] : std::vector<std::pair<Vec3d, double>>{{{0.8, 0.6, 0}, 0.8}, {{0.6, 0.8, 0}, 0.6}}) {
+        for (const float e : {0.5F, 1.0F}) {
+            GpuMesh m = r->upload(wall({0, 10, 0}, along, 20, -20, 20, 5, 0));
+            LensStyle lens;
+            lens.style.assign(8, LensStyle::kNormal);
+            lens.style[5] = LensStyle::kXRay;
+            lens.xray_falloff = e;
+            r->setLens(lens);
+            t->bind();
+            r->beginFrame(frontCamera(kSize, {0, 0, 0}, 5), clear);
+            r->drawAtlas(m, nullptr, {0, 0, 0}, 0);
+            r->endFrame();
+            std::vector<uint8_t> px;
+            t->readPixels(&px);
+            const double a = 1.0 - std::pow(cosine, e);
+            const std::array<double, 3> c{0.8, 0.1, 0.05};
+            const Rgba want{linearToByte(a * c[0] + (1 - a) * clear[0]), linearToByte(a * c[1] + (1 - a) * clear[1]),
+                            linearToByte(a * c[2] + (1 - a) * clear[2]), 255};
+            const Rgba got = pixelAt(px, kSize, kSize / 2, kSize / 2);
+            EXPECT_LE(maxRgbDiff(got, want), 1) << "cos " << cosine << " e " << e << ": " << str(got) << " vs " << str(want);
+            EXPECT_EQ(t->idAt(kSize / 2, kSize / 2), OffscreenTarget::kNoFeature) << "the x-ray face hides nothing from picking";
+            r->release(&m);
+        }
+    }
+    r->setLens({});
+}
+
+// L5 and the per-feature styles: a sphere lens on a wall facing the camera
+// styles exactly the pixels whose point on the wall (the pixel ray's hit) lies
+// outside the sphere with the context formula, and leaves those inside as
+// they are; discarded features leave no pixel and no id; a flattened wall
+// keeps only its lowest sliver.
+TEST_F(GlTest, SphereLensStylesExactlyThePixelsOutsideItAndDiscardAndFlattenWork) {
+    constexpr int kSize = 64;
+    const std::vector<MaterialInfo> materials{{{0.7F, 0.35F, 0.1F}, 0}};
+    auto r = renderer(materials);
+    Status status;
+    auto t = OffscreenTarget::create(kSize, kSize, &status, true);
+    ASSERT_TRUE(status.ok()) << status.error;
+    const Camera cam = frontCamera(kSize, {0, 0, 0}, 60);
+    GpuMesh m = r->upload(wall({0, 10, 0}, {1, 0, 0}, 20, -20, 20, 2, 0));
+    LensStyle lens;
+    lens.lens = 1;
+    lens.lens_centre = {1.0, 10.0, -0.5};
+    lens.lens_radius_m = 3.0;
+    r->setLens(lens);
+    t->bind();
+    r->beginFrame(cam, {0, 0, 0, 1});
+    r->drawAtlas(m, nullptr, {0, 0, 0}, 0);
+    r->endFrame();
+    std::vector<uint8_t> px;
+    t->readPixels(&px);
+    const std::array<double, 3> c{0.7, 0.35, 0.1};
+    const double grey = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    auto context = [&](int k) { return (grey + (c[static_cast<size_t>(k)] - grey) * lens.context_saturation) * lens.context_brightness; };
+    const Rgba inside{linearToByte(c[0]), linearToByte(c[1]), linearToByte(c[2]), 255};
+    const Rgba outside{linearToByte(context(0)), linearToByte(context(1)), linearToByte(context(2)), 255};
+    const double pixel_m = 2 * 10 * std::tan(M_PI / 6) / kSize;  // a pixel's size on the wall
+    int checked = 0, in = 0, worst = 0;
+    for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x) {
+            const Vec3d ray = pixelRay(cam, x + 0.5, y + 0.5);
+            const Vec3d hit = (10.0 / ray.y) * ray;
+            const double d = length(hit - lens.lens_centre);
+            if (std::abs(d - lens.lens_radius_m) < 1.5 * pixel_m) continue;  // the silhouette, within a pixel
+            const bool is_in = d < lens.lens_radius_m;
+            worst = std::max(worst, maxRgbDiff(pixelAt(px, kSize, x, y), is_in ? inside : outside));
+            ++checked;
+            in += is_in;
+        }
+    EXPECT_LE(worst, 1) << "inside " << str(inside) << ", outside " << str(outside);
+    EXPECT_GT(in, 100);
+    EXPECT_GT(checked - in, 1000);
+
+    // Discard: nothing drawn, no id. Flatten: a wall from 0 to 20 m at k 0.02 keeps 0 to 0.4 m.
+    LensStyle styles;
+    styles.style = {0, 0, LensStyle::kDiscard};
+    r->setLens(styles);
+    r->beginFrame(cam, {0, 0, 0, 1});
+    r->drawAtlas(m, nullptr, {0, 0, 0}, 0);
+    r->endFrame();
+    std::vector<uint32_t> ids;
+    t->readIds(&ids);
+    EXPECT_TRUE(std::all_of(ids.begin(), ids.end(), [](uint32_t i) { return i == OffscreenTarget::kNoFeature; }));
+    GpuMesh tall = r->upload(wall({0, 10, 0}, {1, 0, 0}, 20, 0, 20, 2, 0));
+    styles.style = {0, 0, LensStyle::kFlatten};
+    styles.base_z = {0, 0, 0.0F};  // base minus the camera's z (0 here)
+    styles.flatten = 0.02F;
+    r->setLens(styles);
+    r->beginFrame(cam, {0, 0, 0, 1});
+    r->drawAtlas(tall, nullptr, {0, 0, 0}, 0);
+    r->endFrame();
+    // Rows above the horizon see z > 0.4 m on the wall (10 m away): none is drawn.
+    int drawn_above = 0, drawn_sliver = 0;
+    for (int y = 0; y < kSize; ++y) {
+        const Vec3d ray = pixelRay(cam, kSize / 2 + 0.5, y + 0.5);
+        const double z = 10.0 * ray.z / ray.y;
+        const bool drawn = t->idAt(kSize / 2, y) == 2;
+        if (z > 0.4 + pixel_m) drawn_above += drawn;
+        if (z > pixel_m && z < 0.4 - pixel_m) drawn_sliver += !drawn;
+    }
+    EXPECT_EQ(drawn_above, 0);
+    EXPECT_EQ(drawn_sliver, 0);
+    r->setLens({});
+    r->release(&m);
+    r->release(&tall);
 }
 
 }  // namespace
