@@ -160,6 +160,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"speed_mps", r.speed_mps},
             {"speed_limited", r.speed_limited},
             {"coarse_level_min", r.coarse_level_min},
+            {"lens_occluders", r.lens_occluders},
             {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]}}},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
@@ -305,6 +306,10 @@ int runRender(const RenderCliOptions& opt) {
         path = render::defaultPath(client->index().nodes[0].bounds);
     }
     if (opt.fps > 0) path.frame_rate = opt.fps;
+    if (path.lens.poi >= 0 && static_cast<uint64_t>(path.lens.poi) >= client->index().feature_count)
+        return fail(Status::Usage(fmt::format("{}: lens building {} does not exist (the folder has {} features)", path_name,
+                                              path.lens.poi, client->index().feature_count)));
+    client->setLens(path.lens);
     size_t frames = path.frameCount();
     if (opt.frames > 0) frames = std::min(frames, static_cast<size_t>(opt.frames));
 

@@ -429,6 +429,17 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     Camera camera = camera_in;
     camera.near_m = std::clamp(0.5 * sel.nearest_m, 0.1, 1e4);
     camera.far_m = std::max(sel.farthest_m * 1.01, camera.near_m * 10);
+    // The lenses' per-building state for this camera, uploaded when it changed.
+    if (lens_.active() || lens_uploaded_) {
+        LensStyle style = lens_.active() ? lensStyle(lens_, feature_bounds_, camera.position) : LensStyle{};
+        rec.lens_occluders = static_cast<uint32_t>(
+            std::count_if(style.style.begin(), style.style.end(), [&](uint8_t s) { return s != LensStyle::kNormal; }));
+        if (!lens_uploaded_ || !(style == last_lens_)) {
+            gl_->setLens(style);
+            last_lens_ = std::move(style);
+        }
+        lens_uploaded_ = lens_.active();
+    }
     gl_->beginFrame(camera, {0.55F, 0.70F, 0.90F, 1.0F});
     const Resident& r = *resident_;
     const auto original = [&](int32_t t) -> const GpuTexture* {

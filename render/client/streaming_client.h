@@ -21,6 +21,7 @@
 
 #include "render/core/block_manager.h"
 #include "format/feature_bounds.h"
+#include "render/core/lenses.h"
 #include "render/core/picking.h"
 #include "render/core/selection.h"
 #include "render/core/tileset_index.h"
@@ -76,6 +77,7 @@ struct FrameRecord {
     uint32_t uploads = 0;
     uint32_t nodes_atlas = 0, nodes_originals = 0, nodes_coarse = 0;
     int coarse_level_min = -1;   ///< the lowest level drawn coarse (its refinement not possible yet); -1: none
+    uint32_t lens_occluders = 0; ///< buildings the lenses styled away from normal (occluders, or all but the solo one)
     uint32_t draw_calls = 0, texture_binds = 0, triangles = 0;
     bool root_missing = false;   ///< nothing could be drawn (the root is not resident yet)
     uint64_t resident_bytes = 0, requested_bytes = 0, budget_bytes = 0;
@@ -148,6 +150,10 @@ public:
     const ClientOptions& options() const { return options_; }
     void setBudget(uint64_t bytes);
     void setTau(double tau) { options_.selection.tau = tau; }
+    /// Information lenses from the next frame on (render/core/lenses.h); they
+    /// need the feature bounds (a folder without them draws every building normally).
+    void setLens(const LensParams& lens) { lens_ = lens; }
+    const LensParams& lens() const { return lens_; }
     /// The camera's velocity (m/s, local frame) for the speed policies and
     /// the look-ahead; zero at a teleport.
     void setCameraVelocity(const Vec3d& v) {
@@ -194,6 +200,9 @@ private:
     double speed_mps_ = 0;
     Vec3d velocity_{0, 0, 0};
     int preload_level_ = -1;
+    LensParams lens_;
+    LensStyle last_lens_;
+    bool lens_uploaded_ = false;
     std::array<uint32_t, 3> requests_{};  ///< by BlockKind, since the last frame record
 };
 

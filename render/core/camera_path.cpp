@@ -39,6 +39,72 @@ size_t CameraPath::frameCount() const {
     return static_cast<size_t>(frames) + 1;
 }
 
+namespace {
+
+// The path's "lens" object (schemas/camera_path.schema.json); errors name the member.
+Status parseLens(const json& j, const std::string& where, LensParams* out) {
+    if (!j.is_object()) return Status::Invalid(where + ": not an object");
+    LensParams l;
+    auto number = [&](const char* key, double lo, double hi, double* v) -> Status {
+        const auto it = j.find(key);
+        if (it == j.end()) return Status::Ok();
+        if (!it->is_number() || !(it->get<double>() >= lo && it->get<double>() <= hi))
+            return Status::Invalid(fmt::format("{}: {} must be a number in [{}, {}]", where, key, lo, hi));
+        *v = it->get<double>();
+        return Status::Ok();
+    };
+    auto vec3 = [&](const char* key, Vec3d* v) -> Status {
+        const auto it = j.find(key);
+        if (it == j.end()) return Status::Ok();
+        if (!it->is_array() || it->size() != 3 || !std::all_of(it->begin(), it->end(), [](const json& x) { return x.is_number(); }))
+            return Status::Invalid(fmt::format("{}: {} must be [x, y, z]", where, key));
+        *v = {(*it)[0].get<double>(), (*it)[1].get<double>(), (*it)[2].get<double>()};
+        return Status::Ok();
+    };
+    if (const auto it = j.find("occlusion"); it != j.end()) {
+        if (*it == "none") l.occlusion = LensParams::Occlusion::None;
+        else if (*it == "discard") l.occlusion = LensParams::Occlusion::Discard;
+        else if (*it == "xray") l.occlusion = LensParams::Occlusion::XRay;
+        else if (*it == "flatten") l.occlusion = LensParams::Occlusion::Flatten;
+        else return Status::Invalid(where + ": occlusion must be \"none\", \"discard\", \"xray\" or \"flatten\"");
+    }
+    if (const auto it = j.find("building"); it != j.end()) {
+        if (!it->is_number_integer() || it->get<int64_t>() < 0) return Status::Invalid(where + ": building must be a feature id");
+        l.poi = it->get<int64_t>();
+    }
+    if (const auto it = j.find("solo"); it != j.end()) {
+        if (!it->is_boolean()) return Status::Invalid(where + ": solo must be true or false");
+        l.solo = it->get<bool>();
+    }
+    if (const auto it = j.find("highlight"); it != j.end()) {
+        if (!it->is_array() || !std::all_of(it->begin(), it->end(), [](const json& x) { return x.is_number_unsigned(); }))
+            return Status::Invalid(where + ": highlight must be an array of feature ids");
+        for (const json& x : *it) l.highlight.push_back(x.get<uint32_t>());
+    }
+    if (const auto it = j.find("colour_by"); it != j.end()) {
+        if (*it != "height" && *it != "none") return Status::Invalid(where + ": colour_by must be \"height\" or \"none\"");
+        if (*it == "height") l.colour_by = "height";
+    }
+    if (const auto it = j.find("shape"); it != j.end()) {
+        if (*it == "sphere") l.shape = 1;
+        else if (*it == "cylinder") l.shape = 2;
+        else if (*it != "none") return Status::Invalid(where + ": shape must be \"sphere\", \"cylinder\" or \"none\"");
+    }
+    double xray = l.xray_falloff, flatten = l.flatten;
+    for (Status s : {number("sphere_radius_m", 0, 1e7, &l.sphere_radius_m), number("radius_m", 0, 1e7, &l.radius_m),
+                     number("xray_falloff", 0, 1, &xray), number("flatten", 0, 1, &flatten), vec3("centre", &l.centre)})
+        if (!s.ok()) return s;
+    l.xray_falloff = static_cast<float>(xray);
+    l.flatten = static_cast<float>(flatten);
+    if ((l.occlusion != LensParams::Occlusion::None || l.solo) && l.poi < 0)
+        return Status::Invalid(where + ": occlusion and solo need a \"building\"");
+    if (l.shape != 0 && !(l.radius_m > 0)) return Status::Invalid(where + ": a sphere or cylinder needs radius_m > 0");
+    *out = l;
+    return Status::Ok();
+}
+
+}  // namespace
+
 Status parseCameraPath(const std::string& text, const std::string& where, CameraPath* out) {
     *out = CameraPath{};
     json doc;
@@ -61,6 +127,8 @@ Status parseCameraPath(const std::string& text, const std::string& where, Camera
             return Status::Invalid(where + ": frame_rate must be a number in (0, 1000]");
         p.frame_rate = it->get<double>();
     }
+    if (const auto it = doc.find("lens"); it != doc.end())
+        if (Status s = parseLens(*it, where + ": lens", &p.lens); !s.ok()) return s;
     const auto keys = doc.find("keyframes");
     if (keys == doc.end() || !keys->is_array() || keys->empty())
         return Status::Invalid(where + ": \"keyframes\" must be a non-empty array");

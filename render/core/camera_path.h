@@ -13,6 +13,7 @@
 
 #include "core/geometry.h"
 #include "core/status.h"
+#include "render/core/lenses.h"
 
 namespace cityatlas::render {
 
@@ -31,6 +32,7 @@ struct CameraPath {
     std::vector<CameraKey> keys;  ///< time ascending
     Interpolation interpolation = Interpolation::CatmullRom;
     double frame_rate = 10;       ///< frames per second of path time
+    LensParams lens;              ///< the path's information lenses ("lens"; none by default)
     double duration() const { return keys.empty() ? 0 : keys.back().time_s - keys.front().time_s; }
     size_t frameCount() const;    ///< floor(duration * frame_rate) + 1
 };

@@ -35,8 +35,9 @@ uniform vec3 u_offset;           // node centre - camera position, computed in d
 uniform int u_uv_set;            // 0: uv_atlas, 1: uv_original
 uniform bool u_styled;           // per-feature lens styles are set (lenses.h)
 uniform usamplerBuffer u_styles; // per feature: 0 normal, 1 discard, 2 x-ray, 3 flatten
-uniform samplerBuffer u_bases;   // per feature: base z minus the camera's z
+uniform samplerBuffer u_bases;   // per feature: base z, local frame
 uniform float u_flatten;         // flatten: z' = base + (z - base) * u_flatten
+uniform float u_camera_z;        // the camera's z, local frame (bases are local)
 out vec2 v_uv;
 out vec3 v_rel;                  // position relative to the camera (metres)
 flat out int v_material;
@@ -47,7 +48,7 @@ void main() {
     v_style = 0u;
     if (u_styled && a_feature < uint(textureSize(u_styles))) v_style = texelFetch(u_styles, int(a_feature)).r;
     if (v_style == 3u) {
-        float base = texelFetch(u_bases, int(a_feature)).r;
+        float base = texelFetch(u_bases, int(a_feature)).r - u_camera_z;
         p.z = base + (p.z - base) * u_flatten;
     }
     v_rel = p;
@@ -780,6 +781,7 @@ FrameStats GlRenderer::endFrame() {
     glUniform1i(glGetUniformLocation(program_, "u_styled"), styled ? 1 : 0);
     glUniform1i(glGetUniformLocation(program_, "u_tinted"), tinted ? 1 : 0);
     glUniform1f(glGetUniformLocation(program_, "u_flatten"), lens_.flatten);
+    glUniform1f(glGetUniformLocation(program_, "u_camera_z"), static_cast<float>(camera_.position.z));
     glUniform1f(glGetUniformLocation(program_, "u_xray_falloff"), lens_.xray_falloff);
     glUniform1i(glGetUniformLocation(program_, "u_lens"), lens_.lens);
     {

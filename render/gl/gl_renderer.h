@@ -43,6 +43,7 @@
 #include "core/geometry.h"
 #include "core/status.h"
 #include "render/core/decoded.h"
+#include "render/core/lenses.h"
 #include "render/core/tileset_index.h"
 #include "render/core/view.h"
 
@@ -135,22 +136,6 @@ struct FrameStats {
     /// (CPU time of the GL calls, which on llvmpipe includes the copy).
     double gpu_upload_ms = 0;
     uint64_t upload_bytes = 0;   ///< GPU bytes uploaded since the previous endFrame
-};
-
-/// What the lenses (render/core/lenses.h) ask of the renderer: per-feature
-/// styles and tints, and an analytic colour lens. Features are building
-/// indices (_FEATURE_ID_0); features past the arrays draw normally.
-struct LensStyle {
-    enum : uint8_t { kNormal = 0, kDiscard = 1, kXRay = 2, kFlatten = 3 };
-    std::vector<uint8_t> style;                 ///< per feature, one of the above; empty: none
-    std::vector<float> base_z;                  ///< per feature (local frame), for kFlatten
-    float flatten = 0.02F;                      ///< z' = base + (z - base) * flatten
-    float xray_falloff = 0.5F;                  ///< opacity 1 - |cos angle|^e (papers/003 eq. 3.19)
-    std::vector<std::array<float, 4>> tint;     ///< per feature: linear rgb and its weight (0: none); empty: none
-    int lens = 0;                               ///< 0 none, 1 sphere, 2 vertical cylinder
-    Vec3d lens_centre;                          ///< local frame
-    double lens_radius_m = 0;
-    float context_saturation = 0.15F, context_brightness = 0.55F;  ///< outside the lens
 };
 
 struct RendererOptions {

@@ -895,7 +895,7 @@ TEST_F(GlTest, SphereLensStylesExactlyThePixelsOutsideItAndDiscardAndFlattenWork
     EXPECT_TRUE(std::all_of(ids.begin(), ids.end(), [](uint32_t i) { return i == OffscreenTarget::kNoFeature; }));
     GpuMesh tall = r->upload(wall({0, 10, 0}, {1, 0, 0}, 20, 0, 20, 2, 0));
     styles.style = {0, 0, LensStyle::kFlatten};
-    styles.base_z = {0, 0, 0.0F};  // base minus the camera's z (0 here)
+    styles.base_z = {0, 0, 0.0F};  // local frame
     styles.flatten = 0.02F;
     r->setLens(styles);
     r->beginFrame(cam, {0, 0, 0, 1});

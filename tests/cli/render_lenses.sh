@@ -1,0 +1,102 @@
+# Information lenses in `cityatlas render` (issue 18; papers/003; the spec's
+# L1 occluder sets and L2), from the camera path's "lens" object, checked
+# through the id buffer:
+# - the occluders of a building of interest seen from a street camera are
+#   exactly the set an independent Python computation finds from the bounds
+#   files (the view-axis test of papers/003 eq. 3.18 over a 3x3x3 grid of
+#   the building's box; the report counts them);
+# - discard: no pixel carries an occluder's id (exact), and the building
+#   shows at least 99 % of the pixels it has drawn alone (solo); without the
+#   lens it shows fewer than 90 % (the camera really is behind others);
+# - x-ray: the building shows the same >= 99 % through the x-ray faces, and
+#   the picture differs from the discard one (the faces are drawn);
+# - flatten: occluders keep pixels only near the ground and the building
+#   shows >= 90 %;
+# - colour by height and a sphere lens change the picture and nothing else
+#   (ids equal); a lens naming a building that does not exist is one line.
+source "$(dirname "$0")/lib.sh" "$@"
+
+"$CITYATLAS" synth --buildings 30 --seed 3 --texture-size 64 -o town -q > /dev/null
+"$CITYATLAS" build town/town.gml -o tiles --d-min 100 -q > /dev/null
+W=320; H=240
+"$PY" - <<'PY'
+import json, struct
+t = json.load(open("tiles/tileset.json"))
+b = t["root"]["boundingVolume"]["box"]; c = b[:3]; hx, hy, hz = b[3], b[7], b[11]
+z0 = c[2] - hz
+boxes = []
+for table in t["extras"]["cityatlas"]["features"]["tables"]:
+    raw = open("tiles/" + table["bounds"]["uri"], "rb").read()
+    boxes += [struct.unpack_from("<6f", raw, 32 * i) for i in range(len(raw) // 32)]
+# The building nearest the town's centre, seen from the southern street at eye height.
+poi = min(range(len(boxes)), key=lambda i: ((boxes[i][0] + boxes[i][3]) / 2 - c[0]) ** 2 + ((boxes[i][1] + boxes[i][4]) / 2 - c[1]) ** 2)
+pc = [(boxes[poi][k] + boxes[poi][k + 3]) / 2 for k in range(3)]
+cam = [pc[0], c[1] - hy - 5, z0 + 1.7]
+keys = [{"time_s": 0, "position": cam, "look_at": [pc[0], pc[1], z0 + 8]}, {"time_s": 1, "position": cam, "look_at": [pc[0], pc[1], z0 + 8]}]
+def path(name, lens):
+    json.dump({"interpolation": "linear", "frame_rate": 1, "keyframes": keys, **({"lens": lens} if lens else {})},
+              open(f"{name}.json", "w"), indent=1)
+path("plain", None)
+path("solo", {"building": poi, "solo": True})
+path("discard", {"building": poi, "occlusion": "discard"})
+path("xray", {"building": poi, "occlusion": "xray", "xray_falloff": 0.5})
+path("flatten", {"building": poi, "occlusion": "flatten"})
+path("height", {"colour_by": "height", "highlight": [poi]})
+path("sphere", {"shape": "sphere", "centre": pc, "radius_m": 25})
+path("missing", {"building": len(boxes), "solo": True})
+# The occluders, independently: boxes met by a segment from the camera to the grid points of the POI's box.
+def meets(a, b, lo, hi):
+    t0, t1 = 0.0, 1.0
+    for k in range(3):
+        d = b[k] - a[k]
+        if d == 0:
+            if a[k] < lo[k] or a[k] > hi[k]: return False
+            continue
+        ta, tb = (lo[k] - a[k]) / d, (hi[k] - a[k]) / d
+        ta, tb = min(ta, tb), max(ta, tb)
+        t0, t1 = max(t0, ta), min(t1, tb)
+        if t0 > t1: return False
+    return True
+lo, hi = boxes[poi][:3], boxes[poi][3:]
+grid = [[lo[k] + f[k] * (hi[k] - lo[k]) for k in range(3)]
+        for f in [(0.02 + 0.48 * i, 0.02 + 0.48 * j, 0.02 + 0.48 * k) for i in range(3) for j in range(3) for k in range(3)]]
+occ = [f for f in range(len(boxes)) if f != poi and any(meets(cam, g, boxes[f][:3], boxes[f][3:]) for g in grid)]
+json.dump({"poi": poi, "occluders": occ}, open("expected.json", "w"))
+print(f"building {poi}, {len(occ)} occluders: {occ}")
+PY
+for lens in plain solo discard xray flatten height sphere; do
+  "$CITYATLAS" render tiles --path $lens.json --size ${W}x${H} --wait --anisotropy 1 --ids -o $lens -q
+done
+expect 2 "lens building 30 does not exist" -- render tiles --path missing.json --frames 1 -o missing -q
+"$PY" - "$W" "$H" <<'PY' || fail "lenses (above)"
+import json, struct, sys
+from PIL import Image
+w, h = int(sys.argv[1]), int(sys.argv[2])
+e = json.load(open("expected.json")); poi, occ = e["poi"], set(e["occluders"])
+bad = False
+def check(ok, what):
+    global bad
+    print(("ok: " if ok else "FAIL: ") + what); bad |= not ok
+def ids(name): return struct.unpack(f"<{w * h}I", open(f"{name}/ids_00001.bin", "rb").read())
+def rgb(name): return Image.open(f"{name}/frame_00001.png").convert("RGB").tobytes()
+def report(name): return json.load(open(f"{name}/report.json"))["frames"][1]
+solo = sum(i == poi for i in ids("solo"))
+plain = sum(i == poi for i in ids("plain"))
+check(solo > 500, f"the building alone covers {solo} pixels")
+check(plain < 0.9 * solo, f"without a lens it shows {plain} of them: others hide it")
+check(report("discard")["lens_occluders"] == len(occ) and len(occ) > 0,
+      f"occluders: {report('discard')['lens_occluders']} in the report, {len(occ)} by the independent test")
+d = ids("discard")
+check(not any(i in occ for i in d), "discard: no pixel carries an occluder's id")
+check(sum(i == poi for i in d) >= 0.99 * solo, f"discard: the building shows {sum(i == poi for i in d)} of {solo}")
+x = ids("xray")
+check(sum(i == poi for i in x) >= 0.99 * solo, f"x-ray: the building shows {sum(i == poi for i in x)} of {solo} (faces keep no ids)")
+check(rgb("xray") != rgb("discard"), "x-ray: the faces are drawn")
+f = ids("flatten")
+check(sum(i == poi for i in f) >= 0.9 * solo, f"flatten: the building shows {sum(i == poi for i in f)} of {solo}")
+check(sum(i in occ for i in f) < 0.2 * sum(i in occ for i in ids("plain")),
+      f"flatten: occluders keep {sum(i in occ for i in f)} of their {sum(i in occ for i in ids('plain'))} pixels")
+for name in ("height", "sphere"):
+    check(ids(name) == ids("plain") and rgb(name) != rgb("plain"), f"{name}: the same ids, another picture")
+sys.exit(1 if bad else 0)
+PY
