@@ -117,6 +117,11 @@ int runView(const ViewCliOptions& opt) {
     render::FrameRecord rec;
     uint64_t loaded_total = 0;
     std::string picked, picked_record;
+    // The lens panel: the building of interest is the last one clicked.
+    int64_t picked_feature = -1;
+    int occlusion = 0;
+    bool solo = false, by_height = false, sphere = false;
+    float xray_falloff = 0.5F, sphere_radius = 40.0F;
     int frame_count = 0;
     Vec3d last_position = nav.camera.position;
     while (!window->shouldClose() && (opt.frames == 0 || frame_count++ < opt.frames)) {
@@ -163,6 +168,7 @@ int runView(const ViewCliOptions& opt) {
                                             : render::OffscreenTarget::kNoFeature;
             const bool hit = feature != render::OffscreenTarget::kNoFeature;
             picked = hit ? fmt::format("building {}", feature) : "nothing there";
+            if (hit) picked_feature = feature;
             picked_record.clear();
             if (hit) {
                 std::string record;
@@ -235,6 +241,42 @@ int runView(const ViewCliOptions& opt) {
             ImGui::Separator();
             ImGui::TextUnformatted(picked.c_str());
             if (!picked_record.empty()) ImGui::TextUnformatted(picked_record.c_str());
+        }
+        // Lenses (papers/003): around the building last clicked.
+        ImGui::Separator();
+        ImGui::Text("lenses%s", picked_feature < 0 ? " (click a building first)" : "");
+        ImGui::RadioButton("no occlusion lens", &occlusion, 0);
+        ImGui::RadioButton("discard occluders", &occlusion, 1);
+        ImGui::SameLine();
+        ImGui::RadioButton("x-ray", &occlusion, 2);
+        ImGui::SameLine();
+        ImGui::RadioButton("flatten", &occlusion, 3);
+        if (occlusion == 2) ImGui::SliderFloat("x-ray fall-off", &xray_falloff, 0.05F, 1.0F, "%.2f");
+        ImGui::Checkbox("solo", &solo);
+        ImGui::SameLine();
+        ImGui::Checkbox("colour by height", &by_height);
+        ImGui::SameLine();
+        ImGui::Checkbox("sphere lens", &sphere);
+        if (sphere) ImGui::SliderFloat("radius m", &sphere_radius, 5.0F, 1000.0F, "%.0f");
+        {
+            render::LensParams lens;
+            lens.poi = picked_feature;
+            const bool poi = picked_feature >= 0 && static_cast<size_t>(picked_feature) < client->featureBounds().size();
+            if (poi) {
+                lens.occlusion = static_cast<render::LensParams::Occlusion>(occlusion);
+                lens.solo = solo;
+                lens.highlight = {static_cast<uint32_t>(picked_feature)};
+            }
+            lens.xray_falloff = xray_falloff;
+            if (by_height) lens.colour_by = "height";
+            if (sphere && poi) {
+                const format::FeatureBoundsRecord& b = client->featureBounds()[static_cast<size_t>(picked_feature)];
+                lens.shape = 1;
+                lens.centre = {0.5 * (b.min[0] + b.max[0]), 0.5 * (b.min[1] + b.max[1]), 0.5 * (b.min[2] + b.max[2])};
+                lens.radius_m = sphere_radius;
+            }
+            client->setLens(lens);
+            if (rec.lens_occluders > 0) ImGui::Text("%u buildings styled", rec.lens_occluders);
         }
         ImGui::End();
         overlay->render();
