@@ -44,6 +44,7 @@ struct RenderCliOptions {
     double tau_speed = 0;
     int preload_levels = -1;
     double lookahead_s = 0;
+    double fade_s = -1;  // < 0: 0.25 s in real time, none with --wait
     std::string out_dir;
     std::string report;
     std::string mode = "atlas";
@@ -161,6 +162,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"speed_limited", r.speed_limited},
             {"coarse_level_min", r.coarse_level_min},
             {"lens_occluders", r.lens_occluders},
+            {"fading", r.fading},
             {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]}}},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
@@ -275,6 +277,7 @@ int runRender(const RenderCliOptions& opt) {
     co.tau_speed_mps = opt.tau_speed;
     co.preload_levels = opt.preload_levels;
     co.lookahead_s = opt.lookahead_s;
+    co.fade_s = opt.fade_s >= 0 ? opt.fade_s : opt.wait ? 0.0 : 0.25;
     co.max_requests = static_cast<uint32_t>(opt.max_requests);
     co.upload_ms_per_frame = opt.upload_ms;
     co.selection.tau = opt.tau;
@@ -367,6 +370,7 @@ int runRender(const RenderCliOptions& opt) {
     for (size_t i = 0; i < frames; ++i) {
         const render::CameraSample s = render::sampleFrame(path, i);
         const render::Camera cam = cameraFor(s);
+        client->setFrameTime(s.time_s);  // cross-fades run on path time
         // The camera's speed over the path time since the previous frame; a cut is a teleport, not motion.
         const bool cut_here = std::find(cut_frames.begin(), cut_frames.end(), i) != cut_frames.end();
         if (i > 0 && !cut_here) {
@@ -449,6 +453,7 @@ int runRender(const RenderCliOptions& opt) {
                                  {"tau_speed_mps", co.tau_speed_mps},
                                  {"preload_level", client->preloadLevel()},
                                  {"lookahead_s", co.lookahead_s},
+                                 {"fade_s", co.fade_s},
                                  {"mode", render::textureModeName(co.mode)},
                                  {"priority", render::priorityModeName(co.selection.priority)},
                                  {"tau", opt.tau},
@@ -526,6 +531,11 @@ RunFn addRenderCommand(CLI::App& app) {
                     "of the budget), so no frame after a teleport is coarser than level L; -1: off")
         ->default_val(-1)
         ->check(CLI::Range(-1, 64));
+    cmd->add_option("--fade-s", opt->fade_s,
+                    "Smooth refinement: seconds of path time over which a node's replacement (children, originals, "
+                    "or coarser back) fades in over it (screen-door dither); 0: off; default 0.25, and 0 with --wait "
+                    "(pictures of the finished ideal set)")
+        ->check(CLI::Range(0.0, 60.0));
     cmd->add_option("--lookahead-s", opt->lookahead_s,
                     "Also plan for the camera moved by its velocity times this many seconds (each block keeps the "
                     "better of its two priorities, one budget); 0: off")

@@ -182,6 +182,74 @@ SelectionParams StreamingClient::selectionNow() const {
     return p;
 }
 
+double StreamingClient::now() const {
+    return frame_time_s_ >= 0 ? frame_time_s_ : std::chrono::duration<double>(Clock::now() - opened_).count();
+}
+
+bool StreamingClient::related(int32_t a, int32_t b) const {
+    auto above = [&](int32_t lower, int32_t upper) {  // upper is lower or one of its ancestors
+        for (int32_t n = lower; n >= 0; n = index_.nodes[static_cast<size_t>(n)].parent)
+            if (n == upper) return true;
+        return false;
+    };
+    return above(a, b) || above(b, a);
+}
+
+std::vector<StreamingClient::Fade> StreamingClient::crossFades(const Selection& sel) {
+    std::vector<Fade> out;
+    const double t = now(), fade = options_.fade_s;
+    std::map<int32_t, Shown> shown;
+    auto same = [](const Shown& s, const DrawItem& d) { return s.mode == d.mode; };
+    if (fade > 0) {
+        // Drawn now: continuing (same node, same mode), or new; a new one
+        // fades in when it replaces something shown before (an ancestor, a
+        // descendant or the same node in the other mode), else it appears.
+        std::vector<int32_t> replaced;
+        for (const DrawItem& d : sel.draws) {
+            Shown s{d.mode, -1e300};
+            if (const auto it = shown_.find(d.node); it != shown_.end() && same(it->second, d)) {
+                s.since = it->second.since;
+            } else {
+                for (const auto& [node, was] : shown_) {
+                    const auto now_there = std::find_if(sel.draws.begin(), sel.draws.end(), [&](const DrawItem& x) {
+                        return x.node == node && x.mode == was.mode;
+                    });
+                    if (now_there == sel.draws.end() && related(node, d.node)) {
+                        s.since = t;
+                        replaced.push_back(node);
+                    }
+                }
+            }
+            shown[d.node] = s;
+            if (t - s.since < fade) out.push_back({d, static_cast<float>((t - s.since) / fade), false});
+        }
+        // What was replaced now starts fading out; earlier ones go on until done.
+        for (const int32_t node : replaced) {
+            if (std::any_of(fading_out_.begin(), fading_out_.end(), [&](const Fade& f) { return f.item.node == node; })) continue;
+            DrawItem item;
+            item.node = node;
+            item.mode = shown_.at(node).mode;
+            fading_out_.push_back({item, 0.0F, true, t});
+        }
+        const auto resident = [&](BlockId b) { return manager_->resident(b); };
+        std::vector<Fade> still;
+        for (Fade& f : fading_out_) {
+            const bool drawn_now = shown.count(f.item.node) && shown[f.item.node].mode == f.item.mode;
+            // Only what is still resident: a fade never holds a block the budget let go.
+            if (t - f.started >= fade || drawn_now || !nodeDrawable(index_, f.item.node, resident)) continue;
+            f.progress = static_cast<float>((t - f.started) / fade);
+            still.push_back(f);
+            out.push_back(f);
+        }
+        fading_out_ = std::move(still);
+    } else {
+        fading_out_.clear();
+        for (const DrawItem& d : sel.draws) shown[d.node] = {d.mode, -1e300};
+    }
+    shown_ = std::move(shown);
+    return out;
+}
+
 Classification StreamingClient::classify(const Camera& camera) const {
     if (options_.mode != TextureMode::Original) {
         Classification c = classifyBlocks(index_, camera, selectionNow());
@@ -445,7 +513,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     const auto original = [&](int32_t t) -> const GpuTexture* {
         return t >= 0 && static_cast<size_t>(t) < r.original.size() ? r.original[static_cast<size_t>(t)] : nullptr;
     };
-    for (const DrawItem& d : sel.draws) {
+    auto drawItem = [&](const DrawItem& d) {
         const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
         for (int li = 0; li < kLayerCount; ++li) {
             const NodeLayer& l = n.layers[static_cast<size_t>(li)];
@@ -461,10 +529,27 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
                 gl_->drawAtlas(mesh, atlas, n.centre, li);
             }
         }
+    };
+    // Smooth refinement: what replaces a node fades in over the node fading
+    // out (complementary screen-door masks), for options_.fade_s.
+    const std::vector<Fade> fades = crossFades(sel);
+    for (const Fade& f : fades) {
+        if (!f.out) continue;
+        gl_->setFade(2, f.progress);
+        drawItem(f.item);
+        ++rec.fading;
+    }
+    for (const DrawItem& d : sel.draws) {
+        const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
+        const auto in = std::find_if(fades.begin(), fades.end(), [&](const Fade& f) { return !f.out && f.item.node == d.node; });
+        gl_->setFade(in != fades.end() ? 1 : 0, in != fades.end() ? in->progress : 0.0F);
+        rec.fading += in != fades.end() ? 1 : 0;
+        drawItem(d);
         (d.mode == DrawMode::Originals ? rec.nodes_originals : rec.nodes_atlas) += 1;
         rec.nodes_coarse += d.coarse ? 1 : 0;
         if (d.coarse && (rec.coarse_level_min < 0 || n.level < rec.coarse_level_min)) rec.coarse_level_min = n.level;
     }
+    gl_->setFade(0, 0);
     last_drawn_.clear();
     for (const DrawItem& d : sel.draws) last_drawn_.push_back(d.node);
     const FrameStats fs = gl_->endFrame();

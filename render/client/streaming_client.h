@@ -14,6 +14,7 @@
 /// (Fig. 30: refine only when possible) and draw them.
 
 #include <cstdint>
+#include <chrono>
 #include <map>
 #include <memory>
 #include <string>
@@ -68,6 +69,11 @@ struct ClientOptions {
     /// block keeping the better of its two priorities, under the same budget.
     /// 0: off.
     double lookahead_s = 0;
+    /// Smooth refinement: seconds over which a node's replacement (its
+    /// children, or a leaf's originals, or coarser back) fades in over it
+    /// (a screen-door dither; GlRenderer::setFade). Fading out never holds
+    /// a block: a node whose blocks were evicted stops at once. 0: off.
+    double fade_s = 0.25;
 };
 
 /// What one frame did; the per-frame report of `cityatlas render`.
@@ -78,6 +84,7 @@ struct FrameRecord {
     uint32_t nodes_atlas = 0, nodes_originals = 0, nodes_coarse = 0;
     int coarse_level_min = -1;   ///< the lowest level drawn coarse (its refinement not possible yet); -1: none
     uint32_t lens_occluders = 0; ///< buildings the lenses styled away from normal (occluders, or all but the solo one)
+    uint32_t fading = 0;         ///< node draws in a cross-fade (in or out)
     uint32_t draw_calls = 0, texture_binds = 0, triangles = 0;
     bool root_missing = false;   ///< nothing could be drawn (the root is not resident yet)
     uint64_t resident_bytes = 0, requested_bytes = 0, budget_bytes = 0;
@@ -154,6 +161,9 @@ public:
     /// need the feature bounds (a folder without them draws every building normally).
     void setLens(const LensParams& lens) { lens_ = lens; }
     const LensParams& lens() const { return lens_; }
+    /// The time of the next frame (seconds, increasing: a camera path's time)
+    /// for the cross-fades; without it, seconds since open().
+    void setFrameTime(double seconds) { frame_time_s_ = seconds; }
     /// The camera's velocity (m/s, local frame) for the speed policies and
     /// the look-ahead; zero at a teleport.
     void setCameraVelocity(const Vec3d& v) {
@@ -170,6 +180,19 @@ private:
     StreamingClient() = default;
     struct Resident;
     void loadFeatureBounds();
+    struct Fade {
+        DrawItem item;
+        float progress = 0;
+        bool out = false;
+        double started = 0;
+    };
+    struct Shown {
+        DrawMode mode = DrawMode::Atlas;
+        double since = 0;  ///< when it started fading in (-1e300: it appeared at once)
+    };
+    std::vector<Fade> crossFades(const Selection& sel);
+    bool related(int32_t a, int32_t b) const;
+    double now() const;
     void choosePreloadLevel();
     Classification classify(const Camera& camera) const;
     void plan(const Camera& camera);
@@ -201,6 +224,10 @@ private:
     Vec3d velocity_{0, 0, 0};
     int preload_level_ = -1;
     LensParams lens_;
+    std::map<int32_t, Shown> shown_;     ///< nodes drawn in the last frame
+    std::vector<Fade> fading_out_;
+    double frame_time_s_ = -1;
+    std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
     LensStyle last_lens_;
     bool lens_uploaded_ = false;
     std::array<uint32_t, 3> requests_{};  ///< by BlockKind, since the last frame record

@@ -75,6 +75,9 @@ uniform int u_lens;               // analytic colour lens: 0 none, 1 sphere, 2 v
 uniform vec3 u_lens_centre;       // relative to the camera
 uniform float u_lens_radius;
 uniform vec2 u_context;           // outside the lens: saturation, brightness
+uniform int u_fade;               // cross-fade: 0 none, 1 in, 2 out (GlRenderer::setFade)
+uniform float u_fade_t;
+const float kBayer[16] = float[16](0.0, 8.0, 2.0, 10.0, 12.0, 4.0, 14.0, 6.0, 3.0, 11.0, 1.0, 9.0, 15.0, 7.0, 13.0, 5.0);
 uniform samplerBuffer u_materials;  // linear rgb, alpha = 1 - transparency
 uniform int u_material_count;
 uniform int u_mode;
@@ -92,6 +95,11 @@ void main() {
         c = texture(u_texture, v_uv);
     } else {
         c = vec4(vec3(u_grey), 1.0);
+    }
+    if (u_fade != 0) {
+        ivec2 q = ivec2(gl_FragCoord.xy) & 3;
+        bool in_part = (kBayer[q.y * 4 + q.x] + 0.5) / 16.0 < u_fade_t;
+        if ((u_fade == 1) != in_part) discard;
     }
     if (v_style == 1u) discard;                        // the discard lens
     if ((v_style == 2u) != (u_pass == 2)) discard;      // x-ray faces only in their own pass
@@ -404,6 +412,8 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
     r->u_materials_ = glGetUniformLocation(p, "u_materials");
     r->u_material_count_ = glGetUniformLocation(p, "u_material_count");
     r->u_pass_ = glGetUniformLocation(p, "u_pass");
+    r->u_fade_ = glGetUniformLocation(p, "u_fade");
+    r->u_fade_t_ = glGetUniformLocation(p, "u_fade_t");
     glUseProgram(p);
     glUniform1i(r->u_texture_, 0);
     glUniform1i(r->u_materials_, 1);
@@ -646,6 +656,8 @@ int GlRenderer::beginNode(const Vec3d& node_centre, int layer) {
     node.offset = {static_cast<float>(offset.x), static_cast<float>(offset.y), static_cast<float>(offset.z)};
     node.distance = length(offset);
     node.layer = layer == 1 ? 1 : 0;
+    node.fade = fade_mode_;
+    node.fade_progress = fade_progress_;
     nodes_.push_back(node);
     return static_cast<int>(nodes_.size()) - 1;
 }
@@ -733,6 +745,8 @@ void GlRenderer::issue(const Draw& d, FrameStats* stats) {
     const GpuMesh& mesh = *d.mesh;
     const NodeDraw& node = nodes_[static_cast<size_t>(d.node)];
     glUniform3f(u_offset_, node.offset[0], node.offset[1], node.offset[2]);
+    glUniform1i(u_fade_, node.fade);
+    glUniform1f(u_fade_t_, node.fade_progress);
     glUniform1i(u_mode_, d.mode);
     glUniform1i(u_uv_set_, d.uv_original ? 1 : 0);
     if (d.mode != kModeColours && d.texture != nullptr && d.texture->id != bound_texture_) {

@@ -205,6 +205,16 @@ public:
     void drawDummy(const GpuMesh& mesh, const Vec3d& node_centre, int layer);
     /// The lenses from the next frame on (uploads the per-feature tables).
     void setLens(const LensStyle& lens);
+    /// Screen-door cross-fade for the draw*() calls that follow (until the
+    /// next setFade): 0 none; 1 fading in, 2 fading out, at `progress` in
+    /// [0, 1]. A 4 x 4 ordered dither keeps a fading-in fragment where the
+    /// pixel's threshold is below progress and a fading-out one where it is
+    /// not, so a node fading in and the one it replaces fading out at the
+    /// same progress cover each pixel exactly once between them.
+    void setFade(int mode, float progress) {
+        fade_mode_ = mode;
+        fade_progress_ = progress;
+    }
     /// Issues the queued draws: the opaque layer in call order with depth
     /// writes, then the alpha layer, far nodes first, blended (src alpha, one
     /// minus src alpha) with depth test on and depth writes off. Leaves
@@ -229,6 +239,8 @@ private:
         std::array<float, 3> offset{};         ///< node_centre - camera.position, rounded once
         double distance = 0;                   ///< |offset| in double, for the alpha order
         int layer = 0;
+        int fade = 0;                          ///< setFade's mode and progress when it was queued
+        float fade_progress = 0;
     };
     void queue(const GpuMesh& mesh, const GpuTexture* texture, int mode, bool uv_original, uint32_t first,
                uint32_t count);
@@ -241,9 +253,11 @@ private:
     float anisotropy_ = 1;
     uint32_t program_ = 0;
     int u_view_projection_ = -1, u_offset_ = -1, u_uv_set_ = -1, u_mode_ = -1, u_opaque_ = -1,
-        u_texture_ = -1, u_materials_ = -1, u_material_count_ = -1, u_pass_ = -1;
+        u_texture_ = -1, u_materials_ = -1, u_material_count_ = -1, u_pass_ = -1, u_fade_ = -1, u_fade_t_ = -1;
     LensStyle lens_;
     bool any_xray_ = false;
+    int fade_mode_ = 0;
+    float fade_progress_ = 0;
     uint32_t style_buffer_ = 0, style_texture_ = 0, base_buffer_ = 0, base_texture_ = 0, tint_buffer_ = 0,
              tint_texture_ = 0;
     uint32_t material_buffer_ = 0, material_texture_ = 0;
