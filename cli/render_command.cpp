@@ -163,6 +163,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"coarse_level_min", r.coarse_level_min},
             {"lens_occluders", r.lens_occluders},
             {"fading", r.fading},
+            {"wasted_bytes", r.wasted_bytes},
             {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]}}},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},

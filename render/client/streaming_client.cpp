@@ -98,6 +98,7 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
     c->resident_->cpu_meshes.resize(c->index_.blocks.size());
     c->resident_->atlases.resize(c->index_.blocks.size());
     c->resident_->original.assign(c->index_.textures.size(), nullptr);
+    c->drawn_.assign(c->index_.blocks.size(), 0);
     *status = Status::Ok();
     return c;
 }
@@ -305,7 +306,12 @@ Classification StreamingClient::classify(const Camera& camera) const {
 void StreamingClient::plan(const Camera& camera) {
     const BlockActions actions = manager_->update(classify(camera));
     for (const BlockId b : actions.cancel) loader_->cancel(b);
-    for (const BlockId b : actions.evict) release(b);
+    for (const BlockId b : actions.evict) {
+        // Fetched and let go without ever being drawn: bandwidth spent for nothing.
+        if (!drawn_[b]) wasted_bytes_ += index_.blocks[b].bytes;
+        drawn_[b] = 0;
+        release(b);
+    }
     for (const BlockId b : actions.request) {
         loader_->request(b);
         ++requests_[static_cast<size_t>(index_.blocks[b].kind)];
@@ -515,6 +521,14 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     };
     auto drawItem = [&](const DrawItem& d) {
         const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
+        for (const NodeLayer& l : n.layers) {
+            if (!l.present) continue;
+            drawn_[l.geometry] = 1;
+            if (l.atlas != kNoBlock) drawn_[l.atlas] = 1;
+        }
+        if (d.mode == DrawMode::Originals)
+            for (const BlockId b : n.texture_blocks)
+                if (manager_->resident(b)) drawn_[b] = 1;
         for (int li = 0; li < kLayerCount; ++li) {
             const NodeLayer& l = n.layers[static_cast<size_t>(li)];
             if (!l.present) continue;
@@ -574,6 +588,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.ram_budget_bytes = options_.loader.ram_budget_bytes;
     rec.ideal_bytes = b.ideal_bytes;
     rec.speed_mps = speed_mps_;
+    rec.wasted_bytes = wasted_bytes_;
     rec.speed_limited = speedLimited();
     rec.requests = requests_;
     requests_ = {};

@@ -85,6 +85,7 @@ struct FrameRecord {
     int coarse_level_min = -1;   ///< the lowest level drawn coarse (its refinement not possible yet); -1: none
     uint32_t lens_occluders = 0; ///< buildings the lenses styled away from normal (occluders, or all but the solo one)
     uint32_t fading = 0;         ///< node draws in a cross-fade (in or out)
+    uint64_t wasted_bytes = 0;   ///< so far: bytes of blocks evicted without ever being drawn
     uint32_t draw_calls = 0, texture_binds = 0, triangles = 0;
     bool root_missing = false;   ///< nothing could be drawn (the root is not resident yet)
     uint64_t resident_bytes = 0, requested_bytes = 0, budget_bytes = 0;
@@ -227,6 +228,8 @@ private:
     std::map<int32_t, Shown> shown_;     ///< nodes drawn in the last frame
     std::vector<Fade> fading_out_;
     double frame_time_s_ = -1;
+    std::vector<uint8_t> drawn_;  ///< per block: drawn since it became resident
+    uint64_t wasted_bytes_ = 0;
     std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
     LensStyle last_lens_;
     bool lens_uploaded_ = false;
