@@ -211,9 +211,11 @@ std::vector<StreamingClient::Fade> StreamingClient::crossFades(const Selection& 
             if (const auto it = shown_.find(d.node); it != shown_.end() && same(it->second, d)) {
                 s.since = it->second.since;
             } else {
-                for (const auto& [node, was] : shown_) {
+                for (const auto& entry : shown_) {
+                    const int32_t node = entry.first;
+                    const DrawMode was = entry.second.mode;
                     const auto now_there = std::find_if(sel.draws.begin(), sel.draws.end(), [&](const DrawItem& x) {
-                        return x.node == node && x.mode == was.mode;
+                        return x.node == node && x.mode == was;
                     });
                     if (now_there == sel.draws.end() && related(node, d.node)) {
                         s.since = t;
