@@ -148,8 +148,9 @@ public:
     Status featureRecord(uint32_t feature, std::string* json_text);
 
     const TilesetIndex& index() const { return index_; }
-    /// Per feature id (index().feature_count of them); a record without
-    /// kHasGeometry where the folder has no bounds for the feature.
+    /// Per feature id (index().feature_count of them, or as many as the
+    /// bounds files hold when that is fewer); a record without kHasGeometry
+    /// where a file was missing or damaged.
     const std::vector<format::FeatureBoundsRecord>& featureBounds() const { return feature_bounds_; }
     /// Bytes of the feature bounds, inside the budget.
     uint64_t pinnedBytes() const { return pinned_bytes_; }
