@@ -8,7 +8,8 @@
 /// 32 bytes per feature, little-endian:
 ///
 ///   offset  type        field
-///   0       float32[3]  min: the feature's axis-aligned box, local frame (m)
+///   0       float32[3]  min: the feature's axis-aligned box, local frame (m),
+///                       rounded outwards from double (it holds every vertex)
 ///   12      float32[3]  max
 ///   24      float32     base_z: the lowest point of its ground surfaces
 ///                       (its box's min z when it has none)

@@ -44,9 +44,12 @@ std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t
         if (a.box.empty()) continue;
         format::FeatureBoundsRecord& r = out[f];
         const double lo[3] = {a.box.min.x, a.box.min.y, a.box.min.z}, hi[3] = {a.box.max.x, a.box.max.y, a.box.max.z};
+        // Rounded outwards: the float box still contains every vertex.
         for (int k = 0; k < 3; ++k) {
             r.min[k] = static_cast<float>(lo[k]);
+            if (static_cast<double>(r.min[k]) > lo[k]) r.min[k] = std::nextafter(r.min[k], -INFINITY);
             r.max[k] = static_cast<float>(hi[k]);
+            if (static_cast<double>(r.max[k]) < hi[k]) r.max[k] = std::nextafter(r.max[k], INFINITY);
         }
         r.base_z = static_cast<float>(a.ground_min_z < 1e300 ? a.ground_min_z : a.box.min.z);
         r.flags = format::FeatureBoundsRecord::kHasGeometry;

@@ -151,11 +151,10 @@ void StreamingClient::choosePreloadLevel() {
 }
 
 void StreamingClient::loadFeatureBounds() {
-    // No more records than the bounds files hold, whatever the index's count says.
-    uint64_t records_listed = 0;
-    for (const FeatureTableInfo& t : index_.feature_tables) records_listed += t.bounds_bytes / format::kFeatureBoundsBytes;
-    feature_bounds_.assign(std::min<uint64_t>(index_.feature_count, records_listed), format::FeatureBoundsRecord{});
+    // No more records than the tables listed can hold, whatever the index's count says.
     const size_t block = static_cast<size_t>(std::max(1, index_.feature_block_size));
+    feature_bounds_.assign(std::min<uint64_t>(index_.feature_count, uint64_t{index_.feature_tables.size()} * block),
+                           format::FeatureBoundsRecord{});
     for (size_t k = 0; k < index_.feature_tables.size(); ++k) {
         const FeatureTableInfo& t = index_.feature_tables[k];
         if (t.bounds_uri.empty()) continue;

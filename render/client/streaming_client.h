@@ -149,8 +149,8 @@ public:
 
     const TilesetIndex& index() const { return index_; }
     /// Per feature id (index().feature_count of them, or as many as the
-    /// bounds files hold when that is fewer); a record without kHasGeometry
-    /// where a file was missing or damaged.
+    /// listed tables can hold when that is fewer); a record without
+    /// kHasGeometry where a file was missing or damaged.
     const std::vector<format::FeatureBoundsRecord>& featureBounds() const { return feature_bounds_; }
     /// Bytes of the feature bounds, inside the budget.
     uint64_t pinnedBytes() const { return pinned_bytes_; }
