@@ -162,6 +162,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"speed_limited", r.speed_limited},
             {"coarse_level_min", r.coarse_level_min},
             {"lens_occluders", r.lens_occluders},
+            {"lens_occluder_ids", r.lens_occluder_ids},
             {"fading", r.fading},
             {"wasted_bytes", r.wasted_bytes},
             {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]}}},

@@ -510,6 +510,8 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     // The lenses' per-building state for this camera, uploaded when it changed.
     if (lens_.active() || lens_uploaded_) {
         LensStyle style = lens_.active() ? lensStyle(lens_, feature_bounds_, camera.position) : LensStyle{};
+        for (uint32_t f = 0; f < style.style.size(); ++f)
+            if (style.style[f] != LensStyle::kNormal && !lens_.solo) rec.lens_occluder_ids.push_back(f);
         rec.lens_occluders = static_cast<uint32_t>(
             std::count_if(style.style.begin(), style.style.end(), [&](uint8_t s) { return s != LensStyle::kNormal; }));
         if (!lens_uploaded_ || !(style == last_lens_)) {

@@ -84,6 +84,7 @@ struct FrameRecord {
     uint32_t nodes_atlas = 0, nodes_originals = 0, nodes_coarse = 0;
     int coarse_level_min = -1;   ///< the lowest level drawn coarse (its refinement not possible yet); -1: none
     uint32_t lens_occluders = 0; ///< buildings the lenses styled away from normal (occluders, or all but the solo one)
+    std::vector<uint32_t> lens_occluder_ids;  ///< the occlusion lens's occluders, ascending (none listed with solo)
     uint32_t fading = 0;         ///< node draws in a cross-fade (in or out)
     uint64_t wasted_bytes = 0;   ///< so far: bytes of blocks evicted without ever being drawn
     uint32_t draw_calls = 0, texture_binds = 0, triangles = 0;

@@ -1,10 +1,11 @@
 # Information lenses in `cityatlas render` (issue 18; papers/003; the spec's
 # L1 occluder sets and L2), from the camera path's "lens" object, checked
 # through the id buffer:
-# - the occluders of a building of interest seen from a street camera are
-#   exactly the set an independent Python computation finds from the bounds
-#   files (the view-axis test of papers/003 eq. 3.18 over a 3x3x3 grid of
-#   the building's box; the report counts them);
+# - the occluders of a building of interest are exactly the set an
+#   independent Python computation finds from the bounds files (the
+#   view-axis test of papers/003 eq. 3.18 over a 3x3x3 grid of the
+#   building's box, and on 20 cameras around it the spherical test of
+#   eq. 3.16 as well);
 # - discard: no pixel carries an occluder's id (exact), and the building
 #   shows at least 99 % of the pixels it has drawn alone (solo); without the
 #   lens it shows fewer than 90 % (the camera really is behind others);
@@ -62,8 +63,58 @@ grid = [[lo[k] + f[k] * (hi[k] - lo[k]) for k in range(3)]
         for f in [(0.02 + 0.48 * i, 0.02 + 0.48 * j, 0.02 + 0.48 * k) for i in range(3) for j in range(3) for k in range(3)]]
 occ = [f for f in range(len(boxes)) if f != poi and any(meets(cam, g, boxes[f][:3], boxes[f][3:]) for g in grid)]
 json.dump({"poi": poi, "occluders": occ}, open("expected.json", "w"))
+# L1 on 20 cameras: a ring around the building at several heights and
+# distances, each frame one camera (a key per second at 1 frame a second),
+# with the spherical test (papers/003 eq. 3.16) on as well.
+import math, random
+rng = random.Random(20)
+ring = []
+for i in range(20):
+    a = 2 * math.pi * i / 20
+    d = rng.uniform(50, 160)
+    p = [pc[0] + d * math.cos(a), pc[1] + d * math.sin(a), z0 + rng.uniform(1.7, 40)]
+    ring.append({"time_s": i, "position": p, "look_at": pc})
+json.dump({"interpolation": "linear", "frame_rate": 1, "keyframes": ring,
+           "lens": {"building": poi, "occlusion": "discard", "sphere_radius_m": 30.5}}, open("ring.json", "w"), indent=1)
+json.dump({"boxes": boxes, "grid": grid, "poi": poi}, open("ring_expected_inputs.json", "w"))
 print(f"building {poi}, {len(occ)} occluders: {occ}")
 PY
+"$CITYATLAS" render tiles --path ring.json --size 160x120 --wait --anisotropy 1 -o ring -q
+"$PY" - <<'PY' || fail "L1: occluder sets on 20 cameras differ (above)"
+import json, math, sys
+e = json.load(open("ring_expected_inputs.json")); boxes, grid, poi = e["boxes"], e["grid"], e["poi"]
+def meets(a, b, lo, hi):
+    t0, t1 = 0.0, 1.0
+    for k in range(3):
+        d = b[k] - a[k]
+        if d == 0:
+            if a[k] < lo[k] or a[k] > hi[k]: return False
+            continue
+        ta, tb = (lo[k] - a[k]) / d, (hi[k] - a[k]) / d
+        ta, tb = min(ta, tb), max(ta, tb)
+        t0, t1 = max(t0, ta), min(t1, tb)
+        if t0 > t1: return False
+    return True
+frames = json.load(open("ring/report.json"))["frames"]
+bad, total, by_sphere = 0, 0, 0
+for f in frames:
+    cam = f["camera"]["position"]
+    want = set()
+    for i, b in enumerate(boxes):
+        if i == poi: continue
+        centre = [(b[k] + b[k + 3]) / 2 for k in range(3)]
+        near = math.dist(centre, cam) < 30.5
+        by_sphere += near
+        if near or any(meets(cam, g, b[:3], b[3:]) for g in grid): want.add(i)
+    got = set(f["lens_occluder_ids"])
+    total += len(want)
+    if got != want:
+        bad += 1
+        print(f"FAIL: frame {f['frame']}: occluders {sorted(got)}, expected {sorted(want)}")
+print(f"{len(frames)} cameras, {total} occluders in all ({by_sphere} by the sphere test): {len(frames) - bad} sets equal")
+sys.exit(1 if bad or len(frames) != 20 or total == 0 else 0)
+PY
+echo "ok: L1: the occluder sets of 20 cameras equal the independent computation"
 for lens in plain solo discard xray flatten height sphere; do
   "$CITYATLAS" render tiles --path $lens.json --size ${W}x${H} --wait --anisotropy 1 --ids -o $lens -q
 done
@@ -84,8 +135,8 @@ solo = sum(i == poi for i in ids("solo"))
 plain = sum(i == poi for i in ids("plain"))
 check(solo > 500, f"the building alone covers {solo} pixels")
 check(plain < 0.9 * solo, f"without a lens it shows {plain} of them: others hide it")
-check(report("discard")["lens_occluders"] == len(occ) and len(occ) > 0,
-      f"occluders: {report('discard')['lens_occluders']} in the report, {len(occ)} by the independent test")
+check(set(report("discard")["lens_occluder_ids"]) == occ and report("discard")["lens_occluders"] == len(occ) and occ,
+      f"occluders: {report('discard')['lens_occluder_ids']} in the report, {sorted(occ)} by the independent test")
 d = ids("discard")
 check(not any(i in occ for i in d), "discard: no pixel carries an occluder's id")
 check(sum(i == poi for i in d) >= 0.99 * solo, f"discard: the building shows {sum(i == poi for i in d)} of {solo}")
