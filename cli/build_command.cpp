@@ -512,21 +512,22 @@ int runBuild(const BuildCliOptions& opt_in) {
         for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
         return rec;
     };
+    if (sharded && opt.format != "native")
+        return abandon(Status::Usage(fmt::format(
+            "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
+            "give --shard-triangles {} (one shard) or build --format native",
+            opt.format, shard_plan.shards(), opt.shard_triangles, scene_triangles)));
+    // The feature tables need nothing of the tree: written first, from what
+    // the read gathered (the atlas stage takes the triangles; a sharded
+    // build's features leave memory before the plan's passes over them).
+    tiles::FeatureTables feature_tables;
+    if (Status s = tiles::writeFeatureTables(scene.features, sink.bounds.finish(scene.features.size()),
+                                             opt.tiles.feature_block_size, tmp, &feature_tables);
+        !s.ok())
+        return abandon(s);
+    sink.bounds.clear();
     if (sharded) {
         // --- Plan, shards, merge (cli/shards.h).
-        if (opt.format != "native")
-            return abandon(Status::Usage(fmt::format(
-                "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
-                "give --shard-triangles {} (one shard) or build --format native",
-                opt.format, shard_plan.shards(), opt.shard_triangles, scene_triangles)));
-        // The feature tables need nothing of the tree: written first, the
-        // features leave memory before the plan's passes over the triangles.
-        tiles::FeatureTables feature_tables;
-        if (Status s = tiles::writeFeatureTables(scene.features, sink.bounds.finish(scene.features.size()),
-                                                 opt.tiles.feature_block_size, tmp, &feature_tables);
-            !s.ok())
-            return abandon(s);
-        sink.bounds.clear();
         std::vector<Feature>().swap(scene.features);
         atlas::GlobalDecisions globals;
         const auto plan_progress = [&](const char* step, uint64_t done, uint64_t total) {
@@ -586,14 +587,6 @@ int runBuild(const BuildCliOptions& opt_in) {
         return abandon(execMergeRunningShards(plan_dir, opt.workers, params.threads, opt.quiet));  // returns on failure only
     } else {
         // One shard: the whole tree in this process, from the scene in memory.
-        // The feature tables first, from what the read gathered (the atlas
-        // stage takes the triangles).
-        tiles::FeatureTables feature_tables;
-        if (Status s = tiles::writeFeatureTables(scene.features, sink.bounds.finish(scene.features.size()),
-                                                 opt.tiles.feature_block_size, tmp, &feature_tables);
-            !s.ok())
-            return abandon(s);
-        sink.bounds.clear();
         if (Status s = readSpill(spill, &scene.triangles); !s.ok()) return abandon(s);
         fs::remove_all(plan_dir, ec);
         // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
