@@ -20,8 +20,11 @@ source "$(dirname "$0")/lib.sh" "$@"
 "$CITYATLAS" synth --buildings 30 --seed 3 --texture-size 64 -o town -q > /dev/null
 "$CITYATLAS" build town/town.gml -o tiles --d-min 100 -q > /dev/null
 W=320; H=240
-"$PY" - <<'PY'
-import json, struct
+"$PY" - "$SRC/tests/cli" <<'PY'
+import json, struct, sys
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, sys.argv[1])
+import lens_oracle
 t = json.load(open("tiles/tileset.json"))
 b = t["root"]["boundingVolume"]["box"]; c = b[:3]; hx, hy, hz = b[3], b[7], b[11]
 z0 = c[2] - hz
@@ -45,23 +48,8 @@ path("flatten", {"building": poi, "occlusion": "flatten"})
 path("height", {"colour_by": "height", "highlight": [poi]})
 path("sphere", {"shape": "sphere", "centre": pc, "radius_m": 25})
 path("missing", {"building": len(boxes), "solo": True})
-# The occluders, independently: boxes met by a segment from the camera to the grid points of the POI's box.
-def meets(a, b, lo, hi):
-    t0, t1 = 0.0, 1.0
-    for k in range(3):
-        d = b[k] - a[k]
-        if d == 0:
-            if a[k] < lo[k] or a[k] > hi[k]: return False
-            continue
-        ta, tb = (lo[k] - a[k]) / d, (hi[k] - a[k]) / d
-        ta, tb = min(ta, tb), max(ta, tb)
-        t0, t1 = max(t0, ta), min(t1, tb)
-        if t0 > t1: return False
-    return True
-lo, hi = boxes[poi][:3], boxes[poi][3:]
-grid = [[lo[k] + f[k] * (hi[k] - lo[k]) for k in range(3)]
-        for f in [(0.02 + 0.48 * i, 0.02 + 0.48 * j, 0.02 + 0.48 * k) for i in range(3) for j in range(3) for k in range(3)]]
-occ = [f for f in range(len(boxes)) if f != poi and any(meets(cam, g, boxes[f][:3], boxes[f][3:]) for g in grid)]
+# The occluders, independently (tests/cli/lens_oracle.py).
+occ = sorted(lens_oracle.occluders(boxes, poi, cam))
 json.dump({"poi": poi, "occluders": occ}, open("expected.json", "w"))
 # L1 on 20 cameras: a ring around the building at several heights and
 # distances, each frame one camera (a key per second at 1 frame a second),
@@ -76,36 +64,22 @@ for i in range(20):
     ring.append({"time_s": i, "position": p, "look_at": pc})
 json.dump({"interpolation": "linear", "frame_rate": 1, "keyframes": ring,
            "lens": {"building": poi, "occlusion": "discard", "sphere_radius_m": 30.5}}, open("ring.json", "w"), indent=1)
-json.dump({"boxes": boxes, "grid": grid, "poi": poi}, open("ring_expected_inputs.json", "w"))
+json.dump({"boxes": boxes, "poi": poi}, open("ring_expected_inputs.json", "w"))
 print(f"building {poi}, {len(occ)} occluders: {occ}")
 PY
 "$CITYATLAS" render tiles --path ring.json --size 160x120 --wait --anisotropy 1 -o ring -q
-"$PY" - <<'PY' || fail "L1: occluder sets on 20 cameras differ (above)"
-import json, math, sys
-e = json.load(open("ring_expected_inputs.json")); boxes, grid, poi = e["boxes"], e["grid"], e["poi"]
-def meets(a, b, lo, hi):
-    t0, t1 = 0.0, 1.0
-    for k in range(3):
-        d = b[k] - a[k]
-        if d == 0:
-            if a[k] < lo[k] or a[k] > hi[k]: return False
-            continue
-        ta, tb = (lo[k] - a[k]) / d, (hi[k] - a[k]) / d
-        ta, tb = min(ta, tb), max(ta, tb)
-        t0, t1 = max(t0, ta), min(t1, tb)
-        if t0 > t1: return False
-    return True
+"$PY" - "$SRC/tests/cli" <<'PY' || fail "L1: occluder sets on 20 cameras differ (above)"
+import json, sys
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, sys.argv[1])
+import lens_oracle
+e = json.load(open("ring_expected_inputs.json")); boxes, poi = e["boxes"], e["poi"]
 frames = json.load(open("ring/report.json"))["frames"]
 bad, total, by_sphere = 0, 0, 0
 for f in frames:
     cam = f["camera"]["position"]
-    want = set()
-    for i, b in enumerate(boxes):
-        if i == poi: continue
-        centre = [(b[k] + b[k + 3]) / 2 for k in range(3)]
-        near = math.dist(centre, cam) < 30.5
-        by_sphere += near
-        if near or any(meets(cam, g, b[:3], b[3:]) for g in grid): want.add(i)
+    want = lens_oracle.occluders(boxes, poi, cam, 30.5)
+    by_sphere += len(want - lens_oracle.occluders(boxes, poi, cam))
     got = set(f["lens_occluder_ids"])
     total += len(want)
     if got != want:
