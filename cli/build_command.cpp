@@ -473,14 +473,14 @@ int runBuild(const BuildCliOptions& opt_in) {
 
     // --- Read.
     IngestState state;
-    PlanSink sink(spill);
+    PlanSink sink(spill, plan_dir / "features.spill");
     state.sink = &sink;
     std::vector<fs::path> read_files;
     if (Status s = readInputs(opt.input, progress, state, &read_files); !s.ok()) return abandon(s);
     if (Status s = sink.finish(); !s.ok()) return abandon(s);
     Scene& scene = sink.scene;
     SceneStats scene_stats = sink.stats.finish();
-    scene_stats.features = scene.features.size();
+    scene_stats.features = sink.feature_spill.size();
     scene_stats.textures = scene.textures.size();
     attachGeoreference(state, scene_stats.bounds_local, scene.georef, read_files.front());
     if (sink.triangles == 0) return abandon(Status::Invalid("the inputs hold no triangles: nothing to build"));
@@ -492,12 +492,12 @@ int runBuild(const BuildCliOptions& opt_in) {
     // then on, with their original uvs); the tiles and the 3D Tiles export
     // read the scene's textures, materials and features only.
     const size_t scene_triangles = sink.triangles;
-    const size_t feature_count = scene.features.size();
+    const size_t feature_count = sink.feature_spill.size();
     Diagnostics& diagnostics = state.diagnostics;
     atlas::AtlasTree single_tree;
     tiles::TilesStats ts;
     ordered_json shard_reuse;
-    const atlas::ShardPlan shard_plan = atlas::planShards(sink.features, scene.features.size(), opt.shard_triangles);
+    const atlas::ShardPlan shard_plan = atlas::planShards(sink.features, feature_count, opt.shard_triangles);
     sink.features = {};
     const bool sharded = shard_plan.shards() > 1 || opt.slurm;
     // What the end of the build needs, here or in the merge job (`merge`).
@@ -517,18 +517,20 @@ int runBuild(const BuildCliOptions& opt_in) {
             "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
             "give --shard-triangles {} (one shard) or build --format native",
             opt.format, shard_plan.shards(), opt.shard_triangles, scene_triangles)));
-    // The feature tables need nothing of the tree: written first, from what
-    // the read gathered (the atlas stage takes the triangles; a sharded
-    // build's features leave memory before the plan's passes over them).
+    // The feature tables need nothing of the tree: written first, from the
+    // read's feature spill, a block in memory at a time.
     tiles::FeatureTables feature_tables;
-    if (Status s = tiles::writeFeatureTables(scene.features, sink.bounds.finish(scene.features.size()),
-                                             opt.tiles.feature_block_size, tmp, &feature_tables);
-        !s.ok())
-        return abandon(s);
+    {
+        tiles::FeatureTablesWriter writer(tmp, opt.tiles.feature_block_size);
+        const Status spilled = sink.feature_spill.forEach(
+            [&](uint32_t id, Feature&& f) { return writer.add(std::move(f), sink.bounds.record(id)); });
+        if (!spilled.ok()) return abandon(spilled);
+        if (Status s = writer.finish(&feature_tables); !s.ok()) return abandon(s);
+    }
     sink.bounds.clear();
     if (sharded) {
         // --- Plan, shards, merge (cli/shards.h).
-        std::vector<Feature>().swap(scene.features);
+        fs::remove(sink.feature_spill.path(), ec);
         atlas::GlobalDecisions globals;
         const auto plan_progress = [&](const char* step, uint64_t done, uint64_t total) {
             progress.update(step, done, total);
@@ -588,6 +590,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     } else {
         // One shard: the whole tree in this process, from the scene in memory.
         if (Status s = readSpill(spill, &scene.triangles); !s.ok()) return abandon(s);
+        if (Status s = sink.feature_spill.readAll(&scene.features); !s.ok()) return abandon(s);
         fs::remove_all(plan_dir, ec);
         // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
         // round trip); the 3D Tiles export still reads PNGs, so it gets them too.

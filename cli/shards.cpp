@@ -518,7 +518,8 @@ Status readSpill(const fs::path& spill, std::vector<Triangle>* out) {
     return Status::Ok();
 }
 
-PlanSink::PlanSink(fs::path spill) : spill_(std::move(spill)), file_(spill_, std::ios::binary) {}
+PlanSink::PlanSink(fs::path spill, fs::path feature_spill_path)
+    : feature_spill(std::move(feature_spill_path)), spill_(std::move(spill)), file_(spill_, std::ios::binary) {}
 
 void PlanSink::addTriangles(std::vector<Triangle>& t) {
     for (const Triangle& tri : t) {
@@ -532,6 +533,7 @@ void PlanSink::addTriangles(std::vector<Triangle>& t) {
 }
 
 Status PlanSink::finish() {
+    if (Status s = feature_spill.finish(); !s.ok()) return s;
     file_.close();
     if (!file_) return Status::Io(fmt::format("{}: cannot write (disk full?)", spill_.string()));
     return Status::Ok();

@@ -46,6 +46,7 @@
 #include "core/resource_usage.h"
 #include "core/status.h"
 #include "ingest/diagnostics.h"
+#include "ingest/feature_spill.h"
 #include "ingest/scene.h"
 #include "ingest/scene_sink.h"
 #include "tiles/feature_bounds.h"
@@ -56,18 +57,22 @@ namespace cityatlas::cli {
 using ShardProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
 
 /// Reading straight into a plan: the triangles go to a spill file as they
-/// come, in scene order; the tables (textures, materials, features,
-/// georeference) and what the plan needs of each feature stay in memory.
+/// come, in scene order, and the features to another (ingest/feature_spill.h);
+/// the tables (textures, materials, georeference) and what the plan needs of
+/// each feature (about 130 bytes) stay in memory.
 class PlanSink : public SceneCollector {
 public:
-    explicit PlanSink(std::filesystem::path spill);
-    // SceneCollector::scene holds the tables (textures, materials, features, georeference), never triangles.
+    PlanSink(std::filesystem::path spill, std::filesystem::path feature_spill);
+    // SceneCollector::scene holds the tables (textures, materials, georeference), never triangles or features.
+    FeatureSpill feature_spill;
     atlas::FeatureSummaries features;
     tiles::FeatureBoundsAccumulator bounds;  ///< for the feature tables (features/bounds/<k>.bin)
     SceneStatsAccumulator stats;
     uint64_t triangles = 0;
-    Status finish();                   ///< closes the spill; an error when a write failed
+    Status finish();                   ///< closes the spills; an error when a write failed
     void addTriangles(std::vector<Triangle>& t) override;
+    uint32_t addFeature(Feature f) override { return feature_spill.add(f); }
+    void setFeatureLod(uint32_t feature, int8_t lod) override { feature_spill.setLod(feature, lod); }
 
 private:
     std::filesystem::path spill_;

@@ -39,10 +39,15 @@ void FeatureBoundsAccumulator::add(const Triangle& t) {
 
 std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t features) const {
     std::vector<format::FeatureBoundsRecord> out(features);
-    for (size_t f = 0; f < features && f < acc_.size(); ++f) {
+    for (size_t f = 0; f < features; ++f) out[f] = record(f);
+    return out;
+}
+
+format::FeatureBoundsRecord FeatureBoundsAccumulator::record(size_t f) const {
+    format::FeatureBoundsRecord r;
+    {
+        if (f >= acc_.size() || acc_[f].box.empty()) return r;
         const Acc& a = acc_[f];
-        if (a.box.empty()) continue;
-        format::FeatureBoundsRecord& r = out[f];
         const double lo[3] = {a.box.min.x, a.box.min.y, a.box.min.z}, hi[3] = {a.box.max.x, a.box.max.y, a.box.max.z};
         // Rounded outwards: the float box still contains every vertex.
         for (int k = 0; k < 3; ++k) {
@@ -61,7 +66,7 @@ std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t
             r.azimuth_half = h == meshopt_quantizeHalf(360.0F) ? 0 : h;
         }
     }
-    return out;
+    return r;
 }
 
 std::vector<format::FeatureBoundsRecord> featureBounds(const Scene& scene) {

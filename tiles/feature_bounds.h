@@ -29,6 +29,8 @@ public:
     /// Records for features 0 .. features - 1 (those no triangle named are
     /// all zero, without kHasGeometry).
     std::vector<format::FeatureBoundsRecord> finish(size_t features) const;
+    /// Feature `f`'s record alone (all zero when no triangle named it).
+    format::FeatureBoundsRecord record(size_t f) const;
     /// Frees what add() gathered.
     void clear() { std::vector<Acc>().swap(acc_); }
 

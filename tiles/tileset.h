@@ -231,6 +231,24 @@ struct FeatureTables {
 Status writeFeatureTables(const std::vector<Feature>& features, std::span<const format::FeatureBoundsRecord> bounds,
                           int block_size, const std::filesystem::path& out_dir, FeatureTables* out);
 
+/// The same tables written as the features come, in id order, one block in
+/// memory at a time (a city's features never all at once; ingest/feature_spill.h).
+class FeatureTablesWriter {
+public:
+    FeatureTablesWriter(std::filesystem::path out_dir, int block_size);
+    Status add(Feature&& f, const format::FeatureBoundsRecord& bounds);  ///< writes a block when it is full
+    Status finish(FeatureTables* out);                                   ///< writes the last block
+
+private:
+    Status flush();
+    std::filesystem::path out_dir_;
+    size_t block_size_;
+    bool created_ = false;
+    std::vector<Feature> block_;
+    std::vector<format::FeatureBoundsRecord> boxes_;
+    FeatureTables tables_;
+};
+
 /// The parts of a tree whose files shards wrote (cli/shards.h): writeTileset
 /// then builds only the nodes above them, from their root geometry, and
 /// indexes everything.

@@ -402,45 +402,71 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
 
 }  // namespace
 
+FeatureTablesWriter::FeatureTablesWriter(fs::path out_dir, int block_size)
+    : out_dir_(std::move(out_dir)), block_size_(static_cast<size_t>(std::max(1, block_size))) {}
+
+Status FeatureTablesWriter::add(Feature&& f, const format::FeatureBoundsRecord& bounds) {
+    block_.push_back(std::move(f));
+    boxes_.push_back(bounds);
+    return block_.size() == block_size_ ? flush() : Status::Ok();
+}
+
+Status FeatureTablesWriter::flush() {
+    if (!created_) {
+        std::error_code ec;
+        fs::create_directories(out_dir_ / "features" / "bounds", ec);
+        if (ec)
+            return Status::Io(fmt::format("{}: cannot create: {}", (out_dir_ / "features" / "bounds").string(), ec.message()));
+        created_ = true;
+    }
+    if (block_.empty()) return Status::Ok();
+    const uint64_t first = tables_.features;
+    json list = json::array();
+    for (size_t i = 0; i < block_.size(); ++i) {
+        const Feature& f = block_[i];
+        json j = {{"id", first + i},
+                  {"gml_id", f.gml_id},
+                  {"name", f.name},
+                  {"source_file", f.source_file},
+                  {"parent", f.parent},
+                  {"lod", f.lod},
+                  {"roof_type", f.roof_type},
+                  {"function", f.function},
+                  {"attributes", f.attributes}};
+        j["measured_height_m"] = f.measured_height_m ? json(*f.measured_height_m) : json(nullptr);
+        list.push_back(std::move(j));
+    }
+    const std::string text =
+        json({{"first", first}, {"features", list}}).dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
+    const size_t table = tables_.tables.size();
+    const std::string uri = fmt::format("features/{}.json", table);
+    if (Status w = writeBytes(out_dir_ / uri, text.data(), text.size()); !w.ok()) return w;
+    tables_.tables.push_back({uri, text.size()});
+    const std::vector<uint8_t> box_bytes = format::encodeFeatureBounds(boxes_);
+    const std::string box_uri = fmt::format("features/bounds/{}.bin", table);
+    if (Status w = writeBytes(out_dir_ / box_uri, box_bytes.data(), box_bytes.size()); !w.ok()) return w;
+    tables_.bounds.push_back({box_uri, box_bytes.size()});
+    tables_.features += block_.size();
+    block_.clear();
+    boxes_.clear();
+    return Status::Ok();
+}
+
+Status FeatureTablesWriter::finish(FeatureTables* out) {
+    if (Status s = flush(); !s.ok()) return s;
+    *out = std::move(tables_);
+    tables_ = {};
+    return Status::Ok();
+}
+
 Status writeFeatureTables(const std::vector<Feature>& features, std::span<const format::FeatureBoundsRecord> bounds,
                           int block_size, const fs::path& out_dir, FeatureTables* out) {
     if (bounds.size() != features.size())
         return Status::Invalid(fmt::format("feature tables: {} bounds records for {} features", bounds.size(), features.size()));
-    std::error_code ec;
-    fs::create_directories(out_dir / "features" / "bounds", ec);
-    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "features" / "bounds").string(), ec.message()));
-    const auto bs = static_cast<size_t>(std::max(1, block_size));
-    out->tables.clear();
-    out->bounds.clear();
-    out->features = features.size();
-    for (size_t first = 0; first < features.size(); first += bs) {
-        json list = json::array();
-        for (size_t id = first; id < std::min(features.size(), first + bs); ++id) {
-            const Feature& f = features[id];
-            json j = {{"id", id},
-                      {"gml_id", f.gml_id},
-                      {"name", f.name},
-                      {"source_file", f.source_file},
-                      {"parent", f.parent},
-                      {"lod", f.lod},
-                      {"roof_type", f.roof_type},
-                      {"function", f.function},
-                      {"attributes", f.attributes}};
-            j["measured_height_m"] = f.measured_height_m ? json(*f.measured_height_m) : json(nullptr);
-            list.push_back(std::move(j));
-        }
-        const std::string text =
-            json({{"first", first}, {"features", list}}).dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
-        const std::string uri = fmt::format("features/{}.json", first / bs);
-        if (Status w = writeBytes(out_dir / uri, text.data(), text.size()); !w.ok()) return w;
-        out->tables.push_back({uri, text.size()});
-        const std::vector<uint8_t> box_bytes =
-            format::encodeFeatureBounds(bounds.subspan(first, std::min(features.size(), first + bs) - first));
-        const std::string box_uri = fmt::format("features/bounds/{}.bin", first / bs);
-        if (Status w = writeBytes(out_dir / box_uri, box_bytes.data(), box_bytes.size()); !w.ok()) return w;
-        out->bounds.push_back({box_uri, box_bytes.size()});
-    }
-    return Status::Ok();
+    FeatureTablesWriter writer(out_dir, block_size);
+    for (size_t id = 0; id < features.size(); ++id)
+        if (Status s = writer.add(Feature(features[id]), bounds[id]); !s.ok()) return s;
+    return writer.finish(out);
 }
 
 Status writeSubtreeFiles(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
