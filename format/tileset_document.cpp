@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include <fmt/format.h>
 
@@ -351,6 +352,10 @@ json layerJson(const LayerEntry& l) {
     return j;
 }
 
+// The long arrays are written into the dump where these stand (format/json_splice.h).
+constexpr const char* kSplicePrefix = "cityatlas-splice-";
+std::string droppedPlaceholder(int32_t tile) { return fmt::format("{}dropped-{}", kSplicePrefix, tile); }
+
 json tileJson(const TilesetDocument& doc, int32_t id) {
     const TileEntry& n = doc.tiles[static_cast<size_t>(id)];
     json layers = json::object();
@@ -365,7 +370,7 @@ json tileJson(const TilesetDocument& doc, int32_t id) {
                {"centre", xyz(n.centre)},
                {"layers", layers},
                {"features", {{"count", n.feature_count},
-                             {"dropped", json(n.features_dropped)},
+                             {"dropped", n.features_dropped.empty() ? json::array() : json(droppedPlaceholder(id))},
                              {"tables", json(n.feature_tables)}}},
                {"texture_blocks", json(n.texture_blocks)},
                {"bytes", n.bytes}};
@@ -507,12 +512,11 @@ json textureJson(const TextureEntry& e) {
 // at a time: a million entries as one JSON value would take ~1 GB.
 }  // namespace
 
-std::string writeTilesetDocument(const TilesetDocument& doc) {
+void writeTilesetDocument(const TilesetDocument& doc, std::ostream& os) {
     json materials = json::array();
     for (const MaterialEntry& m : doc.materials)
         materials.push_back({{"diffuse", json(m.diffuse)}, {"transparency", m.transparency}});
-    // Stands for the textures array in the dump; its text is written there (format/json_splice.h).
-    const std::string placeholder = "cityatlas-textures-placeholder";
+    const std::string placeholder = std::string(kSplicePrefix) + "textures";
     const json textures = placeholder;
     json blocks = json::array(), tables = json::array();
     for (const FileEntry& b : doc.texture_blocks) blocks.push_back(file(b));
@@ -551,13 +555,24 @@ std::string writeTilesetDocument(const TilesetDocument& doc) {
     tileset["geometricError"] = doc.geometric_error;
     if (!doc.tiles.empty()) tileset["root"] = tileJson(doc, 0);
     tileset["extras"] = {{"cityatlas", ca}};
-    std::string out = spliceArray(tileset.dump(1, ' ', false, json::error_handler_t::replace), 1, "textures",
-                                  placeholder, doc.textures.size(), [&](size_t i) {
-                                      return textureJson(doc.textures[i]).dump(1, ' ', false,
-                                                                                 json::error_handler_t::replace);
-                                  });
-    out += '\n';
-    return out;
+    std::vector<SplicedArray> arrays;
+    arrays.push_back({placeholder, doc.textures.size(), [&](size_t i) {
+                          return textureJson(doc.textures[i]).dump(1, ' ', false, json::error_handler_t::replace);
+                      }});
+    for (size_t id = 0; id < doc.tiles.size(); ++id) {
+        const std::vector<uint32_t>& dropped = doc.tiles[id].features_dropped;
+        if (!dropped.empty())
+            arrays.push_back({droppedPlaceholder(static_cast<int32_t>(id)), dropped.size(),
+                              [&dropped](size_t i) { return std::to_string(dropped[i]); }});
+    }
+    spliceArrays(tileset.dump(1, ' ', false, json::error_handler_t::replace), 1, kSplicePrefix, arrays, os);
+    os << '\n';
+}
+
+std::string writeTilesetDocument(const TilesetDocument& doc) {
+    std::ostringstream out;
+    writeTilesetDocument(doc, out);
+    return out.str();
 }
 
 }  // namespace cityatlas::format

@@ -19,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -149,5 +150,8 @@ Status readTilesetDocument(const std::string& text, const std::string& where, Ti
 
 /// The text of tileset.json (one space of indent per level, newline at the end).
 std::string writeTilesetDocument(const TilesetDocument& doc);
+/// The same text written to `out` as it is made (a city's tileset.json is
+/// hundreds of megabytes: never held whole).
+void writeTilesetDocument(const TilesetDocument& doc, std::ostream& out);
 
 }  // namespace cityatlas::format

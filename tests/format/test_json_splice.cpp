@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// spliceArray must give the text nlohmann's own dump of the whole document
+// spliceArray(s) must give the text nlohmann's own dump of the whole document
 // gives (the oracle), wherever the array sits and whatever the indent.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+
+#include <sstream>
+#include <utility>
+#include <vector>
 
 #include "format/json_splice.h"
 
@@ -37,6 +41,29 @@ TEST(JsonSplice, GivesTheWholeDumpsTextForAnyIndentAndLength) {
             expectSameAsWholeDump(ordered_json(elements), indent);
         }
     expectSameAsWholeDump(json::array({1, "two", nullptr, 3.5}), 2);
+}
+
+// Several arrays at different depths, their placeholders in the text in
+// another order than the list's, one placeholder-like value naming no
+// array: the spliced stream is the whole dump (the oracle).
+TEST(JsonSplice, SeveralArraysInAnyOrderGiveTheWholeDump) {
+    for (int indent : {1, 3}) {
+        json doc = {{"a", {{"deep", {{"x", "p-two"}}}}},
+                    {"b", "p-one"},
+                    {"c", {{"list", {"p-unknown", 2}}, {"y", "p-three"}}},
+                    {"d", "\"y\": \"p-one\""}};
+        const json one = json::array({1, 2, 3}), two = json::array({{{"k", {4, 5}}}, "s"}), three = json::array();
+        json whole = doc;
+        whole["b"] = one;
+        whole["a"]["deep"]["x"] = two;
+        whole["c"]["y"] = three;
+        std::vector<SplicedArray> arrays;
+        for (const auto& [name, value] : {std::pair{"p-three", &three}, std::pair{"p-one", &one}, std::pair{"p-two", &two}})
+            arrays.push_back({name, value->size(), [value, indent](size_t i) { return value->at(i).dump(indent); }});
+        std::ostringstream out;
+        spliceArrays(doc.dump(indent), indent, "p-", arrays, out);
+        EXPECT_EQ(out.str(), whole.dump(indent)) << "indent " << indent;
+    }
 }
 
 TEST(JsonSplice, LeavesATextWithoutThePlaceholderAlone) {

@@ -5,6 +5,8 @@
 // reports do.
 #include <gtest/gtest.h>
 
+#include <sstream>
+
 #include <nlohmann/json.hpp>
 
 #include "format/tileset_document.h"
@@ -75,6 +77,28 @@ TEST(TilesetDocument, GeoreferenceAndTransformRoundTrip) {
     EXPECT_EQ(back.georeference.origin_source.y, 5645000.5);
     EXPECT_TRUE(back.georeference.grid_frame);
     EXPECT_EQ(writeTilesetDocument(back), text);
+}
+
+// Long dropped lists and the textures are written into the text as it goes
+// out (format/json_splice.h): the file must be nlohmann's dump of the whole
+// document all the same (the oracle), streamed or as a string.
+TEST(TilesetDocument, SplicedListsGiveTheWholeDocumentsDump) {
+    TilesetDocument doc;
+    ASSERT_TRUE(readTilesetDocument(townText(), "tileset.json", &doc).ok());
+    ASSERT_GE(doc.tiles.size(), 2u);
+    for (uint32_t k = 0; k < 5000; ++k) doc.tiles[0].features_dropped.push_back(k * 7u + 4000000000u % (k + 1));
+    doc.tiles.back().features_dropped = {UINT32_MAX, 0};
+    doc.tiles[1].features_dropped.clear();
+    const std::string text = writeTilesetDocument(doc);
+    EXPECT_EQ(text, json::parse(text).dump(1) + "\n");
+    std::ostringstream streamed;
+    writeTilesetDocument(doc, streamed);
+    EXPECT_EQ(streamed.str(), text);
+    TilesetDocument back;
+    ASSERT_TRUE(readTilesetDocument(text, "tileset.json", &back).ok());
+    EXPECT_EQ(back.tiles[0].features_dropped, doc.tiles[0].features_dropped);
+    EXPECT_EQ(back.tiles.back().features_dropped, doc.tiles.back().features_dropped);
+    EXPECT_TRUE(back.tiles[1].features_dropped.empty());
 }
 
 std::string edited(const std::function<void(json&)>& edit) {
