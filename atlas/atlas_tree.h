@@ -95,6 +95,11 @@ struct AtlasParams {
     double critical_fraction = 0.10;  ///< c: above it d_min is enlarged, below it triangles are split
     int threads = 0;                  ///< 0 = all cores
     int cache_mb = 256;               ///< memory for decoded original textures, kept for leaves that share them
+    /// Memory for the scene-wide texture models of decideGlobals (48 bytes a
+    /// textured triangle): a scene whose models need more is planned a
+    /// range of textures at a time, a pass over its triangles each. Does not
+    /// change the output.
+    uint64_t model_budget_bytes = uint64_t{256} << 20;
     bool render_images = true;        ///< false: structure, ranges and coordinates only (no files)
     /// The level of this tree's root in the tree it is part of (a shard's
     /// subtree, cli/shards.h): the depth rules (count-balanced cuts from level
@@ -287,35 +292,20 @@ struct GlobalDecisions {
 /// The whole scene's GlobalDecisions (the first pass of buildAtlasTree).
 Status decideGlobals(const Scene& scene, const AtlasParams& params, GlobalDecisions* out);
 
-class TextureModelBuilder;
-class CriticalDistanceBuilder;
-struct TextureModel;
+/// One pass over every triangle of the scene, in scene order, each handed to
+/// `fn` (the scene in memory, or its spill file read again); `step` names
+/// the pass for progress reports.
+using TrianglePass = std::function<Status(const std::function<void(const Triangle&)>& fn, const char* step)>;
 
-/// decideGlobals over triangles streamed twice (an input never held whole):
-/// add() every triangle, chooseDistance(), addForCritical() every triangle
-/// again, finish(). Memory: the texture models' 48 bytes a textured triangle
-/// until chooseDistance(), then those models (the promotions need them) and
-/// the critical triangles' distances.
-class GlobalsBuilder {
-public:
-    GlobalsBuilder(const std::vector<TextureRef>& textures, const AtlasParams& params);
-    ~GlobalsBuilder();
-    void add(const Triangle& t);
-    Status chooseDistance();  ///< d_min as requested; an error for a scene of zero extent
-    void addForCritical(const Triangle& t);
-    GlobalDecisions finish();
-
-private:
-    const std::vector<TextureRef>& textures_;
-    AtlasParams params_;
-    double ppm_;
-    Box3d box_;
-    std::unique_ptr<TextureModelBuilder> models_;
-    std::vector<TextureModel> models_done_;
-    std::vector<double> s_max_, t_max_;
-    std::unique_ptr<CriticalDistanceBuilder> critical_;
-    GlobalDecisions g_;
-};
+/// decideGlobals over triangles read in passes (an input never held whole).
+/// Memory: about 40 bytes a texture, the critical triangles' distances, and
+/// the texture models (48 bytes a textured triangle) of at most
+/// params.model_budget_bytes at a time. A scene whose models fit is read
+/// twice; one whose models do not, once more per batch of textures for the
+/// promotions and, with d_min chosen from the data, per batch and round of
+/// candidate distances (default_dmin.h). The decisions are the same either way.
+Status decideGlobals(const std::vector<TextureRef>& textures, const AtlasParams& params, const TrianglePass& pass,
+                     GlobalDecisions* out);
 
 /// An atlas image in linear light, premultiplied RGBA floats, rows bottom-up
 /// (v up): what the renderer composes inner atlases from.

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
+#include "core/status.h"
 #include "atlas/texture_economy.h"
 
 namespace cityatlas::atlas {
@@ -39,10 +40,34 @@ std::vector<DminEstimate> estimateDminCandidates(const std::vector<TextureModel>
                                                  const AtlasParams& params,
                                                  const std::function<bool(const DminEstimate&)>& enough = {});
 
+/// Where the candidates start (every texture capped on both axes below) and
+/// where every texture is below its own resolution: over every textured
+/// triangle's model member, its texels per metre at 1 m over its texture's size.
+struct DminRange {
+    double lo = 1e300, hi = 0;
+    void add(const ChartMember& m, NativeSize native);
+};
+
+/// The scene's texture models a range at a time: calls its argument with
+/// consecutive ranges of them, in texture order, covering every texture
+/// (each call may be a pass over the input: atlas_tree.h decideGlobals).
+using ModelBatches = std::function<Status(const std::function<void(const std::vector<TextureModel>&)>&)>;
+
+/// estimateDminCandidates from models given in batches: the same estimates
+/// to the bit. `range` over all the models. Candidates are estimated a few
+/// per round of batches.
+Status estimateDminCandidatesInBatches(const DminRange& range, const ModelBatches& batches, double diagonal_m,
+                                       const AtlasParams& params, const std::function<bool(const DminEstimate&)>& enough,
+                                       std::vector<DminEstimate>* out);
+
 /// Picks d_min from the estimates by `rule`; without textures, the diagonal
 /// fraction of `diagonal_m`. `textures`: the scene's TextureModelBuilder::finish(). Sets
 /// *d_min_m and says why.
 DminChoice chooseDefaultDmin(const std::vector<TextureModel>& textures, double diagonal_m, const AtlasParams& params,
                              double* d_min_m, const DminRule& rule = {});
+/// The same from models given in batches.
+Status chooseDefaultDminInBatches(const DminRange& range, const ModelBatches& batches, double diagonal_m,
+                                  const AtlasParams& params, double* d_min_m, DminChoice* choice,
+                                  const DminRule& rule = {});
 
 }  // namespace cityatlas::atlas

@@ -36,14 +36,22 @@ Planned planAt(const TextureModel& t, const AtlasParams& params, double d, bool 
 
 }  // namespace
 
-TextureModelBuilder::TextureModelBuilder(size_t textures, double ppm) : ppm_(ppm), m_(textures), bounds_(textures) {}
+TextureModelBuilder::TextureModelBuilder(size_t textures, double ppm) : TextureModelBuilder(0, textures, ppm) {}
+
+TextureModelBuilder::TextureModelBuilder(size_t first, size_t end, double ppm, const uint32_t* reserve)
+    : ppm_(ppm), first_(first), m_(end - first), bounds_(end - first) {
+    if (reserve)
+        for (size_t i = 0; i < m_.size(); ++i) m_[i].members.reserve(reserve[i]);
+}
 
 void TextureModelBuilder::add(const Triangle& t) {
     if (t.texture < 0) return;
+    const size_t i = static_cast<size_t>(t.texture) - first_;  // wraps below first_
+    if (i >= m_.size()) return;
     const TexelDensity d = texelDensity(t);
-    TextureModel& tm = m_[static_cast<size_t>(t.texture)];
-    tm.members.push_back({d.uv_min, d.uv_max, d.s_world * ppm_, d.t_world * ppm_});
-    for (const Vec3d& p : t.position_local) bounds_[static_cast<size_t>(t.texture)].extend(p);
+    m_[i].members.push_back({d.uv_min, d.uv_max, d.s_world * ppm_, d.t_world * ppm_});
+    ++members_;
+    for (const Vec3d& p : t.position_local) bounds_[i].extend(p);
 }
 
 std::vector<TextureModel> TextureModelBuilder::finish(const std::vector<TextureRef>& textures, const AtlasParams& params) {
@@ -51,7 +59,7 @@ std::vector<TextureModel> TextureModelBuilder::finish(const std::vector<TextureR
     std::vector<Box3d> bounds = std::move(bounds_);
     for (TextureModel& t : m) t.members.shrink_to_fit();
     for (size_t i = 0; i < m.size(); ++i) {
-        const TextureRef& r = textures[i];
+        const TextureRef& r = textures[first_ + i];
         m[i].native = {std::max(0, r.width_px), std::max(0, r.height_px)};
         m[i].channels = r.channels == 4 ? 4 : 3;
         m[i].original_bytes =

@@ -27,15 +27,24 @@ struct TextureModel {
 
 /// One model per scene texture (empty members for unused ones), built one
 /// triangle at a time (inputs never held whole): 48 bytes a textured triangle.
-/// finish() adds the full-resolution plans, in parallel on the current TBB arena.
+/// A builder may take a range of textures only, [first, end), and ignore the
+/// others' triangles (a city's models are built a range at a time: atlas_tree.h
+/// decideGlobals); `reserve` gives each texture's triangle count when known.
+/// finish() adds the full-resolution plans, in parallel on the current TBB arena,
+/// and returns the range's models (index 0 = texture `first`).
 class TextureModelBuilder {
 public:
     TextureModelBuilder(size_t textures, double pixels_per_metre_at_1m);
+    TextureModelBuilder(size_t first, size_t end, double pixels_per_metre_at_1m, const uint32_t* reserve = nullptr);
     void add(const Triangle& t);
     std::vector<TextureModel> finish(const std::vector<TextureRef>& textures, const AtlasParams& params);
+    /// The members added so far, in bytes.
+    uint64_t memberBytes() const { return members_ * sizeof(ChartMember); }
 
 private:
     double ppm_;
+    size_t first_ = 0;
+    uint64_t members_ = 0;
     std::vector<TextureModel> m_;
     std::vector<Box3d> bounds_;
 };

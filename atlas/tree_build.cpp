@@ -449,92 +449,154 @@ struct Flattener {
 
 }  // namespace
 
-GlobalsBuilder::GlobalsBuilder(const std::vector<TextureRef>& textures, const AtlasParams& params)
-    : textures_(textures), params_(params), ppm_(projectionBound(params).pixelsPerMetreAt1m()),
-      models_(std::make_unique<TextureModelBuilder>(textures.size(), ppm_)), s_max_(textures.size(), 0),
-      t_max_(textures.size(), 0) {}
+namespace {
 
-GlobalsBuilder::~GlobalsBuilder() = default;
-
-void GlobalsBuilder::add(const Triangle& t) {
-    for (const Vec3d& p : t.position_local) box_.extend(p);
-    models_->add(t);
-    if (t.texture < 0) return;
-    // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
-    // exactly its original resolution on its more demanding axis.
-    const TexelDensity d = texelDensity(t);
-    s_max_[t.texture] = std::max(s_max_[t.texture], d.s_world);
-    t_max_[t.texture] = std::max(t_max_[t.texture], d.t_world);
-    g_.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
-    ++g_.textured_triangles;
+// Consecutive ranges of textures whose models' members fit `budget` bytes
+// each (a texture larger than the budget is a range of its own).
+std::vector<std::pair<size_t, size_t>> modelRanges(const std::vector<uint32_t>& members, uint64_t budget) {
+    std::vector<std::pair<size_t, size_t>> out;
+    size_t first = 0;
+    uint64_t bytes = 0;
+    for (size_t i = 0; i < members.size(); ++i) {
+        const uint64_t b = uint64_t{members[i]} * sizeof(ChartMember);
+        if (i > first && bytes + b > budget) out.emplace_back(first, i), first = i, bytes = 0;
+        bytes += b;
+    }
+    if (first < members.size()) out.emplace_back(first, members.size());
+    return out;
 }
 
-Status GlobalsBuilder::chooseDistance() {
-    if (Status s = validateParams(params_); !s.ok()) return s;
-    const int threads = params_.threads > 0 ? params_.threads : static_cast<int>(tbb::info::default_concurrency());
+}  // namespace
+
+Status decideGlobals(const std::vector<TextureRef>& textures, const AtlasParams& params, const TrianglePass& pass,
+                     GlobalDecisions* out) {
+    if (Status s = validateParams(params); !s.ok()) return s;
+    const int threads = params.threads > 0 ? params.threads : static_cast<int>(tbb::info::default_concurrency());
     tbb::task_arena arena(threads);
-    g_.scene_diagonal_m = length(box_.max - box_.min);
-    // Every texture's economy, scene-wide: for the default d_min and the promotions.
-    arena.execute([&] { models_done_ = models_->finish(textures_, params_); });
-    models_.reset();
-    // d_min: given, chosen from the data, or the papers' fraction of the scene diagonal.
-    if (params_.d_min_m) {
-        g_.d_min_requested_m = *params_.d_min_m;
-        g_.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
-    } else if (params_.d_min_from_data) {
+    const double ppm = projectionBound(params).pixelsPerMetreAt1m();
+    const size_t n = textures.size();
+    const std::vector<NativeSize> native = nativeSizes(textures);
+    GlobalDecisions g;
+
+    // --- First pass: the scene's box, each texture's d_full terms and
+    // triangle count, the candidates' range; the models too while they fit.
+    Box3d box;
+    std::vector<double> s_max(n, 0), t_max(n, 0);
+    std::vector<uint32_t> members(n, 0);
+    DminRange range;
+    auto all = std::make_unique<TextureModelBuilder>(n, ppm);
+    const Status first = pass(
+        [&](const Triangle& t) {
+            for (const Vec3d& p : t.position_local) box.extend(p);
+            if (all) {
+                all->add(t);
+                if (all->memberBytes() > params.model_budget_bytes) all.reset();  // a range at a time, below
+            }
+            if (t.texture < 0) return;
+            // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
+            // exactly its original resolution on its more demanding axis.
+            const auto k = static_cast<size_t>(t.texture);
+            const TexelDensity d = texelDensity(t);
+            s_max[k] = std::max(s_max[k], d.s_world);
+            t_max[k] = std::max(t_max[k], d.t_world);
+            g.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
+            ++g.textured_triangles;
+            ++members[k];
+            range.add({d.uv_min, d.uv_max, d.s_world * ppm, d.t_world * ppm}, native[k]);
+        },
+        "texture models");
+    if (!first.ok()) return first;
+    g.scene_diagonal_m = length(box.max - box.min);
+
+    // Every texture's economy, scene-wide: for the default d_min and the
+    // promotions. Held whole when it fits; else built a range at a time.
+    const bool whole = all != nullptr;
+    std::vector<TextureModel> models;
+    if (whole) arena.execute([&] { models = all->finish(textures, params); });
+    all.reset();
+    const std::vector<std::pair<size_t, size_t>> ranges = modelRanges(members, params.model_budget_bytes);
+    const ModelBatches batches = [&](const std::function<void(const std::vector<TextureModel>&)>& fn) -> Status {
+        if (whole) {
+            fn(models);
+            return Status::Ok();
+        }
+        for (const auto& [a, b] : ranges) {
+            TextureModelBuilder builder(a, b, ppm, members.data() + a);
+            if (Status s = pass([&](const Triangle& t) { builder.add(t); }, "texture models, a range of textures");
+                !s.ok())
+                return s;
+            std::vector<TextureModel> m;
+            arena.execute([&] { m = builder.finish(textures, params); });
+            fn(m);
+        }
+        return Status::Ok();
+    };
+
+    // --- d_min: given, chosen from the data, or the papers' fraction of the scene diagonal.
+    if (params.d_min_m) {
+        g.d_min_requested_m = *params.d_min_m;
+        g.d_min_choice = {"given", "given with --d-min", 0, 0, {}};
+    } else if (params.d_min_from_data) {
+        Status chosen = Status::Ok();
         arena.execute([&] {
-            g_.d_min_choice = chooseDefaultDmin(models_done_, g_.scene_diagonal_m, params_, &g_.d_min_requested_m);
+            if (whole)
+                g.d_min_choice = chooseDefaultDmin(models, g.scene_diagonal_m, params, &g.d_min_requested_m);
+            else
+                chosen = chooseDefaultDminInBatches(range, batches, g.scene_diagonal_m, params, &g.d_min_requested_m,
+                                                    &g.d_min_choice);
         });
+        if (!chosen.ok()) return chosen;
     } else {
-        g_.d_min_requested_m = g_.scene_diagonal_m * params_.d_min_diagonal_fraction;
-        g_.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", g_.scene_diagonal_m,
-                                                           1.0 / params_.d_min_diagonal_fraction), 0, 0, {}};
+        g.d_min_requested_m = g.scene_diagonal_m * params.d_min_diagonal_fraction;
+        g.d_min_choice = {"diagonal-fraction", fmt::format("the scene diagonal {:.0f} m / {:.3g}", g.scene_diagonal_m,
+                                                          1.0 / params.d_min_diagonal_fraction), 0, 0, {}};
     }
-    if (!(g_.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
+    if (!(g.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
     double lo = 1e300, hi = 0;
-    for (size_t i = 0; i < textures_.size(); ++i) {
-        const TextureRef& r = textures_[i];
+    for (size_t i = 0; i < n; ++i) {
+        const TextureRef& r = textures[i];
         double native_distance = 0;
-        if (r.width_px > 0) native_distance = std::max(native_distance, s_max_[i] * ppm_ / r.width_px);
-        if (r.height_px > 0) native_distance = std::max(native_distance, t_max_[i] * ppm_ / r.height_px);
+        if (r.width_px > 0) native_distance = std::max(native_distance, s_max[i] * ppm / r.width_px);
+        if (r.height_px > 0) native_distance = std::max(native_distance, t_max[i] * ppm / r.height_px);
         if (native_distance > 0) lo = std::min(lo, native_distance), hi = std::max(hi, native_distance);
     }
-    g_.d_full_m = lo < 1e300 ? lo : 0;
-    g_.d_first_upsampled_m = hi;
-    critical_ = std::make_unique<CriticalDistanceBuilder>(g_.d_min_requested_m, ppm_, params_.atlas_size_px,
-                                                          params_.border_px, params_.critical_fraction,
-                                                          nativeSizes(textures_));
-    return Status::Ok();
-}
+    g.d_full_m = lo < 1e300 ? lo : 0;
+    g.d_first_upsampled_m = hi;
+    std::vector<double>().swap(s_max);
+    std::vector<double>().swap(t_max);
 
-void GlobalsBuilder::addForCritical(const Triangle& t) { critical_->add(t); }
+    // --- Second pass: critical triangles, and the d_min actually used.
+    CriticalDistanceBuilder critical(g.d_min_requested_m, ppm, params.atlas_size_px, params.border_px,
+                                     params.critical_fraction, native);
+    if (Status s = pass([&](const Triangle& t) { critical.add(t); }, "critical triangles"); !s.ok()) return s;
+    const CriticalResult c = critical.finish();
+    g.d_min_used_m = c.d_min_used_m;
+    g.critical_triangles = c.critical_at_requested;
+    g.enlarged_for_split_budget = c.enlarged_for_split_budget;
 
-GlobalDecisions GlobalsBuilder::finish() {
-    const CriticalResult critical = critical_->finish();
-    critical_.reset();
-    g_.d_min_used_m = critical.d_min_used_m;
-    g_.critical_triangles = critical.critical_at_requested;
-    g_.enlarged_for_split_budget = critical.enlarged_for_split_budget;
-    // Textures whose full resolution costs less than their original (texture_economy.h).
-    g_.promote.assign(textures_.size(), 0);
-    const int threads = params_.threads > 0 ? params_.threads : static_cast<int>(tbb::info::default_concurrency());
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-        tbb::parallel_for(size_t{0}, models_done_.size(), [&](size_t i) {
-            g_.promote[i] = planTexture(models_done_[i], params_, g_.d_min_used_m).promoted ? 1 : 0;
+    // --- Textures whose full resolution costs less than their original (texture_economy.h).
+    g.promote.assign(n, 0);
+    size_t offset = 0;
+    const Status promoted = batches([&](const std::vector<TextureModel>& m) {
+        arena.execute([&] {
+            tbb::parallel_for(size_t{0}, m.size(), [&](size_t i) {
+                g.promote[offset + i] = planTexture(m[i], params, g.d_min_used_m).promoted ? 1 : 0;
+            });
         });
+        offset += m.size();
     });
-    std::vector<TextureModel>().swap(models_done_);
-    return std::move(g_);
+    if (!promoted.ok()) return promoted;
+    *out = std::move(g);
+    return Status::Ok();
 }
 
 Status decideGlobals(const Scene& scene, const AtlasParams& params, GlobalDecisions* out) {
-    GlobalsBuilder b(scene.textures, params);
-    for (const Triangle& t : scene.triangles) b.add(t);
-    if (Status s = b.chooseDistance(); !s.ok()) return s;
-    for (const Triangle& t : scene.triangles) b.addForCritical(t);
-    *out = b.finish();
-    return Status::Ok();
+    return decideGlobals(scene.textures, params,
+                         [&](const std::function<void(const Triangle&)>& fn, const char*) {
+                             for (const Triangle& t : scene.triangles) fn(t);
+                             return Status::Ok();
+                         },
+                         out);
 }
 
 Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::path& output_dir,

@@ -200,6 +200,14 @@ void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt) {
     cmd->add_option("--cache-mb", opt->params.cache_mb, "Memory for decoded original textures, kept for the leaves that share them, MB")
         ->default_val(256)
         ->group(g);
+    cmd->add_option_function<uint64_t>(
+           "--models-mb", [opt](uint64_t mb) { opt->params.model_budget_bytes = mb << 20; },
+           "Memory for the scene-wide texture models that choose d_min and the promotions (48 bytes a textured "
+           "triangle), MB; a city whose models need more is planned a range of textures at a time, a pass over "
+           "its triangles each. The output does not depend on it")
+        ->default_val(256)
+        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 20))
+        ->group(g);
 }
 
 RunFn addAtlasCommand(CLI::App& app) {

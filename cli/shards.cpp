@@ -541,16 +541,12 @@ Status PlanSink::finish() {
 
 Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const atlas::AtlasParams& params,
                               atlas::GlobalDecisions* out, const ShardProgressFn& progress) {
-    atlas::GlobalsBuilder b(tables.textures, params);
-    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.add(t); }, "plan: texture models", progress); !s.ok())
-        return s;
-    if (Status s = b.chooseDistance(); !s.ok()) return s;
-    if (Status s = forEachSpilled(spill, [&](const Triangle& t) { b.addForCritical(t); }, "plan: critical triangles",
-                                  progress);
-        !s.ok())
-        return s;
-    *out = b.finish();
-    return Status::Ok();
+    return atlas::decideGlobals(
+        tables.textures, params,
+        [&](const std::function<void(const Triangle&)>& fn, const char* step) {
+            return forEachSpilled(spill, fn, fmt::format("plan: {}", step).c_str(), progress);
+        },
+        out);
 }
 
 Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill, const atlas::ShardPlan& plan,

@@ -85,7 +85,8 @@ Status forEachSpilled(const std::filesystem::path& spill, const std::function<vo
                       const char* step = nullptr, const ShardProgressFn& progress = {});
 /// The whole spill file in memory (a build of one shard in this process).
 Status readSpill(const std::filesystem::path& spill, std::vector<Triangle>* out);
-/// decideGlobals over the spilled scene: two passes over the file.
+/// decideGlobals over the spilled scene: two passes over the file, more when
+/// its texture models exceed their budget (atlas_tree.h).
 Status decideGlobalsFromSpill(const std::filesystem::path& spill, const Scene& tables, const atlas::AtlasParams& params,
                               atlas::GlobalDecisions* out, const ShardProgressFn& progress = {});
 

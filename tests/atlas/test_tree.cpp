@@ -16,6 +16,7 @@
 #include <iostream>
 #include <iterator>
 #include <map>
+#include <set>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -1224,6 +1225,101 @@ TEST(AtlasShards, ShardSubtreeWithTheTownsDecisionsPassesTheChecker) {
         ASSERT_TRUE(b->status.ok()) << b->status.error;
         EXPECT_EQ(b->tree.stats.d_min_used_m, globals.d_min_used_m) << "shard " << n.shard;
         EXPECT_TRUE(treeIsValid(part, b->tree)) << "shard " << n.shard;
+    }
+}
+
+}  // namespace
+}  // namespace cityatlas::atlas
+
+namespace cityatlas::atlas {
+namespace {
+
+// A city whose texture models exceed their budget is planned a range of
+// textures at a time (atlas_tree.h decideGlobals): every decision must be
+// the one the models held whole give, to the bit, and the passes over the
+// input must be the ones the budget calls for.
+void expectSameDecisions(const GlobalDecisions& a, const GlobalDecisions& b) {
+    EXPECT_EQ(a.scene_diagonal_m, b.scene_diagonal_m);
+    EXPECT_EQ(a.d_min_requested_m, b.d_min_requested_m);
+    EXPECT_EQ(a.d_min_used_m, b.d_min_used_m);
+    EXPECT_EQ(a.d_full_m, b.d_full_m);
+    EXPECT_EQ(a.d_first_upsampled_m, b.d_first_upsampled_m);
+    EXPECT_EQ(a.textured_triangles, b.textured_triangles);
+    EXPECT_EQ(a.degenerate_uv_triangles, b.degenerate_uv_triangles);
+    EXPECT_EQ(a.critical_triangles, b.critical_triangles);
+    EXPECT_EQ(a.enlarged_for_split_budget, b.enlarged_for_split_budget);
+    EXPECT_EQ(a.promote, b.promote);
+    EXPECT_EQ(a.d_min_choice.rule, b.d_min_choice.rule);
+    EXPECT_EQ(a.d_min_choice.reason, b.d_min_choice.reason);
+    EXPECT_EQ(a.d_min_choice.estimated_ratio, b.d_min_choice.estimated_ratio);
+    EXPECT_EQ(a.d_min_choice.originals_within_m_mb, b.d_min_choice.originals_within_m_mb);
+    ASSERT_EQ(a.d_min_choice.candidates.size(), b.d_min_choice.candidates.size());
+    for (size_t k = 0; k < a.d_min_choice.candidates.size(); ++k) {
+        EXPECT_EQ(a.d_min_choice.candidates[k].d_m, b.d_min_choice.candidates[k].d_m) << k;
+        EXPECT_EQ(a.d_min_choice.candidates[k].ratio, b.d_min_choice.candidates[k].ratio) << k;
+        EXPECT_EQ(a.d_min_choice.candidates[k].originals_within_mb, b.d_min_choice.candidates[k].originals_within_mb) << k;
+    }
+}
+
+struct Passes {
+    int count = 0;
+    TrianglePass over(const Scene& scene) {
+        return [this, &scene](const std::function<void(const Triangle&)>& fn, const char*) {
+            ++count;
+            for (const Triangle& t : scene.triangles) fn(t);
+            return Status::Ok();
+        };
+    }
+};
+
+TEST(GlobalDecisions, TextureModelsARangeAtATimeDecideAsTheWholeModels) {
+    synth::TownSettings settings;
+    settings.buildings = 100;
+    settings.seed = 7;
+    settings.texture_size_px = 32;
+    Scene scene = synth::townToScene(synth::generateTown(settings), "/nonexistent/cityatlas_test_town");
+    // Ten 1 m signs with 64 px textures mapped once: at the distance where a
+    // metre needs 60 texels, each is cheaper held at its full 64 x 64 (promoted).
+    const double ppm = projectionBound(structureOnly()).pixelsPerMetreAt1m();
+    for (int k = 0; k < 10; ++k) {
+        const int32_t tex = addTexture(scene, fmt::format("/nonexistent/sign{}.png", k), 64);
+        const Vec3d o{10.0 * k, -5.0, 1.0};
+        const Vec3d a = o, b = o + Vec3d{1, 0, 0}, c = o + Vec3d{1, 0, 1}, d = o + Vec3d{0, 0, 1};
+        scene.triangles.push_back({{a, b, c}, {Vec2d{0, 0}, Vec2d{1, 0}, Vec2d{1, 1}}, tex, -1, 0, SurfaceSemantic::Wall});
+        scene.triangles.push_back({{a, c, d}, {Vec2d{0, 0}, Vec2d{1, 1}, Vec2d{0, 1}}, tex, -1, 0, SurfaceSemantic::Wall});
+    }
+    std::set<int32_t> used;
+    for (const Triangle& t : scene.triangles)
+        if (t.texture >= 0) used.insert(t.texture);
+    ASSERT_GT(used.size(), 50u);
+    const std::array<std::optional<double>, 2> cases{std::nullopt, ppm / 60.0};
+    for (const std::optional<double>& d_min : cases) {
+        AtlasParams whole = structureOnly();
+        whole.d_min_m = d_min;
+        AtlasParams ranged = whole;
+        ranged.model_budget_bytes = 1;  // every texture a range of its own
+        Passes pw, pr;
+        GlobalDecisions a, b;
+        ASSERT_TRUE(decideGlobals(scene.textures, whole, pw.over(scene), &a).ok());
+        ASSERT_TRUE(decideGlobals(scene.textures, ranged, pr.over(scene), &b).ok());
+        SCOPED_TRACE(d_min ? "d_min given" : "d_min from the data");
+        expectSameDecisions(a, b);
+        EXPECT_EQ(pw.count, 2) << "models that fit: the models' pass and the critical triangles' pass";
+        const int ranges = static_cast<int>(scene.textures.size());
+        const int rounds = d_min ? 0 : static_cast<int>((a.d_min_choice.candidates.size() + 7) / 8);
+        // The first pass, the critical pass, a pass per range for the
+        // promotions and, from the data, per range and round of candidates.
+        EXPECT_EQ(pr.count, 2 + ranges + rounds * ranges);
+        // The decisions compared are not trivial ones.
+        if (d_min) {
+            EXPECT_EQ(std::count(a.promote.end() - 10, a.promote.end(), 1), 10) << "every sign is promoted";
+        } else {
+            EXPECT_GT(a.d_min_choice.candidates.size(), 8u);
+        }
+        // The in-memory entry point decides the same.
+        GlobalDecisions c;
+        ASSERT_TRUE(decideGlobals(scene, ranged, &c).ok());
+        expectSameDecisions(a, c);
     }
 }
 
