@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <string>
 
 namespace cityatlas {
@@ -66,11 +67,18 @@ TEST(FeatureSpill, EveryFieldComesBackInIdOrderWithLaterLods) {
     fs::remove(path);
 }
 
+// The sample features spilled to `name` in the test's temporary folder, finished.
+std::unique_ptr<FeatureSpill> spilledSamples(const std::string& name) {
+    auto spill = std::make_unique<FeatureSpill>(fs::path(::testing::TempDir()) / name);
+    for (const Feature& f : sampleFeatures()) spill->add(f);
+    EXPECT_TRUE(spill->finish().ok());
+    return spill;
+}
+
 TEST(FeatureSpill, ACutFileIsAnErrorNamingTheFeature) {
-    const fs::path path = fs::path(::testing::TempDir()) / "features-cut.spill";
-    FeatureSpill spill(path);
-    for (const Feature& f : sampleFeatures()) spill.add(f);
-    ASSERT_TRUE(spill.finish().ok());
+    const auto spilled = spilledSamples("features-cut.spill");
+    FeatureSpill& spill = *spilled;
+    const fs::path path = spill.path();
     fs::resize_file(path, fs::file_size(path) - 10);  // the last feature loses its end
     uint32_t seen = 0;
     const Status s = spill.forEach([&](uint32_t, Feature&&) {
@@ -84,10 +92,9 @@ TEST(FeatureSpill, ACutFileIsAnErrorNamingTheFeature) {
 }
 
 TEST(FeatureSpill, ACallbackErrorStopsTheWalk) {
-    const fs::path path = fs::path(::testing::TempDir()) / "features-stop.spill";
-    FeatureSpill spill(path);
-    for (const Feature& f : sampleFeatures()) spill.add(f);
-    ASSERT_TRUE(spill.finish().ok());
+    const auto spilled = spilledSamples("features-stop.spill");
+    FeatureSpill& spill = *spilled;
+    const fs::path path = spill.path();
     uint32_t seen = 0;
     const Status s = spill.forEach([&](uint32_t, Feature&&) { return ++seen == 2 ? Status::Io("stop") : Status::Ok(); });
     EXPECT_EQ(s.error, "stop");
