@@ -267,6 +267,15 @@ void setSampling(bool wrap, bool anisotropic, float anisotropy, int levels) {
 
 // ---------------------------------------------------------------- OffscreenTarget
 
+namespace {
+// GL's first row is the bottom one; callers get images in file order (rows of `row` values).
+template <class T>
+void topDown(const std::vector<T>& bottom_up, size_t row, int height, std::vector<T>* out) {
+    out->resize(bottom_up.size());
+    for (int y = 0; y < height; ++y) std::copy_n(bottom_up.data() + row * (height - 1 - y), row, out->data() + row * y);
+}
+}  // namespace
+
 std::unique_ptr<OffscreenTarget> OffscreenTarget::create(int width, int height, Status* status, bool with_ids) {
     GLint max_size = 0;
     glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
@@ -330,10 +339,7 @@ void OffscreenTarget::readPixels(std::vector<uint8_t>* rgba) const {
     glReadBuffer(GL_COLOR_ATTACHMENT0);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, bottom_up.data());
-    // GL's first row is the bottom one; callers get images in file order.
-    rgba->resize(bottom_up.size());
-    for (int y = 0; y < height_; ++y)
-        std::copy_n(bottom_up.data() + row * (height_ - 1 - y), row, rgba->data() + row * y);
+    topDown(bottom_up, row, height_, rgba);
 }
 
 bool OffscreenTarget::readIds(std::vector<uint32_t>* ids) const {
@@ -345,10 +351,17 @@ bool OffscreenTarget::readIds(std::vector<uint32_t>* ids) const {
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
     glReadPixels(0, 0, width_, height_, GL_RED_INTEGER, GL_UNSIGNED_INT, bottom_up.data());
     glReadBuffer(GL_COLOR_ATTACHMENT0);
-    ids->resize(bottom_up.size());
-    for (int y = 0; y < height_; ++y)
-        std::copy_n(bottom_up.data() + row * (height_ - 1 - y), row, ids->data() + row * y);
+    topDown(bottom_up, row, height_, ids);
     return true;
+}
+
+void OffscreenTarget::readDepth(std::vector<float>* depth) const {
+    const size_t row = static_cast<size_t>(width_);
+    std::vector<float> bottom_up(row * height_);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, bottom_up.data());
+    topDown(bottom_up, row, height_, depth);
 }
 
 uint32_t OffscreenTarget::idAt(int x, int y) const {

@@ -80,6 +80,9 @@ public:
     /// The id buffer, width * height feature ids, rows top-down; false (and
     /// nothing read) for a target made without one.
     bool readIds(std::vector<uint32_t>* ids) const;
+    /// The depth buffer as window depths in [0, 1] (24-bit values as float),
+    /// width * height, rows top-down (tests compare surfaces with planes).
+    void readDepth(std::vector<float>* depth) const;
     /// The feature id at pixel (x, y) from the top left; kNoFeature outside
     /// the target, where nothing was drawn, or without an id buffer.
     uint32_t idAt(int x, int y) const;
