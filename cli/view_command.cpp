@@ -121,7 +121,8 @@ int runView(const ViewCliOptions& opt) {
     int64_t picked_feature = -1;
     int occlusion = 0;
     bool solo = false, by_height = false, sphere = false;
-    float xray_falloff = 0.5F, sphere_radius = 40.0F;
+    float xray_falloff = 0.5F, sphere_radius = 40.0F, near_radius = 0.0F;
+    int near_test = 0;  // render::NearTest
     int frame_count = 0;
     Vec3d last_position = nav.camera.position;
     while (!window->shouldClose() && (opt.frames == 0 || frame_count++ < opt.frames)) {
@@ -252,6 +253,14 @@ int runView(const ViewCliOptions& opt) {
         ImGui::SameLine();
         ImGui::RadioButton("flatten", &occlusion, 3);
         if (occlusion == 2) ImGui::SliderFloat("x-ray fall-off", &xray_falloff, 0.05F, 1.0F, "%.2f");
+        if (occlusion != 0) {
+            ImGui::SliderFloat("also near me, m", &near_radius, 0.0F, 200.0F, "%.0f");
+            ImGui::RadioButton("sphere", &near_test, 0);
+            ImGui::SameLine();
+            ImGui::RadioButton("cylinder", &near_test, 1);
+            ImGui::SameLine();
+            ImGui::RadioButton("eye level", &near_test, 2);
+        }
         ImGui::Checkbox("solo", &solo);
         ImGui::SameLine();
         ImGui::Checkbox("colour by height", &by_height);
@@ -268,6 +277,8 @@ int runView(const ViewCliOptions& opt) {
                 lens.highlight = {static_cast<uint32_t>(picked_feature)};
             }
             lens.xray_falloff = xray_falloff;
+            lens.sphere_radius_m = near_radius;
+            lens.near_test = static_cast<render::NearTest>(near_test);
             if (by_height) lens.colour_by = "height";
             if (sphere && poi) {
                 const format::FeatureBoundsRecord& b = client->featureBounds()[static_cast<size_t>(picked_feature)];

@@ -509,7 +509,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     camera.far_m = std::max(sel.farthest_m * 1.01, camera.near_m * 10);
     // The lenses' per-building state for this camera, uploaded when it changed.
     if (lens_.active() || lens_uploaded_) {
-        LensStyle style = lens_.active() ? lensStyle(lens_, feature_bounds_, camera.position) : LensStyle{};
+        LensStyle style = lens_.active() ? lensStyle(lens_, feature_bounds_, camera.position, camera.up) : LensStyle{};
         for (uint32_t f = 0; f < style.style.size(); ++f)
             if (style.style[f] != LensStyle::kNormal && !lens_.solo) rec.lens_occluder_ids.push_back(f);
         rec.lens_occluders = static_cast<uint32_t>(

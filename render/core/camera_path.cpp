@@ -85,6 +85,12 @@ Status parseLens(const json& j, const std::string& where, LensParams* out) {
         if (*it != "height" && *it != "none") return Status::Invalid(where + ": colour_by must be \"height\" or \"none\"");
         if (*it == "height") l.colour_by = "height";
     }
+    if (const auto it = j.find("near_test"); it != j.end()) {
+        if (*it == "sphere") l.near_test = NearTest::Sphere;
+        else if (*it == "cylinder") l.near_test = NearTest::Cylinder;
+        else if (*it == "viewer_height") l.near_test = NearTest::ViewerHeight;
+        else return Status::Invalid(where + ": near_test must be \"sphere\", \"cylinder\" or \"viewer_height\"");
+    }
     if (const auto it = j.find("shape"); it != j.end()) {
         if (*it == "sphere") l.shape = 1;
         else if (*it == "cylinder") l.shape = 2;

@@ -44,10 +44,31 @@ std::array<float, 3> ramp(double t) {
     return c;
 }
 
+// Whether a box counts as near the viewer (papers/003 eqs. 3.16-3.17).
+bool nearViewer(const Vec3d& bl, const Vec3d& bh, const Viewer& viewer, const Vec3d& up) {
+    if (!(viewer.near_radius_m > 0)) return false;
+    Vec3d to_centre = 0.5 * (bl + bh) - viewer.position;
+    if (viewer.near_test == NearTest::Cylinder) to_centre = to_centre - dot(to_centre, up) * up;
+    if (!(length(to_centre) < viewer.near_radius_m)) return false;
+    if (viewer.near_test != NearTest::ViewerHeight) return true;
+    // The box crosses the plane through the viewer normal to up: its corners'
+    // heights above that plane do not all have one sign.
+    double lowest = 1e300, highest = -1e300;
+    for (int c = 0; c < 8; ++c) {
+        const Vec3d corner{(c & 1) ? bh.x : bl.x, (c & 2) ? bh.y : bl.y, (c & 4) ? bh.z : bl.z};
+        const double h = dot(corner - viewer.position, up);
+        lowest = std::min(lowest, h);
+        highest = std::max(highest, h);
+    }
+    return lowest <= 0 && highest >= 0;
+}
+
 }  // namespace
 
-std::vector<uint32_t> occludersOf(const std::vector<FeatureBoundsRecord>& bounds, uint32_t poi, const Vec3d& camera,
-                                  double sphere_radius_m) {
+std::vector<uint32_t> occludersOf(const std::vector<FeatureBoundsRecord>& bounds, uint32_t poi, const Viewer& viewer) {
+    const Vec3d& camera = viewer.position;
+    const double up_length = length(viewer.up);
+    const Vec3d up = up_length > 0 ? (1 / up_length) * viewer.up : Vec3d{0, 0, 1};
     std::vector<uint32_t> out;
     if (poi >= bounds.size() || !(bounds[poi].flags & FeatureBoundsRecord::kHasGeometry)) return out;
     const Vec3d pl = lo(bounds[poi]), ph = hi(bounds[poi]);
@@ -63,14 +84,15 @@ std::vector<uint32_t> occludersOf(const std::vector<FeatureBoundsRecord>& bounds
     for (uint32_t f = 0; f < bounds.size(); ++f) {
         if (f == poi || !(bounds[f].flags & FeatureBoundsRecord::kHasGeometry)) continue;
         const Vec3d bl = lo(bounds[f]), bh = hi(bounds[f]);
-        bool occludes = sphere_radius_m > 0 && length(0.5 * (bl + bh) - camera) < sphere_radius_m;
+        bool occludes = nearViewer(bl, bh, viewer, up);
         for (size_t t = 0; t < targets.size() && !occludes; ++t) occludes = segmentMeetsBox(camera, targets[t], bl, bh);
         if (occludes) out.push_back(f);
     }
     return out;
 }
 
-LensStyle lensStyle(const LensParams& params, const std::vector<FeatureBoundsRecord>& bounds, const Vec3d& camera) {
+LensStyle lensStyle(const LensParams& params, const std::vector<FeatureBoundsRecord>& bounds, const Vec3d& camera,
+                    const Vec3d& up) {
     LensStyle s;
     s.flatten = params.flatten;
     s.xray_falloff = params.xray_falloff;
@@ -88,7 +110,8 @@ LensStyle lensStyle(const LensParams& params, const std::vector<FeatureBoundsRec
             const uint8_t how = params.occlusion == LensParams::Occlusion::Discard ? LensStyle::kDiscard
                                 : params.occlusion == LensParams::Occlusion::XRay  ? LensStyle::kXRay
                                                                                    : LensStyle::kFlatten;
-            for (const uint32_t f : occludersOf(bounds, static_cast<uint32_t>(params.poi), camera, params.sphere_radius_m))
+            const Viewer viewer{camera, up, params.sphere_radius_m, params.near_test};
+            for (const uint32_t f : occludersOf(bounds, static_cast<uint32_t>(params.poi), viewer))
                 s.style[f] = how;
         }
         if (params.occlusion == LensParams::Occlusion::Flatten) {

@@ -10,8 +10,12 @@
 ///   buildings whose box meets a segment from the camera to one of the POI
 ///   box's sample points (papers/003 eq. 3.18, the view-axis test, with a
 ///   3 x 3 x 3 grid of points over the POI's box instead of its centre alone,
-///   so a building that hides a corner of the POI counts), or (eq. 3.16)
-///   whose box centre lies within `sphere_radius_m` of the camera. They are
+///   so a building that hides a corner of the POI counts), or that are near
+///   the viewer: box centre within `sphere_radius_m` of the camera (the
+///   spherical test, eq. 3.16), of the camera's vertical line (cylindrical,
+///   the centre projected on the plane through the camera normal to its up
+///   vector), or spherical and the box crossing that plane (viewer height,
+///   eq. 3.17: the buildings at eye level around a pedestrian). They are
 ///   discarded, drawn x-ray, or flattened to their base.
 /// - Highlight and colour by attribute: per-building tints (height ramp).
 /// - The analytic colour lens: a sphere or vertical cylinder around a point;
@@ -49,11 +53,15 @@ struct LensStyle {
     bool operator==(const LensStyle&) const = default;
 };
 
+/// Which buildings near the viewer also occlude (papers/003 eqs. 3.16-3.17).
+enum class NearTest : uint8_t { Sphere, Cylinder, ViewerHeight };
+
 struct LensParams {
     enum class Occlusion : uint8_t { None, Discard, XRay, Flatten };
     Occlusion occlusion = Occlusion::None;
     int64_t poi = -1;                ///< building of interest (feature id); -1: none
     double sphere_radius_m = 0;      ///< also occluders: box centres this close to the camera (eq. 3.16); 0: off
+    NearTest near_test = NearTest::Sphere;
     bool solo = false;               ///< only the POI is drawn
     float xray_falloff = 0.5F;
     float flatten = 0.02F;
@@ -68,13 +76,23 @@ struct LensParams {
     }
 };
 
-/// The occluders of `poi` seen from `camera` (see the file comment), ascending;
+/// The viewer for the occluder test: where it is and its up vector (papers/003's
+/// LF and LU: the look-at up as given, z in every camera path), and the
+/// near-viewer test (radius 0: off).
+struct Viewer {
+    Vec3d position;
+    Vec3d up{0, 0, 1};
+    double near_radius_m = 0;
+    NearTest near_test = NearTest::Sphere;
+};
+
+/// The occluders of `poi` seen by `viewer` (see the file comment), ascending;
 /// features without geometry never occlude. Empty for a POI out of range.
 std::vector<uint32_t> occludersOf(const std::vector<format::FeatureBoundsRecord>& bounds, uint32_t poi,
-                                  const Vec3d& camera, double sphere_radius_m = 0);
+                                  const Viewer& viewer);
 
-/// The per-feature state for this camera.
+/// The per-feature state for this camera (position and up vector).
 LensStyle lensStyle(const LensParams& params, const std::vector<format::FeatureBoundsRecord>& bounds,
-                    const Vec3d& camera);
+                    const Vec3d& camera, const Vec3d& up = {0, 0, 1});
 
 }  // namespace cityatlas::render

@@ -2,7 +2,10 @@
 # (render/core/lenses.cpp) for tests/cli/render_lenses.sh: a building occludes
 # the building of interest when its box meets a segment from the camera to a
 # point of a 3 x 3 x 3 grid over the other's box (papers/003 eq. 3.18), or
-# when its box centre lies within sphere_r of the camera (eq. 3.16).
+# when it is near the viewer: its box centre within sphere_r of the camera
+# ("sphere", eq. 3.16) or of the camera's vertical line ("cylinder"), or
+# within the sphere with the box reaching from below to above the camera's
+# height ("viewer_height", eq. 3.17). Every camera path's up is z.
 # Boxes are (min x, min y, min z, max x, max y, max z).
 import math
 
@@ -30,14 +33,24 @@ def grid(box):
     return [[lo[k] + f[k] * (hi[k] - lo[k]) for k in range(3)] for f in [(i, j, k) for i in steps for j in steps for k in steps]]
 
 
-def occluders(boxes, poi, cam, sphere_r=0.0):
+def near(b, cam, sphere_r, test):
+    if sphere_r <= 0:
+        return False
+    centre = [(b[k] + b[k + 3]) / 2 for k in range(3)]
+    if test == "cylinder":
+        return math.hypot(centre[0] - cam[0], centre[1] - cam[1]) < sphere_r
+    if math.dist(centre, cam) >= sphere_r:
+        return False
+    return test == "sphere" or b[2] <= cam[2] <= b[5]
+
+
+def occluders(boxes, poi, cam, sphere_r=0.0, test="sphere"):
     """The set of building indices that occlude `poi` seen from `cam`."""
     targets = grid(boxes[poi])
     out = set()
     for i, b in enumerate(boxes):
         if i == poi:
             continue
-        centre = [(b[k] + b[k + 3]) / 2 for k in range(3)]
-        if (sphere_r > 0 and math.dist(centre, cam) < sphere_r) or any(meets(cam, g, b[:3], b[3:]) for g in targets):
+        if near(b, cam, sphere_r, test) or any(meets(cam, g, b[:3], b[3:]) for g in targets):
             out.add(i)
     return out

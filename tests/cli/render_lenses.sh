@@ -4,8 +4,8 @@
 # - the occluders of a building of interest are exactly the set an
 #   independent Python computation finds from the bounds files (the
 #   view-axis test of papers/003 eq. 3.18 over a 3x3x3 grid of the
-#   building's box, and on 20 cameras around it the spherical test of
-#   eq. 3.16 as well);
+#   building's box, and on 20 cameras around it the near-viewer tests as
+#   well: spherical (eq. 3.16), cylindrical, and viewer height (eq. 3.17));
 # - discard: no pixel carries an occluder's id (exact), and the building
 #   shows at least 99 % of the pixels it has drawn alone (solo); without the
 #   lens it shows fewer than 90 % (the camera really is behind others);
@@ -62,33 +62,47 @@ for i in range(20):
     d = rng.uniform(50, 160)
     p = [pc[0] + d * math.cos(a), pc[1] + d * math.sin(a), z0 + rng.uniform(1.7, 40)]
     ring.append({"time_s": i, "position": p, "look_at": pc})
-json.dump({"interpolation": "linear", "frame_rate": 1, "keyframes": ring,
-           "lens": {"building": poi, "occlusion": "discard", "sphere_radius_m": 30.5}}, open("ring.json", "w"), indent=1)
+for test in ("sphere", "cylinder", "viewer_height"):
+    json.dump({"interpolation": "linear", "frame_rate": 1, "keyframes": ring,
+               "lens": {"building": poi, "occlusion": "discard", "sphere_radius_m": 30.5, "near_test": test}},
+              open(f"ring_{test}.json", "w"), indent=1)
 json.dump({"boxes": boxes, "poi": poi}, open("ring_expected_inputs.json", "w"))
 print(f"building {poi}, {len(occ)} occluders: {occ}")
 PY
-"$CITYATLAS" render tiles --path ring.json --size 160x120 --wait --anisotropy 1 -o ring -q
+for test in sphere cylinder viewer_height; do
+  "$CITYATLAS" render tiles --path ring_$test.json --size 160x120 --wait --anisotropy 1 -o ring_$test -q
+done
 "$PY" - "$SRC/tests/cli" <<'PY' || fail "L1: occluder sets on 20 cameras differ (above)"
 import json, sys
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, sys.argv[1])
 import lens_oracle
 e = json.load(open("ring_expected_inputs.json")); boxes, poi = e["boxes"], e["poi"]
-frames = json.load(open("ring/report.json"))["frames"]
-bad, total, by_sphere = 0, 0, 0
-for f in frames:
-    cam = f["camera"]["position"]
-    want = lens_oracle.occluders(boxes, poi, cam, 30.5)
-    by_sphere += len(want - lens_oracle.occluders(boxes, poi, cam))
-    got = set(f["lens_occluder_ids"])
-    total += len(want)
-    if got != want:
-        bad += 1
-        print(f"FAIL: frame {f['frame']}: occluders {sorted(got)}, expected {sorted(want)}")
-print(f"{len(frames)} cameras, {total} occluders in all ({by_sphere} by the sphere test): {len(frames) - bad} sets equal")
-sys.exit(1 if bad or len(frames) != 20 or total == 0 else 0)
+failed = False
+near_sets = {}
+for test in ("sphere", "cylinder", "viewer_height"):
+    frames = json.load(open(f"ring_{test}/report.json"))["frames"]
+    bad, total, by_near = 0, 0, 0
+    near_sets[test] = []
+    for f in frames:
+        cam = f["camera"]["position"]
+        want = lens_oracle.occluders(boxes, poi, cam, 30.5, test)
+        near_sets[test].append(want - lens_oracle.occluders(boxes, poi, cam))
+        by_near += len(near_sets[test][-1])
+        got = set(f["lens_occluder_ids"])
+        total += len(want)
+        if got != want:
+            bad += 1
+            print(f"FAIL: {test}: frame {f['frame']}: occluders {sorted(got)}, expected {sorted(want)}")
+    print(f"{test}: {len(frames)} cameras, {total} occluders in all ({by_near} by the near-viewer test): {len(frames) - bad} sets equal")
+    failed |= bad > 0 or len(frames) != 20 or by_near == 0
+# The three near-viewer tests pick different buildings on these cameras (so each one is checked).
+for a, b in (("sphere", "cylinder"), ("sphere", "viewer_height")):
+    if near_sets[a] == near_sets[b]:
+        print(f"FAIL: {a} and {b} find the same buildings near the viewer on every camera"); failed = True
+sys.exit(1 if failed else 0)
 PY
-echo "ok: L1: the occluder sets of 20 cameras equal the independent computation"
+echo "ok: L1: the occluder sets of 20 cameras equal the independent computation (sphere, cylinder, viewer height)"
 for lens in plain solo discard xray flatten height sphere; do
   "$CITYATLAS" render tiles --path $lens.json --size ${W}x${H} --wait --anisotropy 1 --ids -o $lens -q
 done
