@@ -31,6 +31,7 @@
 #include "render/gl/gl_renderer.h"
 #include "render/loader/block_decoder.h"
 #include "tiles/texture_codec.h"
+#include "tiles/texture_tiles.h"
 
 namespace cityatlas::render {
 namespace {
@@ -781,6 +782,133 @@ TEST_F(GlTest, IdBufferHoldsTheNearestFeatureOpaqueOrAlphaAndNoneElsewhere) {
     for (GpuMesh* g : {&back, &front, &bare}) r->release(g);
 }
 
+// ---------------------------------------------------------------- split originals (tiles/texture_tiles.h, H6)
+
+// H6: a 4096^2 texture on a flat roof, seen straight down so one texel of the
+// sampled mip level covers one pixel, with pixel centres on texel corners (so
+// every sample blends four texels and a seam cannot hide). Drawn whole and as
+// tiles (the roof cut at the core lines by clipToTiles, each tile its own
+// BC1 texture with mips, sampled clamped): with enough overlap the pictures
+// are equal within 1 LSB on every pixel; without it the pixels on the core
+// lines are off by >= 20 LSB (papers/004 Fig. 2a). Texel colours follow the
+// parity of (x / 2^level, y / 2^level), four far-apart colours, so the
+// sampled level alternates texel by texel.
+TEST_F(GlTest, SplitOriginalsAreSeamFreeWithOverlapAndNotWithout) {
+    constexpr int kTexture = 4096, kCore = 512, kView = 96;
+    auto r = renderer({}, exactFiltering());
+    auto t = target(kView, kView);
+    for (const int level : {0, 2}) {
+        const int scale = 1 << level;
+        tiles::Image8 image{kTexture, kTexture, 3, std::vector<uint8_t>(size_t{kTexture} * kTexture * 3)};
+        const std::array<std::array<uint8_t, 3>, 4> colours{{{230, 40, 30}, {20, 200, 60}, {40, 50, 220}, {240, 230, 200}}};
+        for (int y = 0; y < kTexture; ++y)
+            for (int x = 0; x < kTexture; ++x) {
+                const auto& c = colours[static_cast<size_t>((x / scale) % 2 + 2 * ((y / scale) % 2))];
+                std::copy(c.begin(), c.end(), image.pixels.begin() + (static_cast<std::ptrdiff_t>(y) * kTexture + x) * 3);
+            }
+        // The roof: 1 m per level-0 texel, x = s, y = -t (rows down), around
+        // the corner of cores 0, 1, 8 and 9 at (512, 512), uv v = 0 at the bottom.
+        const double half = kView * scale / 2.0 + 4 * scale;
+        std::array<tiles::ClipVertex, 4> corners;
+        const std::array<std::array<double, 2>, 4> st{{{kCore - half, kCore + half}, {kCore + half, kCore + half},
+                                                      {kCore + half, kCore - half}, {kCore - half, kCore - half}}};
+        for (size_t i = 0; i < 4; ++i)
+            corners[i] = {{st[i][0], -st[i][1], 0}, {st[i][0] / kTexture, 1 - st[i][1] / kTexture}, {}};
+        // Straight down, one sampled texel (scale metres) per pixel, pixel centres on texel corners.
+        Camera cam;
+        cam.vertical_fov_deg = 60;
+        cam.width_px = cam.height_px = kView;
+        cam.position = {kCore + 0.5 * scale, -(kCore + 0.5 * scale), scale * (kView / 2.0) / std::tan(M_PI / 6)};
+        cam.direction = {0, 0, -1};
+        cam.up = {0, 1, 0};
+        cam.near_m = 1;
+        cam.far_m = 1e5;
+        auto draw = [&](const MeshData& m, const std::vector<const GpuTexture*>& textures) {
+            GpuMesh mesh = r->upload(m);
+            t->bind();
+            r->beginFrame(cam, {0, 0, 0, 1});
+            r->drawOriginals(mesh, [&](int32_t k) { return textures[static_cast<size_t>(k)]; }, nullptr, {0, 0, 0}, 0);
+            r->endFrame();
+            r->release(&mesh);
+            std::vector<uint8_t> px;
+            t->readPixels(&px);
+            return px;
+        };
+        auto vertex = [](MeshData* m, const tiles::ClipVertex& v, int32_t texture) {
+            m->positions.insert(m->positions.end(), {static_cast<float>(v.position.x), static_cast<float>(v.position.y), 0.0F});
+            m->uv_original.insert(m->uv_original.end(), {static_cast<float>(v.uv.x), static_cast<float>(v.uv.y)});
+            m->uv_atlas.insert(m->uv_atlas.end(), {0.0F, 0.0F});
+            m->texture_id.push_back(texture);
+            m->material_id.push_back(-1);
+            m->feature_id.push_back(0);
+        };
+        // Whole.
+        MeshData whole;
+        for (const tiles::ClipVertex& v : corners) vertex(&whole, v, 0);
+        whole.indices = {0, 1, 2, 0, 2, 3};
+        whole.texture_ranges = {{0, 0, 6}};
+        GpuTexture whole_texture = r->upload(compress(image, true), false);
+        const std::vector<uint8_t> reference = draw(whole, {&whole_texture});
+        // Tiled, at overlaps 0, 4 * 2^(level - 1) (too little for this level) and 4 * 2^level.
+        std::vector<int> overlaps{0, tiles::tileOverlap(level)};
+        if (level > 0) overlaps.insert(overlaps.begin() + 1, tiles::tileOverlap(level - 1));
+        for (const int overlap : overlaps) {
+            const tiles::TileGrid grid = tiles::tileGridFor(kTexture, kTexture, WrapMode::Clamp, kCore, overlap);
+            std::vector<tiles::TilePiece> pieces;
+            for (const auto& tri : {std::array<tiles::ClipVertex, 3>{corners[0], corners[1], corners[2]},
+                                    std::array<tiles::ClipVertex, 3>{corners[0], corners[2], corners[3]}})
+                tiles::clipToTiles(grid, tri, &pieces);
+            std::sort(pieces.begin(), pieces.end(), [](const auto& a, const auto& b) { return a.tile < b.tile; });
+            MeshData tiled;
+            std::vector<GpuTexture> uploaded;
+            std::vector<const GpuTexture*> textures(static_cast<size_t>(grid.count()), nullptr);
+            for (const tiles::TilePiece& p : pieces) {
+                if (tiled.texture_ranges.empty() || tiled.texture_ranges.back().texture != p.tile)
+                    tiled.texture_ranges.push_back({p.tile, static_cast<uint32_t>(tiled.indices.size()), 0});
+                for (const tiles::ClipVertex& v : p.corners) {
+                    tiled.indices.push_back(static_cast<uint32_t>(tiled.positions.size() / 3));
+                    vertex(&tiled, v, p.tile);
+                }
+                tiled.texture_ranges.back().index_count += 3;
+            }
+            uploaded.reserve(tiled.texture_ranges.size());
+            for (const MeshData::TextureRange& range : tiled.texture_ranges) {
+                const tiles::Image8 tile = tiles::cropTile(image, grid.rectOf(range.texture), grid.wraps);
+                uploaded.push_back(r->upload(compress(tile, true), false));
+                textures[static_cast<size_t>(range.texture)] = &uploaded.back();
+            }
+            ASSERT_EQ(tiled.texture_ranges.size(), 4U) << "the view spans the corner of four cores";
+            const std::vector<uint8_t> got = draw(tiled, textures);
+            // Pixels whose centre lies on a core line (x or y = 512 m): the seam.
+            int worst = 0, worst_seam = 0, seam = 0, seam_off = 0;
+            for (int y = 0; y < kView; ++y)
+                for (int x = 0; x < kView; ++x) {
+                    const Rgba a = pixelAt(got, kView, x, y), b = pixelAt(reference, kView, x, y);
+                    const int d = maxRgbDiff(a, b);
+                    worst = std::max(worst, d);
+                    const double wx = cam.position.x + (x + 0.5 - kView / 2.0) * scale;
+                    const double wy = -cam.position.y + (y + 0.5 - kView / 2.0) * scale;  // t: rows down
+                    if (std::abs(wx - kCore) < 0.25 || std::abs(wy - kCore) < 0.25) {
+                        ++seam;
+                        worst_seam = std::max(worst_seam, d);
+                        seam_off += d >= 20;
+                    }
+                }
+            SCOPED_TRACE(::testing::Message() << "level " << level << ", overlap " << overlap);
+            EXPECT_GE(seam, 2 * kView - 1) << "a row and a column of seam pixels";
+            if (overlap >= tiles::tileOverlap(level)) {
+                EXPECT_LE(worst, 1);
+            } else if (overlap == 0) {
+                EXPECT_EQ(seam_off, seam) << "every seam pixel is off by >= 20 LSB (worst " << worst_seam << ")";
+            } else {
+                EXPECT_GT(worst, 1) << "too little overlap for this level shows";
+            }
+            for (GpuTexture& g : uploaded) r->release(&g);
+        }
+        r->release(&whole_texture);
+    }
+}
+
 // ---------------------------------------------------------------- lenses (render/core/lenses.h, papers/003)
 
 // A vertical quad through `centre`, spanning `along` (horizontal, unit) by
@@ -915,6 +1043,122 @@ TEST_F(GlTest, SphereLensStylesExactlyThePixelsOutsideItAndDiscardAndFlattenWork
     r->setLens({});
     r->release(&m);
     r->release(&tall);
+}
+
+
+// L4 (papers/003 eq. 3.20, flatten factor 0): an L-shaped prism on a 3-4-5
+// rotation, base 2 m, 15 m tall, seen obliquely from above, is drawn flat:
+// every pixel with its id lies within 1 px of its footprint polygon projected
+// (an independent pinhole projection, not pixelRay), every pixel more than
+// 1 px inside that polygon has its id, and the depth there is the base
+// plane's, within a few steps of the 24-bit depth buffer.
+TEST_F(GlTest, FlattenDrawsTheFootprintAtTheBasePlanesDepth) {
+    constexpr int kSize = 256;
+    const std::vector<MaterialInfo> materials{{{0.6F, 0.6F, 0.6F}, 0}};
+    auto r = renderer(materials);
+    Status status;
+    auto t = OffscreenTarget::create(kSize, kSize, &status, true);
+    ASSERT_TRUE(status.ok()) << status.error;
+    constexpr double kBase = 2, kTop = 17;
+    const Vec3d origin{-4, 18, 0}, u{0.8, 0.6, 0}, v{-0.6, 0.8, 0};
+    std::vector<Vec3d> footprint;  // counter-clockwise
+    for (const auto& [a, b] : std::vector<std::pair<double, double>>{{0, 0}, {12, 0}, {12, 5}, {5, 5}, {5, 10}, {0, 10}})
+        footprint.push_back(origin + a * u + b * v);
+    MeshData m;
+    auto vertex = [&](const Vec3d& p, double z) {
+        m.positions.insert(m.positions.end(), {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(z)});
+        m.material_id.push_back(0);
+        m.feature_id.push_back(2);
+        return static_cast<uint32_t>(m.positions.size() / 3 - 1);
+    };
+    for (size_t i = 0; i < footprint.size(); ++i) {  // the walls
+        const Vec3d& a = footprint[i];
+        const Vec3d& b = footprint[(i + 1) % footprint.size()];
+        const uint32_t k = vertex(a, kBase);
+        vertex(b, kBase), vertex(b, kTop), vertex(a, kTop);
+        m.indices.insert(m.indices.end(), {k, k + 1, k + 2, k, k + 2, k + 3});
+    }
+    std::vector<uint32_t> roof;  // the L as two rectangles: 0-1-2-3 and 0-3-4-5
+    for (const Vec3d& p : footprint) roof.push_back(vertex(p, kTop));
+    m.indices.insert(m.indices.end(), {roof[0], roof[1], roof[2], roof[0], roof[2], roof[3],
+                                       roof[0], roof[3], roof[4], roof[0], roof[4], roof[5]});
+    GpuMesh mesh = r->upload(m);
+    Camera cam;
+    cam.position = {-2, 5, 25};
+    cam.direction = normalized(Vec3d{-0.2, 20.6, -23});  // at the footprint's centre (-2.2, 25.6, 2)
+    cam.up = {0, 0, 1};
+    cam.vertical_fov_deg = 60;
+    cam.width_px = cam.height_px = kSize;
+    cam.near_m = 1;
+    cam.far_m = 500;
+    // The pinhole projection, from the camera's own axes.
+    const Vec3d fwd = cam.direction, right = normalized(cross(fwd, cam.up)), up = cross(right, fwd);
+    const double focal = kSize / 2.0 / std::tan(cam.vertical_fov_deg * M_PI / 360);
+    auto project = [&](const Vec3d& p) {
+        const Vec3d e = p - cam.position;
+        return std::array<double, 2>{kSize / 2.0 + focal * dot(e, right) / dot(e, fwd),
+                                     kSize / 2.0 - focal * dot(e, up) / dot(e, fwd)};
+    };
+    std::vector<std::array<double, 2>> poly;
+    for (const Vec3d& p : footprint) poly.push_back(project(p + Vec3d{0, 0, kBase}));
+    // Signed distance in pixels to the projected polygon: negative inside.
+    auto signedDistance = [&](double x, double y) {
+        double best = 1e300;
+        bool inside = false;
+        for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+            const auto& a = poly[j];
+            const auto& b = poly[i];
+            if ((a[1] > y) != (b[1] > y) && x < a[0] + (y - a[1]) * (b[0] - a[0]) / (b[1] - a[1])) inside = !inside;
+            const double dx = b[0] - a[0], dy = b[1] - a[1];
+            const double s = std::clamp(((x - a[0]) * dx + (y - a[1]) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+            best = std::min(best, std::hypot(x - a[0] - s * dx, y - a[1] - s * dy));
+        }
+        return inside ? -best : best;
+    };
+    // The base plane's window depth along a pixel's ray (GL's perspective depth).
+    auto baseDepth = [&](double x, double y) {
+        const Vec3d ray = fwd + ((x - kSize / 2.0) / focal) * right - ((y - kSize / 2.0) / focal) * up;
+        const double s = (kBase - cam.position.z) / ray.z;  // ray parameter; eye depth = s (fwd component is 1)
+        return cam.far_m * (s - cam.near_m) / ((cam.far_m - cam.near_m) * s);
+    };
+    for (const float k : {0.0F, 0.001F}) {
+        LensStyle lens;
+        lens.style = {0, 0, LensStyle::kFlatten};
+        lens.base_z = {0, 0, static_cast<float>(kBase)};
+        lens.flatten = k;
+        r->setLens(lens);
+        t->bind();
+        r->beginFrame(cam, {0, 0, 0, 1});
+        r->drawAtlas(mesh, nullptr, {0, 0, 0}, 0);
+        r->endFrame();
+        std::vector<uint32_t> ids;
+        std::vector<float> depth;
+        ASSERT_TRUE(t->readIds(&ids));
+        t->readDepth(&depth);
+        int drawn = 0, outside = 0, missing = 0, inner = 0;
+        double worst_depth = 0;
+        for (int y = 0; y < kSize; ++y)
+            for (int x = 0; x < kSize; ++x) {
+                const double d = signedDistance(x + 0.5, y + 0.5);
+                const bool has = ids[static_cast<size_t>(y * kSize + x)] == 2;
+                drawn += has;
+                if (has && d > 1) ++outside;
+                if (d < -1) {
+                    ++inner;
+                    missing += !has;
+                    if (has) worst_depth = std::max(worst_depth, std::abs(depth[static_cast<size_t>(y * kSize + x)] - baseDepth(x + 0.5, y + 0.5)));
+                }
+            }
+        const double step = 1.0 / ((1 << 24) - 1);
+        SCOPED_TRACE(::testing::Message() << "flatten " << k);
+        EXPECT_GT(inner, 1500) << "the footprint covers enough pixels";
+        EXPECT_EQ(outside, 0) << drawn << " pixels drawn";
+        EXPECT_EQ(missing, 0);
+        if (k == 0) EXPECT_LE(worst_depth, 4 * step) << worst_depth / step << " depth steps";
+        else EXPECT_GT(worst_depth, 4 * step) << "15 mm above the base is seen (the check can fail)";
+    }
+    r->setLens({});
+    r->release(&mesh);
 }
 
 }  // namespace
