@@ -15,6 +15,8 @@ public:
     virtual ~SceneSink() = default;
     virtual void setGeoreference(const Georeference& georef) = 0;
     virtual int32_t addTexture(const TextureRef& texture) = 0;   ///< returns its index
+    /// A texture added before (its index from addTexture), or null.
+    virtual const TextureRef* texture(int32_t index) const = 0;
     virtual int32_t addMaterial(const Material& material) = 0;   ///< interned; returns its index
     virtual uint32_t addFeature(Feature feature) = 0;            ///< returns its index
     /// Records which LOD a feature's geometry came from (known after its parts are read).
@@ -31,6 +33,10 @@ public:
     int32_t addTexture(const TextureRef& t) override {
         scene.textures.push_back(t);
         return static_cast<int32_t>(scene.textures.size() - 1);
+    }
+    const TextureRef* texture(int32_t index) const override {
+        return index >= 0 && static_cast<size_t>(index) < scene.textures.size() ? &scene.textures[static_cast<size_t>(index)]
+                                                                                  : nullptr;
     }
     int32_t addMaterial(const Material& m) override { return scene.internMaterial(m); }
     uint32_t addFeature(Feature f) override {
@@ -57,6 +63,9 @@ public:
     int32_t addTexture(const TextureRef& t) override {
         textures.push_back(t);
         return static_cast<int32_t>(textures.size() - 1);
+    }
+    const TextureRef* texture(int32_t index) const override {
+        return index >= 0 && static_cast<size_t>(index) < textures.size() ? &textures[static_cast<size_t>(index)] : nullptr;
     }
     int32_t addMaterial(const Material& m) override {
         for (size_t i = 0; i < materials.size(); ++i)

@@ -137,7 +137,24 @@ struct TextureResolver::Prefetcher {
     }
 };
 
-TextureResolver::TextureResolver(SceneSink& sink, Diagnostics& diagnostics) : sink_(sink), diagnostics_(diagnostics) {}
+TextureResolver::TextureResolver(SceneSink& sink, Diagnostics& diagnostics)
+    : sink_(sink), diagnostics_(diagnostics), resolved_(64, KeyHash{&sink}, KeyEqual{&sink}) {}
+
+size_t TextureResolver::KeyHash::operator()(const Key& k) const {
+    return std::hash<std::string_view>{}(k.path) ^ (static_cast<size_t>(k.wrap) * 0x9E3779B97F4A7C15ULL);
+}
+
+size_t TextureResolver::KeyHash::operator()(int32_t index) const { return (*this)(KeyEqual{sink}.keyOf(index)); }
+
+TextureResolver::Key TextureResolver::KeyEqual::keyOf(int32_t index) const {
+    const TextureRef* t = sink->texture(index);
+    return t ? Key{t->path, t->wrap} : Key{{}, WrapMode::None};
+}
+
+bool TextureResolver::KeyEqual::operator()(const Key& a, int32_t b) const {
+    const Key k = keyOf(b);
+    return a.wrap == k.wrap && a.path == k.path;
+}
 
 TextureResolver::~TextureResolver() = default;
 
@@ -151,8 +168,10 @@ int32_t TextureResolver::resolve(const fs::path& base_dir, const std::string& ur
                                  const DiagnosticExample& where) {
     const bool remote = isRemote(uri);
     const fs::path path = remote ? fs::path() : localPath(base_dir, uri);
-    const std::string key = (remote ? uri : path.string()) + "#" + std::to_string(static_cast<int>(wrap));
-    if (auto it = cache_.find(key); it != cache_.end()) return it->second;
+    const std::string& where_from = remote ? uri : path.native();
+    if (auto it = resolved_.find(Key{where_from, wrap}); it != resolved_.end()) return *it;
+    const std::string failed_key = where_from + "#" + std::to_string(static_cast<int>(wrap));
+    if (auto it = failed_keys_.find(failed_key); it != failed_keys_.end()) return it->second;
 
     int32_t index = -1;
     auto fail = [&](const char* code, std::string detail) {
@@ -176,11 +195,11 @@ int32_t TextureResolver::resolve(const fs::path& base_dir, const std::string& ur
             ref.channels = h.channels;
             ref.wrap = wrap;
             index = sink_.addTexture(ref);
-            refs_[index] = ref;
         }
     }
     (index >= 0 ? ok_ : failed_)++;
-    cache_[key] = index;
+    if (index >= 0) resolved_.insert(index);
+    else failed_keys_.emplace(failed_key, index);
     return index;
 }
 

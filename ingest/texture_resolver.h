@@ -15,7 +15,9 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "ingest/diagnostics.h"
 #include "ingest/scene_sink.h"
@@ -45,10 +47,7 @@ public:
     /// kMaxPrefetched waiting at a time; beyond that resolve() reads inline).
     void prefetch(const std::filesystem::path& base_dir, const std::string& uri);
     /// The image behind an index resolve() returned (path, size), or null.
-    const TextureRef* info(int32_t index) const {
-        auto it = refs_.find(index);
-        return it == refs_.end() ? nullptr : &it->second;
-    }
+    const TextureRef* info(int32_t index) const { return sink_.texture(index); }
     uint64_t resolved() const { return ok_; }
     uint64_t failed() const { return failed_; }
 
@@ -59,8 +58,29 @@ private:
     SceneSink& sink_;
     Diagnostics& diagnostics_;
     std::unique_ptr<Prefetcher> prefetcher_;
-    std::unordered_map<std::string, int32_t> cache_;
-    std::unordered_map<int32_t, TextureRef> refs_;
+    // What resolve() answered, by (path, wrap): the textures it added as
+    // their indices alone, looked up through the sink's table (no second
+    // copy of a city's paths), and the few that failed by their key.
+    struct Key {
+        std::string_view path;
+        WrapMode wrap;
+    };
+    struct KeyHash {
+        using is_transparent = void;
+        const SceneSink* sink;
+        size_t operator()(const Key& k) const;
+        size_t operator()(int32_t index) const;
+    };
+    struct KeyEqual {
+        using is_transparent = void;
+        const SceneSink* sink;
+        Key keyOf(int32_t index) const;
+        bool operator()(int32_t a, int32_t b) const { return a == b; }
+        bool operator()(const Key& a, int32_t b) const;
+        bool operator()(int32_t a, const Key& b) const { return (*this)(b, a); }
+    };
+    std::unordered_set<int32_t, KeyHash, KeyEqual> resolved_;
+    std::unordered_map<std::string, int32_t> failed_keys_;
     uint64_t ok_ = 0, failed_ = 0;
 };
 
