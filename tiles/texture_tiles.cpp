@@ -31,6 +31,11 @@ TileGrid tileGridFor(int width, int height, WrapMode wrap, int atlas_size_px, in
     return {width, height, atlas_size_px, overlap, wrap == WrapMode::Wrap};
 }
 
+TileGrid splitGridOf(const TextureRef& texture, int atlas_size_px, bool split) {
+    if (!split || !splitsTexture(texture.width_px, texture.height_px, atlas_size_px)) return {};
+    return tileGridFor(texture.width_px, texture.height_px, texture.wrap, atlas_size_px);
+}
+
 format::Image8 cropTile(const format::Image8& image, const TexelRect& rect, bool wraps) {
     if (image.width < 1 || image.height < 1 || rect.width() < 1 || rect.height() < 1)
         throw std::invalid_argument("cropTile: empty image or rect");
@@ -137,7 +142,7 @@ std::vector<std::vector<Corner>> slice(std::vector<std::vector<Corner>> polys, i
 // The cell a piece lies in, from its centroid: period and core index per axis.
 std::pair<int64_t, int> cellOf(double centre, int size, int core, int cells, bool wraps) {
     int64_t period = 0;
-    if (wraps) period = static_cast<int64_t>(std::floor(centre / size));
+    if (wraps) period = static_cast<int64_t>(std::clamp(std::floor(centre / size), -0x1p53, 0x1p53));
     const double within = centre - static_cast<double>(period) * size;
     const int k = std::clamp(static_cast<int>(std::floor(within / core)), 0, cells - 1);
     return {period, k};
@@ -149,13 +154,27 @@ void clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle
     std::vector<Corner> poly;
     for (const ClipVertex& v : triangle)
         poly.push_back({v.uv.x * grid.width, (1 - v.uv.y) * grid.height, v.position, v.uv_atlas});
-    std::vector<std::vector<Corner>> pieces = slice({poly}, 0, grid.width, grid.core, grid.wraps);
-    pieces = slice(std::move(pieces), 1, grid.height, grid.core, grid.wraps);
+    // A triangle repeating the texture thousands of times (or with coordinates
+    // that are not finite) is not cut: it stays one piece on the tile under
+    // its centre, which draws it stretched instead of splitting it into
+    // millions of pieces.
+    bool cut = std::all_of(poly.begin(), poly.end(), [](const Corner& c) { return std::isfinite(c.s) && std::isfinite(c.t); });
+    for (int axis = 0; axis < 2 && cut; ++axis) {
+        double lo = along(poly[0], axis), hi = lo;
+        for (const Corner& c : poly) lo = std::min(lo, along(c, axis)), hi = std::max(hi, along(c, axis));
+        cut = (hi - lo) / grid.core < kMaxCutsPerAxis;
+    }
+    std::vector<std::vector<Corner>> pieces{poly};
+    if (cut) {
+        pieces = slice(std::move(pieces), 0, grid.width, grid.core, grid.wraps);
+        pieces = slice(std::move(pieces), 1, grid.height, grid.core, grid.wraps);
+    }
     for (const std::vector<Corner>& p : pieces) {
         double cs = 0, ct = 0;
         for (const Corner& c : p) cs += c.s, ct += c.t;
         cs /= static_cast<double>(p.size());
         ct /= static_cast<double>(p.size());
+        if (!std::isfinite(cs) || !std::isfinite(ct)) cs = ct = 0;
         const auto [ps, column] = cellOf(cs, grid.width, grid.core, grid.columns(), grid.wraps);
         const auto [pt, row] = cellOf(ct, grid.height, grid.core, grid.rows(), grid.wraps);
         const int tile = row * grid.columns() + column;

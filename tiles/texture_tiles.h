@@ -75,6 +75,11 @@ bool splitsTexture(int width, int height, int atlas_size_px);
 /// The grid for a texture (core = the atlas size).
 TileGrid tileGridFor(int width, int height, WrapMode wrap, int atlas_size_px, int overlap = kDefaultTileOverlap);
 
+/// The grid of a scene texture that is split (`split` on and more than two
+/// atlases of texels, by the size recorded at ingest); an empty grid
+/// (count() == 0) for one that stays whole.
+TileGrid splitGridOf(const TextureRef& texture, int atlas_size_px, bool split);
+
 /// The texels of `rect` from `image` (rows top-down); texels outside the
 /// image wrap around (a rect of a repeating texture's grid) or are clamped
 /// to the edge.
@@ -94,13 +99,20 @@ struct TilePiece {
     std::array<ClipVertex, 3> corners;
 };
 
+/// More core lines than this across one triangle (in either axis): the
+/// triangle is not cut (see clipToTiles).
+inline constexpr double kMaxCutsPerAxis = 1024;
+
 /// Cuts `triangle` at every core line it crosses (in every period for a
 /// repeating texture; a clamped texture's uv outside [0, 1] belongs to the
 /// border tiles) and appends the pieces, in a fan per core cell, with their
 /// tile and tile-space uv; position and atlas uv are interpolated. Cut
 /// points are computed from each edge's endpoints in a fixed order, so two
 /// triangles sharing an edge get the same points (no cracks). Pieces of no
-/// area in texture space and position both are dropped.
+/// area in texture space and position both are dropped. A triangle spanning
+/// kMaxCutsPerAxis cores or more, or with coordinates that are not finite,
+/// stays one piece on the tile under its centre (drawn stretched: such
+/// repeat counts are no photo's; the cut would make millions of pieces).
 void clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle, std::vector<TilePiece>* out);
 
 }  // namespace cityatlas::tiles

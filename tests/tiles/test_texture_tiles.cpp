@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -188,6 +189,26 @@ TEST(ClipToTiles, SharedEdgesAreCutAtTheSamePointsAndInnerTrianglesStayWhole) {
     const TexelRect r = grid.rectOf(inner[0].tile);
     EXPECT_NEAR(r.x0 + inner[0].corners[1].uv.x * r.width(), 0.45 * 2048, 1e-9);
     EXPECT_NEAR(r.y0 + (1 - inner[0].corners[2].uv.y) * r.height(), 0.45 * 2048, 1e-9);
+}
+
+// Degenerate input: a triangle repeating the texture a million times, or
+// with an infinite or NaN coordinate, stays one piece (no blow-up, no
+// undefined conversion); a triangle of no area in either space leaves nothing.
+TEST(ClipToTiles, HugeRepeatsAndNonFiniteCoordinatesStayOnePiece) {
+    const TileGrid grid = tileGridFor(2048, 2048, WrapMode::Wrap, 512, 16);
+    const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+    for (const double far : {1e6, 1e300, inf, nan}) {
+        std::vector<TilePiece> pieces;
+        clipToTiles(grid, {ClipVertex{{0, 0, 0}, {0, 0}, {}}, ClipVertex{{1, 0, 0}, {far, 0}, {}}, ClipVertex{{0, 1, 0}, {0, 1}, {}}},
+                    &pieces);
+        ASSERT_EQ(pieces.size(), 1U) << far;
+        EXPECT_GE(pieces[0].tile, 0);
+        EXPECT_LT(pieces[0].tile, grid.count());
+    }
+    std::vector<TilePiece> none;
+    clipToTiles(grid, {ClipVertex{{0, 0, 0}, {0.1, 0.1}, {}}, ClipVertex{{0, 0, 0}, {0.9, 0.9}, {}}, ClipVertex{{0, 0, 0}, {0.5, 0.5}, {}}},
+                &none);
+    EXPECT_TRUE(none.empty());
 }
 
 }  // namespace
