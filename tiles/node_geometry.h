@@ -52,9 +52,12 @@ struct NodeGeometry {
 /// `texture_index` (scene texture -> tileset texture). Original uvs of a
 /// repeating (wrap) texture are shifted per triangle by whole periods towards
 /// 0, which changes nothing on screen with GL_REPEAT and keeps Draco's uv
-/// quantization range (and so its step) small.
+/// quantization range (and so its step) small. With `split`, a triangle of a
+/// texture of more than two atlases is cut at its tile lines, each piece
+/// naming its tile (texture_index + tile) in the tile's coordinates
+/// (tiles/texture_tiles.h, texture_blocks.h).
 NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
-                          const std::vector<int32_t>& texture_index);
+                          const std::vector<int32_t>& texture_index, bool split = true);
 
 /// The node's children's geometry of one layer (null: no child there, or an
 /// empty layer), merged into this node's atlas space and simplified to

@@ -9,7 +9,10 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <deque>
 #include <memory>
+#include <mutex>
+#include <set>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -73,12 +76,41 @@ bool readImage8(const std::string& path, int channels, Image8* out, std::string*
     return true;
 }
 
-std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used) {
+std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const std::vector<TextureRef>& textures,
+                                         int atlas_size_px, bool split) {
     std::vector<int32_t> index(used.size(), -1);
     int32_t next = 0;
-    for (size_t t = 0; t < used.size(); ++t)
-        if (used[t]) index[t] = next++;
+    for (size_t t = 0; t < used.size(); ++t) {
+        if (!used[t]) continue;
+        index[t] = next;
+        next += std::max(1, splitGridOf(textures[t], atlas_size_px, split).count());
+    }
     return index;
+}
+
+std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::AtlasTree& tree,
+                                            const std::vector<int32_t>& texture_index, bool split) {
+    std::vector<std::vector<int32_t>> out(tree.nodes.size());
+    std::vector<TilePiece> pieces;
+    for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
+        const atlas::AtlasNode& node = tree.nodes[ni];
+        if (!node.leaf()) continue;
+        for (const atlas::NodeLayer& layer : node.layers)
+            for (uint32_t i = layer.range.first; i < layer.range.first + layer.range.count; ++i) {
+                const Triangle& t = tree.triangles[i].tri;
+                if (t.texture < 0) continue;
+                const TileGrid grid = splitGridOf(scene.textures[static_cast<size_t>(t.texture)], tree.params.atlas_size_px, split);
+                if (grid.count() == 0) continue;
+                pieces.clear();
+                clipToTiles(grid, {ClipVertex{t.position_local[0], t.uv[0], {}}, ClipVertex{t.position_local[1], t.uv[1], {}},
+                                   ClipVertex{t.position_local[2], t.uv[2], {}}},
+                            &pieces);
+                for (const TilePiece& p : pieces) out[ni].push_back(texture_index[static_cast<size_t>(t.texture)] + p.tile);
+            }
+        std::sort(out[ni].begin(), out[ni].end());
+        out[ni].erase(std::unique(out[ni].begin(), out[ni].end()), out[ni].end());
+    }
+    return out;
 }
 
 std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree) {
@@ -95,16 +127,18 @@ std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree) {
     return used;
 }
 
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all) {
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split) {
     std::vector<uint8_t> used(scene.textures.size(), 0);
     for (const atlas::TreeTriangle& t : tree.triangles)
         if (t.tri.texture >= 0) used[static_cast<size_t>(t.tri.texture)] = 1;
-    return planTextureBlocks(scene, tree, all, tilesetTextureIndex(used), leafTextures(tree));
+    const std::vector<int32_t> index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, split);
+    return planTextureBlocks(scene, tree, all, split, index, leafTextures(tree), leafTiles(scene, tree, index, split));
 }
 
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all,
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split,
                                 const std::vector<int32_t>& texture_index,
-                                const std::vector<std::vector<int32_t>>& leaf_textures) {
+                                const std::vector<std::vector<int32_t>>& leaf_textures,
+                                const std::vector<std::vector<int32_t>>& leaf_tiles) {
     TextureBlocks b;
     b.texture_index = texture_index;
     b.node_blocks.resize(tree.nodes.size());
@@ -119,13 +153,25 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
         if (ti < 0) continue;
         if (b.textures.size() <= static_cast<size_t>(ti)) b.textures.resize(static_cast<size_t>(ti) + 1);
         const TextureRef& ref = scene.textures[st];
-        TextureEntry& e = b.textures[static_cast<size_t>(ti)];
-        e.scene_texture = static_cast<int32_t>(st);
-        e.width = ref.width_px;
-        e.height = ref.height_px;
-        e.channels = ref.channels == 4 ? 4 : 3;
-        e.wrap = ref.wrap;
-        e.exact = true;
+        const TileGrid grid = splitGridOf(ref, tree.params.atlas_size_px, split);
+        const int tiles = std::max(1, grid.count());
+        if (b.textures.size() < static_cast<size_t>(ti + tiles)) b.textures.resize(static_cast<size_t>(ti + tiles));
+        for (int k = 0; k < tiles; ++k) {
+            TextureEntry& e = b.textures[static_cast<size_t>(ti + k)];
+            e.scene_texture = static_cast<int32_t>(st);
+            e.width = ref.width_px;
+            e.height = ref.height_px;
+            e.channels = ref.channels == 4 ? 4 : 3;
+            e.wrap = ref.wrap;
+            e.exact = true;
+            if (grid.count() > 0) {
+                // A tile is sampled clamped: its overlap holds what lies beyond its core.
+                e.tile = k;
+                e.tile_rect = grid.rectOf(k);
+                e.width = e.tile_rect.width(), e.height = e.tile_rect.height();
+                e.wrap = WrapMode::Clamp;
+            }
+        }
     }
     // Nodes are in depth-first preorder, so leaves come in depth-first order:
     // a block holds the originals of neighbouring leaves.
@@ -133,10 +179,22 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
         const atlas::AtlasNode& node = tree.nodes[ni];
         if (!node.leaf()) continue;
         std::vector<uint32_t>& mine = b.node_blocks[ni];
-        const std::vector<int32_t>& needed = all ? leaf_textures[ni] : node.originals;
-        for (const int32_t st : needed) {
+        // The tileset textures this leaf needs: the whole texture, or the
+        // tiles of a split one that its triangles use.
+        std::vector<int32_t> needed;
+        for (const int32_t st : all ? leaf_textures[ni] : node.originals) {
             const int32_t ti = texture_index[static_cast<size_t>(st)];
             if (ti < 0) continue;
+            const int tiles = splitGridOf(scene.textures[static_cast<size_t>(st)], tree.params.atlas_size_px, split).count();
+            if (tiles == 0) {
+                needed.push_back(ti);
+                continue;
+            }
+            if (ni < leaf_tiles.size())
+                for (const int32_t t : leaf_tiles[ni])
+                    if (t >= ti && t < ti + tiles) needed.push_back(t);
+        }
+        for (const int32_t ti : needed) {
             TextureEntry& e = b.textures[static_cast<size_t>(ti)];
             if (e.exact) {
                 e.exact = false;
@@ -162,6 +220,35 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
     }
     return b;
 }
+
+namespace {
+
+// The decoded images of split textures, so their tiles are cut from one
+// decode instead of one per tile: the two last used are kept (an orthophoto's
+// tiles come leaf by leaf, interleaved with other textures). Decoding holds
+// the lock, so two tiles of one image never decode it twice.
+class SplitSources {
+public:
+    std::shared_ptr<const Image8> get(const TextureEntry& e, const TextureRef& ref, std::string* why) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (const auto& [texture, image] : kept_)
+            if (texture == e.scene_texture) return image;
+        auto image = std::make_shared<Image8>();
+        if (!readImage8(ref.path, e.channels, image.get(), why)) {
+            if (why->empty()) *why = "unreadable";
+            return nullptr;
+        }
+        if (kept_.size() == 2) kept_.pop_front();
+        kept_.emplace_back(e.scene_texture, image);
+        return image;
+    }
+
+private:
+    std::mutex mutex_;
+    std::deque<std::pair<int32_t, std::shared_ptr<const Image8>>> kept_;
+};
+
+}  // namespace
 
 Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path& out_dir, Diagnostics& diagnostics,
                           const std::function<void(uint64_t, uint64_t)>& progress, TextureBlocks* blocks,
@@ -189,8 +276,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         fs::create_directories(cache->to, mk);
         if (mk) return Status::Io(fmt::format("{}: cannot create: {}", cache->to.string(), mk.message()));
         for (size_t blk = 0; blk < nblocks; ++blk) {
-            std::vector<int32_t> textures;
-            for (size_t t : members[blk]) textures.push_back(blocks->textures[t].scene_texture);
+            std::vector<const TextureEntry*> textures;
+            for (size_t t : members[blk]) textures.push_back(&blocks->textures[t]);
             keys[blk] = cache->key(textures);
         }
     }
@@ -213,6 +300,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         }
         return true;
     };
+    SplitSources split_sources;
     // Encodes one block's textures (in parallel: a block may hold a single large original).
     auto encodeBlock = [&](size_t blk) {
         const std::vector<size_t>& list = members[blk];
@@ -225,7 +313,11 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             // Straight alpha, as the client blends (GL_SRC_ALPHA): OpenImageIO
             // premultiplies many RGBA PNGs on read, which drew translucent
             // glass at street level with alpha squared.
-            if (!readImage8(ref.path, e.channels, &img, &enc[k].why)) {
+            if (e.tile >= 0) {
+                const std::shared_ptr<const Image8> whole = split_sources.get(e, ref, &enc[k].why);
+                if (!whole) return;
+                img = cropTile(*whole, e.tile_rect, ref.wrap == WrapMode::Wrap);
+            } else if (!readImage8(ref.path, e.channels, &img, &enc[k].why)) {
                 if (enc[k].why.empty()) enc[k].why = "unreadable";
                 return;
             }
@@ -247,6 +339,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     // Writes one encoded block, in block order (the numbering and the bytes do not
     // depend on the thread count).
     std::vector<uint64_t> written_bytes;
+    std::set<int32_t> warned_split;
     Status write_status = Status::Ok();
     auto writeBlock = [&](size_t blk, std::vector<Encoded>& enc) {
         const std::vector<size_t>& list = members[blk];
@@ -273,6 +366,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         for (size_t k = 0; k < list.size(); ++k) {
             TextureEntry& e = blocks->textures[list[k]];
             if (!enc[k].why.empty()) {
+                e.block = -1;
+                if (e.tile >= 0 && !warned_split.insert(e.scene_texture).second) continue;  // once per texture, not per tile
                 diagnostics.warn(warn::kTextureUnreadable,
                                  {scene.textures[static_cast<size_t>(e.scene_texture)].path, 0, "",
                                   "original texture for near views not written (leaves draw their atlas): " + enc[k].why});

@@ -7,6 +7,12 @@
 /// a neighbourhood's textures in a few requests. Textures are taken in the
 /// order leaves first use them (depth-first), so a block holds textures of
 /// neighbouring leaves; a texture larger than one atlas is a block of its own.
+///
+/// A texture of more than two atlases of texels is split (`split`, the
+/// default; tiles/texture_tiles.h): each of its overlapping tiles is a
+/// tileset texture of its own (consecutive numbers), the leaves' triangles
+/// are cut at the tile lines, and a leaf needs only the tiles its triangles
+/// use (an orthophoto on every roof: each leaf the tiles under its roofs).
 
 #include <cstdint>
 #include <filesystem>
@@ -19,11 +25,14 @@
 #include "ingest/scene.h"
 #include "core/status.h"
 #include "tiles/texture_codec.h"
+#include "tiles/texture_tiles.h"
 
 namespace cityatlas::tiles {
 
 struct TextureEntry {
     int32_t scene_texture = -1;
+    int32_t tile = -1;                ///< a split texture's tile (texture_tiles.h); -1: the whole texture
+    TexelRect tile_rect;              ///< the tile's texels in the scene texture
     int32_t block = -1;               ///< -1: not written (exact, or unreadable)
     bool exact = false;               ///< the atlases hold it at full resolution: no original is written
     uint64_t offset = 0, bytes = 0;   ///< the DDS inside its block
@@ -43,25 +52,33 @@ struct TextureBlocks {
 
 /// Plans the blocks from the texture sizes recorded at ingest (nothing is
 /// decoded). Each leaf gets the originals it needs (AtlasNode::originals), or
-/// with `all` every texture it uses; every used texture has an entry, in
-/// scene order (tilesetTextureIndex); those no leaf needs are marked exact
-/// (no block).
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false);
+/// with `all` every texture it uses; every used texture has an entry (a
+/// split one an entry per tile), in scene order (tilesetTextureIndex); those
+/// no leaf needs are marked exact (no block).
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false, bool split = true);
 
 /// The same for a tree without its triangles (a sharded build's merge):
-/// `texture_index` (scene texture -> tileset texture, -1 unused;
-/// tilesetTextureIndex) and, for `all`, the scene textures each leaf uses,
-/// ascending (leafTextures).
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all,
+/// `texture_index` (scene texture -> first tileset texture, -1 unused;
+/// tilesetTextureIndex), for `all` the scene textures each leaf uses,
+/// ascending (leafTextures), and the tiles of split textures each leaf's
+/// triangles use (leafTiles).
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split,
                                 const std::vector<int32_t>& texture_index,
-                                const std::vector<std::vector<int32_t>>& leaf_textures);
+                                const std::vector<std::vector<int32_t>>& leaf_textures,
+                                const std::vector<std::vector<int32_t>>& leaf_tiles);
 
 /// Tileset texture numbers: each used scene texture's rank among the used
-/// ones, so a shard of a larger build numbers its leaves' textures as the
-/// whole build does without seeing the other shards.
-std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used);
+/// ones (a split texture takes one number per tile, tiles/texture_tiles.h),
+/// so a shard of a larger build numbers its leaves' textures as the whole
+/// build does without seeing the other shards.
+std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const std::vector<TextureRef>& textures,
+                                         int atlas_size_px, bool split);
 /// Per node (leaves only; others empty): the scene textures its triangles use, ascending.
 std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree);
+/// Per node (leaves only; others empty): the tileset textures of the tiles of
+/// split textures its triangles use once cut (as leafGeometry cuts them), ascending.
+std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::AtlasTree& tree,
+                                            const std::vector<int32_t>& texture_index, bool split);
 
 /// Reads, encodes and writes every planned block to `out_dir/textures/`;
 /// fills offsets and sizes. An unreadable texture is a counted warning
@@ -69,14 +86,14 @@ std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree);
 /// texture is not written, and the others are renumbered densely (textures'
 /// blocks and node_blocks follow).
 /// Blocks kept by content between builds of one folder (incremental rebuilds,
-/// cli/shards.h): `key` names a block by what it holds (its scene textures,
-/// in order; "" = not cacheable); a block whose key has a file in `from` is
+/// cli/shards.h): `key` names a block by what it holds (its textures, in
+/// order; "" = not cacheable); a block whose key has a file in `from` is
 /// linked from there instead of being read and encoded again, and every
 /// written block is linked into `to` for the next build. Only blocks whose
 /// textures all read are kept.
 struct BlockCache {
     std::filesystem::path from, to;
-    std::function<std::string(const std::vector<int32_t>& scene_textures)> key;
+    std::function<std::string(const std::vector<const TextureEntry*>& textures)> key;
     uint64_t reused = 0, encoded = 0;  ///< blocks, filled by writeTextureBlocks
 };
 

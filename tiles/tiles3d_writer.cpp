@@ -218,6 +218,8 @@ struct ExportContext {
     /// leaves, a repeated roof texture): written once under textures/ and
     /// referenced by uri; the others are embedded in their one tile.
     std::map<int32_t, SharedImage> shared;
+    /// Per leaf: the tiles of split textures its triangles use (texture_blocks.h).
+    std::vector<std::vector<int32_t>> leaf_tiles;
 };
 
 WebImageParams imageParams(const Tiles3dParams& p) { return {p.textures, p.jpeg_quality, p.basisu}; }
@@ -266,11 +268,21 @@ struct TextureTable {
     }
 };
 
-// Encodes `source` for the web, timing it into `r`.
+// Encodes `source` for the web (`tile`: a split texture's tile, its texels
+// cut from the source), timing it into `r`.
 Status webImage(const fs::path& source, int channels, const Tiles3dParams& params, const fs::path& scratch,
-                TileResult& r, WebImage* out) {
+                TileResult& r, WebImage* out, const TextureEntry* tile = nullptr, WrapMode wrap = WrapMode::Clamp) {
     const auto t0 = std::chrono::steady_clock::now();
-    Status st = encodeWebImage(source, channels, imageParams(params), scratch, out);
+    Status st;
+    if (tile != nullptr && tile->tile >= 0) {
+        format::Image8 whole;
+        std::string why;
+        st = readImage8(source.string(), channels, &whole, &why)
+                 ? encodeWebImage(cropTile(whole, tile->tile_rect, wrap == WrapMode::Wrap), imageParams(params), scratch, out)
+                 : Status::Io(fmt::format("{}: {}", source.string(), why));
+    } else {
+        st = encodeWebImage(source, channels, imageParams(params), scratch, out);
+    }
     r.image_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (st.ok()) r.image_bytes += out->bytes.size(), ++r.images;
     return st;
@@ -321,7 +333,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             const TextureRef& ref = x.scene.textures[static_cast<size_t>(te.scene_texture)];
             WebImage image;
             if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_path.parent_path() / fmt::format(".{}-t{}", entry.id, t),
-                          r, &image)
+                          r, &image, &te, ref.wrap)
                      .ok())
                 continue;  // counted: the native build already warned (texture_unreadable); the atlas draws it
             original_texture[t] = table.add(image, gltfSamplerWrap(te.wrap));
@@ -469,10 +481,13 @@ Status writeSharedOriginals(const ExportContext& x, const format::TilesetDocumen
     for (size_t i = 0; i < doc.tiles.size(); ++i) {
         const atlas::AtlasNode& node = x.tree.nodes[i];
         if (!doc.tiles[i].leaf() || node.originals.empty()) continue;
-        std::set<int32_t> used;
+        std::set<int32_t> used(x.leaf_tiles[i].begin(), x.leaf_tiles[i].end());  // split textures: the tiles used
         for (const auto& layer : node.layers)
             for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
-                if (const int32_t st = x.tree.triangles[t].tri.texture; st >= 0) used.insert(x.plan.texture_index[static_cast<size_t>(st)]);
+                if (const int32_t st = x.tree.triangles[t].tri.texture;
+                    st >= 0 && splitGridOf(x.scene.textures[static_cast<size_t>(st)], x.tree.params.atlas_size_px,
+                                           x.params.split_originals).count() == 0)
+                    used.insert(x.plan.texture_index[static_cast<size_t>(st)]);
         for (const int32_t t : used)
             if (t >= 0) ++uses[t];
     }
@@ -491,7 +506,9 @@ Status writeSharedOriginals(const ExportContext& x, const format::TilesetDocumen
             const TextureRef& ref = x.scene.textures[static_cast<size_t>(te.scene_texture)];
             WebImage image;
             TileResult& r = (*results)[k];
-            if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_dir / "textures" / fmt::format(".{}", list[k]), r, &image).ok())
+            if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_dir / "textures" / fmt::format(".{}", list[k]), r,
+                          &image, &te, ref.wrap)
+                     .ok())
                 return;  // the native build counted it (texture_unreadable); the atlas stands in
             const std::string name = fmt::format("{}.{}", list[k], image.mime.substr(image.mime.find('/') + 1));
             if (Status st = writeBytes(out_dir / "textures" / name, image.bytes.data(), image.bytes.size()); !st.ok()) {
@@ -552,7 +569,8 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "tiles").string(), ec.message()));
 
     ExportContext context{scene,  tree, atlas_dir, native_dir, params, attributeColumns(scene),
-                          planTextureBlocks(scene, tree, doc.build.originals == "all"), {}};
+                          planTextureBlocks(scene, tree, doc.build.originals == "all", params.split_originals), {}, {}};
+    context.leaf_tiles = leafTiles(scene, tree, context.plan.texture_index, params.split_originals);
     if (context.plan.textures.size() != doc.textures.size())
         return Status::Internal(fmt::format("3dtiles: the native index has {} textures, the plan {}", doc.textures.size(),
                                             context.plan.textures.size()));

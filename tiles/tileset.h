@@ -69,7 +69,7 @@ namespace cityatlas::tiles {
 
 /// Bumped whenever the writer's output changes for the same inputs and
 /// parameters, so `cityatlas build` does not take an older folder as up to date.
-inline constexpr int kWriterRevision = 9;  // 9: sub-texel buildings left out before simplifying, features/bounds/<k>.bin (8: position bits no finer than float32 resolves at the node (7: above the node budget, buildings smaller than a texel left out; 6: tileset textures numbered by scene order)
+inline constexpr int kWriterRevision = 10;  // 10: originals of more than two atlases split into overlapping tiles (9: sub-texel buildings left out before simplifying, features/bounds/<k>.bin (8: position bits no finer than float32 resolves at the node (7: above the node budget, buildings smaller than a texel left out; 6: tileset textures numbered by scene order))
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default
@@ -91,6 +91,10 @@ struct TilesParams {
     /// (AtlasNode::originals); true: every used texture's, listed by every
     /// leaf that uses it (reference renderings, other clients).
     bool all_originals = false;
+    /// Originals of more than two atlases of texels as overlapping tiles,
+    /// each its own tileset texture, the leaves' triangles cut at the tile
+    /// lines (texture_blocks.h, texture_tiles.h).
+    bool split_originals = true;
 };
 
 struct TilesStepStats {
@@ -259,6 +263,7 @@ struct BuiltSubtrees {
     std::map<int32_t, std::vector<uint32_t>> subtree_features;  ///< by shard root
     std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's)
     std::vector<std::vector<int32_t>> leaf_textures;  ///< per node, for --originals all (texture_blocks.h)
+    std::vector<std::vector<int32_t>> leaf_tiles;     ///< per node: the tiles of split textures it uses (leafTiles)
     std::optional<FeatureTables> feature_tables;  ///< written already (by the plan); else from the scene's features
     BlockCache* block_cache = nullptr;            ///< original-texture blocks kept between builds (texture_blocks.h)
 };

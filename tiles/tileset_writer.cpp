@@ -76,13 +76,19 @@ int bitsFor(const TileMesh& m, const Vec3d& centre, double target) {
 }
 
 // Texels per unit of u or v (the larger side) of each tileset texture; 0 unknown.
-std::vector<double> textureSizes(const Scene& scene, const std::vector<int32_t>& texture_index) {
+std::vector<double> textureSizes(const Scene& scene, const std::vector<int32_t>& texture_index, int atlas_size_px,
+                                 bool split) {
     std::vector<double> sizes;
     for (size_t s = 0; s < texture_index.size(); ++s) {
         const int32_t t = texture_index[s];
         if (t < 0) continue;
-        if (sizes.size() <= static_cast<size_t>(t)) sizes.resize(static_cast<size_t>(t) + 1, 0.0);
-        sizes[static_cast<size_t>(t)] = std::max(scene.textures[s].width_px, scene.textures[s].height_px);
+        const TileGrid grid = splitGridOf(scene.textures[s], atlas_size_px, split);
+        const int tiles = std::max(1, grid.count());
+        if (sizes.size() < static_cast<size_t>(t + tiles)) sizes.resize(static_cast<size_t>(t + tiles), 0.0);
+        for (int k = 0; k < tiles; ++k) {
+            const TexelRect r = grid.count() > 0 ? grid.rectOf(k) : TexelRect{0, 0, scene.textures[s].width_px, scene.textures[s].height_px};
+            sizes[static_cast<size_t>(t + k)] = std::max(r.width(), r.height());
+        }
     }
     return sizes;
 }
@@ -204,7 +210,7 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
         if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / dir).string(), ec.message()));
     }
     auto isBuilt = [&](size_t id) { return built && id < built->built.size() && built->built[id]; };
-    const std::vector<double> texture_sizes = textureSizes(scene, texture_index);
+    const std::vector<double> texture_sizes = textureSizes(scene, texture_index, tree.params.atlas_size_px, params.split_originals);
 
     // --- Geometry, children before their parent: a node merges its
     // children's geometry, which goes as soon as it is merged. Subtrees
@@ -224,7 +230,7 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
             const auto layer = static_cast<Layer>(li);
             std::unique_ptr<NodeGeometry> g;
             if (node.leaf()) {
-                g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, texture_index));
+                g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, texture_index, params.split_originals));
             } else {
                 std::array<std::unique_ptr<NodeGeometry>, 4> children{};  // merged, then freed
                 for (size_t q = 0; q < 4; ++q)
@@ -507,9 +513,9 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         stats.steps.push_back({name, c.seconds, c.peak_rss_mb, c.cpu_seconds});
     };
     std::error_code ec;
-    TextureBlocks blocks = built ? planTextureBlocks(scene, tree, params.all_originals, built->texture_index,
-                                                     built->leaf_textures)
-                                 : planTextureBlocks(scene, tree, params.all_originals);
+    TextureBlocks blocks = built ? planTextureBlocks(scene, tree, params.all_originals, params.split_originals,
+                                                     built->texture_index, built->leaf_textures, built->leaf_tiles)
+                                 : planTextureBlocks(scene, tree, params.all_originals, params.split_originals);
     std::vector<NodeRecord> records = built ? std::move(built->records) : std::vector<NodeRecord>();
     records.resize(n_nodes);
     tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);

@@ -252,4 +252,17 @@ Status encodeWebImage(const fs::path& source, int channels, const WebImageParams
     return Status::Internal("encodeWebImage: unknown format");
 }
 
+Status encodeWebImage(const format::Image8& image, const WebImageParams& params, const fs::path& scratch, WebImage* out) {
+    const fs::path png = scratch.string() + ".tile.png";
+    auto file = OIIO::ImageOutput::create(png.string());
+    const OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::UINT8);
+    const bool written = file && file->open(png.string(), spec) && file->write_image(OIIO::TypeDesc::UINT8, image.pixels.data()) &&
+                         file->close();
+    Status st = written ? encodeWebImage(png, image.channels, params, scratch, out)
+                        : Status::Io(fmt::format("{}: cannot write: {}", png.string(), file ? file->geterror() : OIIO::geterror()));
+    std::error_code ec;
+    fs::remove(png, ec);
+    return st;
+}
+
 }  // namespace cityatlas::tiles

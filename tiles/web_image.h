@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/status.h"
+#include "format/dds.h"
 
 namespace cityatlas::tiles {
 
@@ -48,5 +49,10 @@ std::string findBasisu(const std::filesystem::path& web_dir);
 /// `scratch` is a path prefix for the encoders' temporary files (removed).
 Status encodeWebImage(const std::filesystem::path& source, int channels, const WebImageParams& params,
                       const std::filesystem::path& scratch, WebImage* out);
+
+/// The same for texels in memory (a split texture's tile): written as a
+/// scratch PNG (`scratch`.png, removed) and encoded from there.
+Status encodeWebImage(const format::Image8& image, const WebImageParams& params, const std::filesystem::path& scratch,
+                      WebImage* out);
 
 }  // namespace cityatlas::tiles
