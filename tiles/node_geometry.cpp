@@ -146,21 +146,22 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
         };
         // A split texture (texture_blocks.h): the triangle cut at its tile
         // lines, each piece naming its tile in the tile's own coordinates.
+        // (A triangle repeating it over two periods or more keeps the whole texture, below.)
+        pieces.clear();
         if (const TileGrid grid = textured ? splitGridOf(scene.textures[static_cast<size_t>(t.texture)],
                                                          tree.params.atlas_size_px, split)
                                            : TileGrid{};
-            grid.count() > 0) {
-            pieces.clear();
+            grid.count() > 0 &&
             clipToTiles(grid, {ClipVertex{t.position_local[0], t.uv[0], atlasUv(0)}, ClipVertex{t.position_local[1], t.uv[1], atlasUv(1)},
                                ClipVertex{t.position_local[2], t.uv[2], atlasUv(2)}},
-                        &pieces);
+                        &pieces)) {
             for (const TilePiece& p : pieces) {
                 std::array<Vertex, 3> tri;
                 for (size_t k = 0; k < 3; ++k) {
                     tri[k].position = p.corners[k].position;
                     tri[k].feature = t.feature;
                     tri[k].material = -1;
-                    tri[k].texture = texture_index[static_cast<size_t>(t.texture)] + p.tile;
+                    tri[k].texture = texture_index[static_cast<size_t>(t.texture)] + 1 + p.tile;
                     tri[k].uv_original = p.corners[k].uv;
                     tri[k].uv_atlas = p.corners[k].uv_atlas;
                 }

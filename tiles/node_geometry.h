@@ -54,7 +54,7 @@ struct NodeGeometry {
 /// 0, which changes nothing on screen with GL_REPEAT and keeps Draco's uv
 /// quantization range (and so its step) small. With `split`, a triangle of a
 /// texture of more than two atlases is cut at its tile lines, each piece
-/// naming its tile (texture_index + tile) in the tile's coordinates
+/// naming its tile (texture_index + 1 + tile) in the tile's coordinates
 /// (tiles/texture_tiles.h, texture_blocks.h).
 NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
                           const std::vector<int32_t>& texture_index, bool split = true);

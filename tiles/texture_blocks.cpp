@@ -83,7 +83,7 @@ std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const
     for (size_t t = 0; t < used.size(); ++t) {
         if (!used[t]) continue;
         index[t] = next;
-        next += std::max(1, splitGridOf(textures[t], atlas_size_px, split).count());
+        next += 1 + splitGridOf(textures[t], atlas_size_px, split).count();  // the whole texture, then its tiles
     }
     return index;
 }
@@ -102,10 +102,12 @@ std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::Atl
                 const TileGrid grid = splitGridOf(scene.textures[static_cast<size_t>(t.texture)], tree.params.atlas_size_px, split);
                 if (grid.count() == 0) continue;
                 pieces.clear();
-                clipToTiles(grid, {ClipVertex{t.position_local[0], t.uv[0], {}}, ClipVertex{t.position_local[1], t.uv[1], {}},
-                                   ClipVertex{t.position_local[2], t.uv[2], {}}},
-                            &pieces);
-                for (const TilePiece& p : pieces) out[ni].push_back(texture_index[static_cast<size_t>(t.texture)] + p.tile);
+                const int32_t first = texture_index[static_cast<size_t>(t.texture)];
+                if (!clipToTiles(grid, {ClipVertex{t.position_local[0], t.uv[0], {}}, ClipVertex{t.position_local[1], t.uv[1], {}},
+                                        ClipVertex{t.position_local[2], t.uv[2], {}}},
+                                 &pieces))
+                    out[ni].push_back(first);  // repeated over two periods: the whole texture
+                for (const TilePiece& p : pieces) out[ni].push_back(first + 1 + p.tile);
             }
         std::sort(out[ni].begin(), out[ni].end());
         out[ni].erase(std::unique(out[ni].begin(), out[ni].end()), out[ni].end());
@@ -151,12 +153,12 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
     for (size_t st = 0; st < texture_index.size(); ++st) {
         const int32_t ti = texture_index[st];
         if (ti < 0) continue;
-        if (b.textures.size() <= static_cast<size_t>(ti)) b.textures.resize(static_cast<size_t>(ti) + 1);
         const TextureRef& ref = scene.textures[st];
+        // The whole texture, then a split one's tiles (texture_tiles.h).
         const TileGrid grid = splitGridOf(ref, tree.params.atlas_size_px, split);
-        const int tiles = std::max(1, grid.count());
-        if (b.textures.size() < static_cast<size_t>(ti + tiles)) b.textures.resize(static_cast<size_t>(ti + tiles));
-        for (int k = 0; k < tiles; ++k) {
+        const int entries = 1 + grid.count();
+        if (b.textures.size() < static_cast<size_t>(ti + entries)) b.textures.resize(static_cast<size_t>(ti + entries));
+        for (int k = 0; k < entries; ++k) {
             TextureEntry& e = b.textures[static_cast<size_t>(ti + k)];
             e.scene_texture = static_cast<int32_t>(st);
             e.width = ref.width_px;
@@ -164,10 +166,10 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
             e.channels = ref.channels == 4 ? 4 : 3;
             e.wrap = ref.wrap;
             e.exact = true;
-            if (grid.count() > 0) {
+            if (k > 0) {
                 // A tile is sampled clamped: its overlap holds what lies beyond its core.
-                e.tile = k;
-                e.tile_rect = grid.rectOf(k);
+                e.tile = k - 1;
+                e.tile_rect = grid.rectOf(k - 1);
                 e.width = e.tile_rect.width(), e.height = e.tile_rect.height();
                 e.wrap = WrapMode::Clamp;
             }
@@ -192,7 +194,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
             }
             if (ni < leaf_tiles.size())
                 for (const int32_t t : leaf_tiles[ni])
-                    if (t >= ti && t < ti + tiles) needed.push_back(t);
+                    if (t >= ti && t <= ti + tiles) needed.push_back(t);
         }
         for (const int32_t ti : needed) {
             TextureEntry& e = b.textures[static_cast<size_t>(ti)];

@@ -9,10 +9,12 @@
 /// neighbouring leaves; a texture larger than one atlas is a block of its own.
 ///
 /// A texture of more than two atlases of texels is split (`split`, the
-/// default; tiles/texture_tiles.h): each of its overlapping tiles is a
-/// tileset texture of its own (consecutive numbers), the leaves' triangles
-/// are cut at the tile lines, and a leaf needs only the tiles its triangles
-/// use (an orthophoto on every roof: each leaf the tiles under its roofs).
+/// default; tiles/texture_tiles.h): it takes consecutive tileset numbers,
+/// the whole texture first, then each of its overlapping tiles; the leaves'
+/// triangles are cut at the tile lines and name their tiles (a triangle
+/// repeating the texture over two periods or more names the whole texture),
+/// and a leaf needs only what its triangles name (an orthophoto on every
+/// roof: each leaf the tiles under its roofs).
 
 #include <cstdint>
 #include <filesystem>
@@ -68,15 +70,16 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
                                 const std::vector<std::vector<int32_t>>& leaf_tiles);
 
 /// Tileset texture numbers: each used scene texture's rank among the used
-/// ones (a split texture takes one number per tile, tiles/texture_tiles.h),
+/// ones (a split texture takes one more number per tile, tiles/texture_tiles.h),
 /// so a shard of a larger build numbers its leaves' textures as the whole
 /// build does without seeing the other shards.
 std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const std::vector<TextureRef>& textures,
                                          int atlas_size_px, bool split);
 /// Per node (leaves only; others empty): the scene textures its triangles use, ascending.
 std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree);
-/// Per node (leaves only; others empty): the tileset textures of the tiles of
-/// split textures its triangles use once cut (as leafGeometry cuts them), ascending.
+/// Per node (leaves only; others empty): the tileset textures of split
+/// textures its triangles name once cut (as leafGeometry cuts them: tiles,
+/// or the whole texture for a triangle that is not cut), ascending.
 std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::AtlasTree& tree,
                                             const std::vector<int32_t>& texture_index, bool split);
 

@@ -142,39 +142,35 @@ std::vector<std::vector<Corner>> slice(std::vector<std::vector<Corner>> polys, i
 // The cell a piece lies in, from its centroid: period and core index per axis.
 std::pair<int64_t, int> cellOf(double centre, int size, int core, int cells, bool wraps) {
     int64_t period = 0;
-    if (wraps) period = static_cast<int64_t>(std::clamp(std::floor(centre / size), -0x1p53, 0x1p53));
+    if (wraps) period = static_cast<int64_t>(std::floor(centre / size));  // finite and within two periods of the triangle
     const double within = centre - static_cast<double>(period) * size;
-    const int k = std::clamp(static_cast<int>(std::floor(within / core)), 0, cells - 1);
+    const int k = static_cast<int>(std::clamp(std::floor(within / core), 0.0, static_cast<double>(cells - 1)));
     return {period, k};
 }
 
 }  // namespace
 
-void clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle, std::vector<TilePiece>* out) {
+bool clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle, std::vector<TilePiece>* out) {
     std::vector<Corner> poly;
     for (const ClipVertex& v : triangle)
         poly.push_back({v.uv.x * grid.width, (1 - v.uv.y) * grid.height, v.position, v.uv_atlas});
-    // A triangle repeating the texture thousands of times (or with coordinates
-    // that are not finite) is not cut: it stays one piece on the tile under
-    // its centre, which draws it stretched instead of splitting it into
-    // millions of pieces.
-    bool cut = std::all_of(poly.begin(), poly.end(), [](const Corner& c) { return std::isfinite(c.s) && std::isfinite(c.t); });
-    for (int axis = 0; axis < 2 && cut; ++axis) {
-        double lo = along(poly[0], axis), hi = lo;
-        for (const Corner& c : poly) lo = std::min(lo, along(c, axis)), hi = std::max(hi, along(c, axis));
-        cut = (hi - lo) / grid.core < kMaxCutsPerAxis;
-    }
-    std::vector<std::vector<Corner>> pieces{poly};
-    if (cut) {
-        pieces = slice(std::move(pieces), 0, grid.width, grid.core, grid.wraps);
-        pieces = slice(std::move(pieces), 1, grid.height, grid.core, grid.wraps);
-    }
+    if (!std::all_of(poly.begin(), poly.end(), [](const Corner& c) { return std::isfinite(c.s) && std::isfinite(c.t); }))
+        return false;
+    if (grid.wraps)
+        for (int axis = 0; axis < 2; ++axis) {
+            double lo = along(poly[0], axis), hi = lo;
+            for (const Corner& c : poly) lo = std::min(lo, along(c, axis)), hi = std::max(hi, along(c, axis));
+            // (Far from the origin, whole periods no longer hold in a double.)
+            if (hi - lo >= 2.0 * (axis == 0 ? grid.width : grid.height) || std::abs(lo) > 0x1p50 || std::abs(hi) > 0x1p50)
+                return false;
+        }
+    std::vector<std::vector<Corner>> pieces = slice({poly}, 0, grid.width, grid.core, grid.wraps);
+    pieces = slice(std::move(pieces), 1, grid.height, grid.core, grid.wraps);
     for (const std::vector<Corner>& p : pieces) {
         double cs = 0, ct = 0;
         for (const Corner& c : p) cs += c.s, ct += c.t;
         cs /= static_cast<double>(p.size());
         ct /= static_cast<double>(p.size());
-        if (!std::isfinite(cs) || !std::isfinite(ct)) cs = ct = 0;
         const auto [ps, column] = cellOf(cs, grid.width, grid.core, grid.columns(), grid.wraps);
         const auto [pt, row] = cellOf(ct, grid.height, grid.core, grid.rows(), grid.wraps);
         const int tile = row * grid.columns() + column;
@@ -191,6 +187,7 @@ void clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle
             out->push_back({tile, {corner(*tri[0]), corner(*tri[1]), corner(*tri[2])}});
         }
     }
+    return true;
 }
 
 }  // namespace cityatlas::tiles

@@ -99,20 +99,17 @@ struct TilePiece {
     std::array<ClipVertex, 3> corners;
 };
 
-/// More core lines than this across one triangle (in either axis): the
-/// triangle is not cut (see clipToTiles).
-inline constexpr double kMaxCutsPerAxis = 1024;
-
-/// Cuts `triangle` at every core line it crosses (in every period for a
-/// repeating texture; a clamped texture's uv outside [0, 1] belongs to the
+/// Cuts `triangle` at every core line it crosses (a repeating texture's in
+/// each period it spans; a clamped texture's uv outside [0, 1] belongs to the
 /// border tiles) and appends the pieces, in a fan per core cell, with their
 /// tile and tile-space uv; position and atlas uv are interpolated. Cut
 /// points are computed from each edge's endpoints in a fixed order, so two
 /// triangles sharing an edge get the same points (no cracks). Pieces of no
-/// area in texture space and position both are dropped. A triangle spanning
-/// kMaxCutsPerAxis cores or more, or with coordinates that are not finite,
-/// stays one piece on the tile under its centre (drawn stretched: such
-/// repeat counts are no photo's; the cut would make millions of pieces).
-void clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle, std::vector<TilePiece>* out);
+/// area in texture space and position both are dropped.
+/// Returns false, appending nothing, for a triangle that repeats a wrapping
+/// texture over two periods or more in either axis (a tiled roof, a facade
+/// pattern: cutting it at every period would multiply it) or whose
+/// coordinates are not finite: such a triangle samples the whole texture.
+bool clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle, std::vector<TilePiece>* out);
 
 }  // namespace cityatlas::tiles

@@ -2,10 +2,11 @@
 # §4.6, papers/004 §2; tiles/texture_tiles.h), end to end on a town whose
 # roofs all carry one 1202 x 532 orthophoto (more than two 512 atlases),
 # built with --originals all (at this size the atlases hold it exactly):
-# - the tileset lists the orthophoto as 6 clamped tiles, in consecutive
-#   numbers, with the sizes an independent computation of the grid gives
-#   (512 cores, 16 texels of overlap, clipped at the image border), and
-#   `inspect` passes; with --split-originals off it is one texture;
+# - the tileset lists the orthophoto whole (unwritten: no roof repeats it)
+#   and then as 6 clamped tiles, in consecutive numbers, with the sizes an
+#   independent computation of the grid gives (512 cores, 16 texels of
+#   overlap, clipped at the image border), and `inspect` passes; with
+#   --split-originals off it is one texture;
 # - a leaf needs only the tiles under its own roofs: some leaves' texture
 #   blocks lack some tiles (with every original whole, each leaf loads all of
 #   it), and the overlap costs less than 30 % more bytes;
@@ -46,10 +47,12 @@ def check(ok, what):
 big = [i for i, t in enumerate(off["textures"]) if (t["width"], t["height"]) == (w, h)]
 check(len(big) == 1, f"unsplit: the orthophoto is one {w}x{h} texture")
 k = big[0]
-tiles = on["textures"][k:k + len(want)]
-check([(t["width"], t["height"]) for t in tiles] == want, f"split: {len(want)} tiles {want}")
+tiles = on["textures"][k + 1:k + 1 + len(want)]
+check((on["textures"][k]["width"], on["textures"][k]["height"]) == (w, h), "split: the whole texture keeps its number (for triangles that repeat it)")
+check([(t["width"], t["height"]) for t in tiles] == want, f"split: {len(want)} tiles after it {want}")
 check(all(t["wrap"] == "clamp" for t in tiles), "the tiles are sampled clamped")
-check(len(on["textures"]) == len(off["textures"]) + len(want) - 1, "the other textures keep their entries, numbers after the tiles shift")
+check(on["textures"][k]["block"] == -1, "no roof repeats the orthophoto: the whole texture is not written")
+check(len(on["textures"]) == len(off["textures"]) + len(want), "the other textures keep their entries, numbers after the tiles shift")
 # Which tiles each leaf needs: its texture blocks' tile entries.
 def leaf_tiles(doc, first, count):
     out = []
@@ -62,7 +65,7 @@ def leaf_tiles(doc, first, count):
         out.append({i for i in range(first, first + count) if doc["textures"][i]["block"] in blocks})
     walk(json.load(open("on/tileset.json"))["root"])
     return out
-per_leaf = leaf_tiles(on, k, len(want))
+per_leaf = leaf_tiles(on, k + 1, len(want))
 check(all(per_leaf) and any(len(s) < len(want) for s in per_leaf),
       f"the tiles in each leaf's blocks (some leaves lack some): {[sorted(s) for s in per_leaf]}")
 ton, toff = on["totals"]["bytes"]["textures"], off["totals"]["bytes"]["textures"]
@@ -127,7 +130,7 @@ from PIL import Image
 t = json.load(open("web/tileset.json"))["extras"]["cityatlas"]["textures"]
 ortho = Image.open("town/textures/orthophoto.png").convert("RGB")
 core, overlap = 512, 16
-first = min(i for i, x in enumerate(t) if x["wrap"] == "clamp")
+first = min(i for i, x in enumerate(t) if x["wrap"] == "clamp")  # the first tile
 checked = 0
 for p in glob.glob("web/3dtiles/textures/*.png"):
     k = int(os.path.basename(p).split(".")[0])

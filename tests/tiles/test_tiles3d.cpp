@@ -114,16 +114,22 @@ struct Exported {
     fs::path dir;
     json tileset;
 };
+// The fixture's atlases are 256 px, so 512 px facades would be split into
+// tiles (texture_blocks.h): the tests here compare leaves with their scene
+// triangles and whole originals, so they build unsplit; cli.split_originals
+// checks a split export's tiles.
 Exported exportTown(const std::string& name, const Vec3d& offset, WebTextures textures = WebTextures::Png,
                     int texture_px = 64, uint32_t buildings = 25) {
     Exported e;
     TilesParams p;
     p.threads = 2;
+    p.split_originals = false;
     e.town = buildTown(name, buildings, offset, p, 150, {}, nullptr, texture_px);
     e.dir = e.town->dir / "3dtiles";
     Tiles3dParams t3;
     t3.textures = textures;
     t3.threads = 2;
+    t3.split_originals = false;
     const Status st = writeTiles3d(e.town->scene, e.town->tree, e.town->atlas_dir, e.town->dir / "tiles", t3, e.dir, {},
                                    &e.stats);
     EXPECT_TRUE(st.ok()) << st.error;

@@ -277,8 +277,12 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
     // The default 512 px facades at d_min 150 m: below their own resolution in
     // the leaves (at 150 m the 64 px ones would be capped, copied texel for
     // texel, and no original written), so the atlases are resampled and every
-    // original is in a block.
-    const auto b = buildTown("dds", 30, {}, defaults(), 150, {}, nullptr, 512);
+    // original is in a block. Unsplit: at this fixture's 256 px atlases the
+    // 512 px facades would be tiles, and each DDS is compared with its whole
+    // original (the tiles: GlTest.SplitOriginals..., cli.split_originals).
+    TilesParams params = defaults();
+    params.split_originals = false;
+    const auto b = buildTown("dds", 30, {}, params, 150, {}, nullptr, 512);
     ASSERT_FALSE(HasFailure());
     const json& ca = b->tileset["extras"]["cityatlas"];
     std::vector<double> psnr;
@@ -328,7 +332,7 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
     // At 64 px the synthetic facades are pixel art (a window is ~2 texels), the
     // hardest case for BC1's two colours per 4x4 block: 26-28 dB; 35-44 dB for
     // the same facades at the default 512 px, as here.
-    const TextureBlocks plan = planTextureBlocks(b->scene, b->tree, b->tileset["extras"]["cityatlas"]["build"]["originals"] == "all");
+    const TextureBlocks plan = planTextureBlocks(b->scene, b->tree, b->tileset["extras"]["cityatlas"]["build"]["originals"] == "all", false);
     ASSERT_EQ(plan.textures.size(), ca["textures"].size());
     double sum = 0;
     for (size_t t = 0; t < plan.textures.size(); ++t) {

@@ -857,7 +857,7 @@ TEST_F(GlTest, SplitOriginalsAreSeamFreeWithOverlapAndNotWithout) {
             std::vector<tiles::TilePiece> pieces;
             for (const auto& tri : {std::array<tiles::ClipVertex, 3>{corners[0], corners[1], corners[2]},
                                     std::array<tiles::ClipVertex, 3>{corners[0], corners[2], corners[3]}})
-                tiles::clipToTiles(grid, tri, &pieces);
+                ASSERT_TRUE(tiles::clipToTiles(grid, tri, &pieces));
             std::sort(pieces.begin(), pieces.end(), [](const auto& a, const auto& b) { return a.tile < b.tile; });
             MeshData tiled;
             std::vector<GpuTexture> uploaded;
