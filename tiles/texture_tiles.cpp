@@ -171,9 +171,11 @@ bool clipToTiles(const TileGrid& grid, const std::array<ClipVertex, 3>& triangle
         for (const Corner& c : p) cs += c.s, ct += c.t;
         cs /= static_cast<double>(p.size());
         ct /= static_cast<double>(p.size());
-        const auto [ps, column] = cellOf(cs, grid.width, grid.core, grid.columns(), grid.wraps);
-        const auto [pt, row] = cellOf(ct, grid.height, grid.core, grid.rows(), grid.wraps);
-        const int tile = row * grid.columns() + column;
+        // (Pairs, not structured bindings: the lambda below uses the periods.)
+        const std::pair<int64_t, int> cell_s = cellOf(cs, grid.width, grid.core, grid.columns(), grid.wraps);
+        const std::pair<int64_t, int> cell_t = cellOf(ct, grid.height, grid.core, grid.rows(), grid.wraps);
+        const int64_t ps = cell_s.first, pt = cell_t.first;
+        const int tile = cell_t.second * grid.columns() + cell_s.second;
         const TexelRect r = grid.rectOf(tile);
         auto corner = [&](const Corner& c) {
             const double x = c.s - static_cast<double>(ps) * grid.width, y = c.t - static_cast<double>(pt) * grid.height;
