@@ -43,7 +43,7 @@ struct BuildCliOptions {
     std::string bc_quality = "fast";
     double position_error_mm = 2.0;
     std::string originals = "needed";
-    std::string split_originals = "on";
+    std::string split_originals = "off";
     std::string format = "native";          // native, 3dtiles or both
     std::string web_textures = "webp";
     tiles::Tiles3dParams tiles3d;
@@ -78,7 +78,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
     k.push_back(fmt::format("bits={}/{} speed={} bc={} node_triangles={} feature_block={} originals={}",
                             t.draco.position_bits, t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality),
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
-    if (!t.split_originals) k.push_back("split_originals=off");
+    if (t.split_originals) k.push_back("split_originals=on");
     if (opt.format != "native")
         k.push_back(fmt::format("format={} web_textures={} quality={}", opt.format, opt.web_textures,
                                 opt.tiles3d.jpeg_quality));
@@ -828,8 +828,10 @@ RunFn addBuildCommand(CLI::App& app) {
     cmd->add_option("--split-originals", opt->split_originals,
                     "on: an original of more than two atlases of texels (an orthophoto, a long facade) becomes "
                     "overlapping tiles of one atlas each (16 texels of overlap: seam-free for 2 mip levels), and a "
-                    "leaf needs only the tiles its triangles use; off: every original whole")
-        ->default_val("on")
+                    "leaf needs only the tiles its triangles use: pays for a texture spread over many leaves (an "
+                    "orthophoto on every roof); costs more leaf triangles and ~10 % more bytes elsewhere; off: every "
+                    "original whole")
+        ->default_val("off")
         ->group(g);
     cmd->add_option("--node-triangles", opt->tiles.node_triangles,
                     "Triangle budget per inner node and layer; larger merges are simplified (meshoptimizer) at a "

@@ -8,8 +8,8 @@
 /// order leaves first use them (depth-first), so a block holds textures of
 /// neighbouring leaves; a texture larger than one atlas is a block of its own.
 ///
-/// A texture of more than two atlases of texels is split (`split`, the
-/// default; tiles/texture_tiles.h): it takes consecutive tileset numbers,
+/// A texture of more than two atlases of texels is split (with `split`;
+/// tiles/texture_tiles.h): it takes consecutive tileset numbers,
 /// the whole texture first, then each of its overlapping tiles; the leaves'
 /// triangles are cut at the tile lines and name their tiles (a triangle
 /// repeating the texture over two periods or more names the whole texture),
@@ -57,7 +57,7 @@ struct TextureBlocks {
 /// with `all` every texture it uses; every used texture has an entry (a
 /// split one an entry per tile), in scene order (tilesetTextureIndex); those
 /// no leaf needs are marked exact (no block).
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false, bool split = true);
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false, bool split = false);
 
 /// The same for a tree without its triangles (a sharded build's merge):
 /// `texture_index` (scene texture -> first tileset texture, -1 unused;

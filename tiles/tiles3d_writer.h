@@ -55,7 +55,7 @@ struct Tiles3dParams {
     /// or on PATH; findBasisu finds it). Empty with Ktx2: writeTiles3d refuses.
     std::string basisu;
     int threads = 0;         ///< 0 = all cores
-    bool split_originals = true;  ///< as the native build (TilesParams): its leaves name the tiles of split textures
+    bool split_originals = false;  ///< as the native build (TilesParams): its leaves name the tiles of split textures
 };
 
 struct Tiles3dStats {

@@ -93,8 +93,10 @@ struct TilesParams {
     bool all_originals = false;
     /// Originals of more than two atlases of texels as overlapping tiles,
     /// each its own tileset texture, the leaves' triangles cut at the tile
-    /// lines (texture_blocks.h, texture_tiles.h).
-    bool split_originals = true;
+    /// lines (texture_blocks.h, texture_tiles.h). Off by default until the
+    /// client loads tiles by what it sees: today a leaf loads every tile it
+    /// uses, so only textures spread over many leaves (an orthophoto) gain.
+    bool split_originals = false;
 };
 
 struct TilesStepStats {

@@ -6,7 +6,7 @@
 #   and then as 6 clamped tiles, in consecutive numbers, with the sizes an
 #   independent computation of the grid gives (512 cores, 16 texels of
 #   overlap, clipped at the image border), and `inspect` passes; with
-#   --split-originals off it is one texture;
+#   the default (--split-originals off) it is one texture;
 # - a leaf needs only the tiles under its own roofs: some leaves' texture
 #   blocks lack some tiles (with every original whole, each leaf loads all of
 #   it), and the overlap costs less than 30 % more bytes;
@@ -22,8 +22,8 @@
 source "$(dirname "$0")/lib.sh" "$@"
 
 "$CITYATLAS" synth -q --lod 1 --buildings 30 --seed 8 --texture-size 32 --orthophoto world-file -o town > /dev/null
-"$CITYATLAS" build -q town/town.gml -o on --d-min 40 --originals all --uv-bits 20 > /dev/null
-"$CITYATLAS" build -q town/town.gml -o off --d-min 40 --originals all --uv-bits 20 --split-originals off > /dev/null
+"$CITYATLAS" build -q town/town.gml -o on --d-min 40 --originals all --uv-bits 20 --split-originals on > /dev/null
+"$CITYATLAS" build -q town/town.gml -o off --d-min 40 --originals all --uv-bits 20 > /dev/null
 "$CITYATLAS" inspect on > inspect.txt || { tail -20 inspect.txt >&2; fail "inspect finds defects in the split folder"; }
 echo "ok: inspect passes ($(tail -1 inspect.txt))"
 "$PY" - <<'PY' || fail "tiles in the tileset (above)"
@@ -98,8 +98,8 @@ echo "ok: the roofs drawn from the tiles equal the whole orthophoto's within 1 L
 # Sharded: the shards report the tiles their leaves use (manifest leaf_tiles)
 # and the merge plans the blocks from them; in the build's process or in
 # worker processes, the same folder.
-"$CITYATLAS" build -q town/town.gml -o sharded --d-min 40 --originals all --shard-triangles 200 --workers 0 > /dev/null
-"$CITYATLAS" build -q town/town.gml -o sharded2 --d-min 40 --originals all --shard-triangles 200 --workers 2 > /dev/null
+"$CITYATLAS" build -q town/town.gml -o sharded --d-min 40 --originals all --split-originals on --shard-triangles 200 --workers 0 > /dev/null
+"$CITYATLAS" build -q town/town.gml -o sharded2 --d-min 40 --originals all --split-originals on --shard-triangles 200 --workers 2 > /dev/null
 check_eq "shards" 4 "$(json sharded/build_report.json "j['shards']['count']")"
 "$CITYATLAS" inspect sharded > inspect_sharded.txt || { tail -20 inspect_sharded.txt >&2; fail "inspect finds defects in the sharded folder"; }
 diff -rq -x build_report.json sharded sharded2 > shard.diff || { cat shard.diff >&2; fail "in-process and worker shards differ"; }
@@ -123,7 +123,7 @@ echo "ok: 4 shards: inspect passes, leaves list only some tiles, worker processe
 
 # At --d-min 1500 some leaves' atlases hold the orthophoto below its
 # resolution, so the export writes close-range tiles that draw the originals.
-"$CITYATLAS" build -q town/town.gml -o web --d-min 1500 --format both --web-textures png > /dev/null
+"$CITYATLAS" build -q town/town.gml -o web --d-min 1500 --split-originals on --format both --web-textures png > /dev/null
 "$PY" - <<'PY' || fail "3D Tiles tile images (above)"
 import glob, json, os, sys
 from PIL import Image

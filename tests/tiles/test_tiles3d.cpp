@@ -114,9 +114,10 @@ struct Exported {
     fs::path dir;
     json tileset;
 };
-// The fixture's atlases are 256 px, so 512 px facades would be split into
+// The fixture's atlases are 256 px, so 512 px facades could be split into
 // tiles (texture_blocks.h): the tests here compare leaves with their scene
-// triangles and whole originals, so they build unsplit; cli.split_originals
+// triangles and whole originals, so they build unsplit (the default, said
+// here so a change of default does not change them); cli.split_originals
 // checks a split export's tiles.
 Exported exportTown(const std::string& name, const Vec3d& offset, WebTextures textures = WebTextures::Png,
                     int texture_px = 64, uint32_t buildings = 25) {

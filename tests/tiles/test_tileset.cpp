@@ -277,9 +277,10 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
     // The default 512 px facades at d_min 150 m: below their own resolution in
     // the leaves (at 150 m the 64 px ones would be capped, copied texel for
     // texel, and no original written), so the atlases are resampled and every
-    // original is in a block. Unsplit: at this fixture's 256 px atlases the
-    // 512 px facades would be tiles, and each DDS is compared with its whole
-    // original (the tiles: GlTest.SplitOriginals..., cli.split_originals).
+    // original is in a block. Unsplit (the default, said here): at this
+    // fixture's 256 px atlases the 512 px facades could be tiles, and each DDS
+    // is compared with its whole original (the tiles: GlTest.SplitOriginals...,
+    // cli.split_originals).
     TilesParams params = defaults();
     params.split_originals = false;
     const auto b = buildTown("dds", 30, {}, params, 150, {}, nullptr, 512);
