@@ -9,10 +9,12 @@
 /// A texture of W x H texels is cut into cores of A x A texels (A = the atlas
 /// size, the last row and column smaller); each tile is its core grown by
 /// `overlap` texels on every side. A triangle is cut at the core lines in
-/// texture space (every period of a repeating texture), so each piece lies
-/// inside one core and samples its tile only; as long as a sample's filter
-/// footprint stays within `overlap` texels of the core, the tile gives what
-/// the whole texture gives.
+/// texture space (in each period of a repeating texture it spans), so each
+/// piece lies inside one core and samples its tile only; as long as a
+/// sample's filter footprint stays within `overlap` texels of the core, the
+/// tile gives what the whole texture gives. A triangle repeating the texture
+/// over two periods or more is not cut (clipToTiles): it keeps the whole
+/// texture.
 ///
 /// How much overlap: bilinear filtering at level 0 reaches half a texel past
 /// the core (Hesina's 1 texel), level k reaches 2^k texels; and the tiles are
