@@ -186,9 +186,9 @@ protected:
         EXPECT_TRUE(status.ok()) << status.error;
         return r;
     }
-    std::unique_ptr<OffscreenTarget> target(int w, int h) {
+    std::unique_ptr<OffscreenTarget> target(int w, int h, bool with_ids = false) {
         Status status;
-        auto t = OffscreenTarget::create(w, h, &status);
+        auto t = OffscreenTarget::create(w, h, &status, with_ids);
         EXPECT_TRUE(status.ok()) << status.error;
         if (t) t->bind();
         return t;
@@ -933,9 +933,8 @@ TEST_F(GlTest, XRayWallOnA345RotationHasTheFormulasOpacity) {
     constexpr int kSize = 64;
     const std::vector<MaterialInfo> materials{{{0.8F, 0.1F, 0.05F}, 0}};
     auto r = renderer(materials);
-    Status status;
-    auto t = OffscreenTarget::create(kSize, kSize, &status, true);
-    ASSERT_TRUE(status.ok()) << status.error;
+    auto t = target(kSize, kSize, true);
+    ASSERT_NE(t, nullptr);
     const std::array<float, 4> clear{0.2F, 0.3F, 0.4F, 1.0F};
     for (const auto& [along, cosine] : std::vector<std::pair<Vec3d, double>>{{{0.8, 0.6, 0}, 0.8}, {{0.6, 0.8, 0}, 0.6}}) {
         for (const float e : {0.5F, 1.0F}) {
@@ -973,9 +972,8 @@ TEST_F(GlTest, SphereLensStylesExactlyThePixelsOutsideItAndDiscardAndFlattenWork
     constexpr int kSize = 64;
     const std::vector<MaterialInfo> materials{{{0.7F, 0.35F, 0.1F}, 0}};
     auto r = renderer(materials);
-    Status status;
-    auto t = OffscreenTarget::create(kSize, kSize, &status, true);
-    ASSERT_TRUE(status.ok()) << status.error;
+    auto t = target(kSize, kSize, true);
+    ASSERT_NE(t, nullptr);
     const Camera cam = frontCamera(kSize, {0, 0, 0}, 60);
     GpuMesh m = r->upload(wall({0, 10, 0}, {1, 0, 0}, 20, -20, 20, 2, 0));
     LensStyle lens;
@@ -1056,9 +1054,8 @@ TEST_F(GlTest, FlattenDrawsTheFootprintAtTheBasePlanesDepth) {
     constexpr int kSize = 256;
     const std::vector<MaterialInfo> materials{{{0.6F, 0.6F, 0.6F}, 0}};
     auto r = renderer(materials);
-    Status status;
-    auto t = OffscreenTarget::create(kSize, kSize, &status, true);
-    ASSERT_TRUE(status.ok()) << status.error;
+    auto t = target(kSize, kSize, true);
+    ASSERT_NE(t, nullptr);
     constexpr double kBase = 2, kTop = 17;
     const Vec3d origin{-4, 18, 0}, u{0.8, 0.6, 0}, v{-0.6, 0.8, 0};
     std::vector<Vec3d> footprint;  // counter-clockwise
