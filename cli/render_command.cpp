@@ -45,6 +45,7 @@ struct RenderCliOptions {
     int preload_levels = -1;
     double lookahead_s = 0;
     double fade_s = -1;  // < 0: 0.25 s in real time, none with --wait
+    std::string textures_by_view = "on";
     std::string out_dir;
     std::string report;
     std::string mode = "atlas";
@@ -155,6 +156,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"budget_bytes", r.budget_bytes},
             {"pinned_bytes", r.pinned_bytes},
             {"ideal_bytes", r.ideal_bytes},
+            {"needed_bytes", r.needed_bytes},
             {"ram_hits", r.ram_hits},
             {"ram_bytes", r.ram_bytes},
             {"ram_budget_bytes", r.ram_budget_bytes},
@@ -279,6 +281,7 @@ int runRender(const RenderCliOptions& opt) {
     co.tau_speed_mps = opt.tau_speed;
     co.preload_levels = opt.preload_levels;
     co.lookahead_s = opt.lookahead_s;
+    co.textures_by_view = opt.textures_by_view == "on";
     co.fade_s = opt.fade_s >= 0 ? opt.fade_s : opt.wait ? 0.0 : 0.25;
     co.max_requests = static_cast<uint32_t>(opt.max_requests);
     co.upload_ms_per_frame = opt.upload_ms;
@@ -456,6 +459,7 @@ int runRender(const RenderCliOptions& opt) {
                                  {"preload_level", client->preloadLevel()},
                                  {"lookahead_s", co.lookahead_s},
                                  {"fade_s", co.fade_s},
+                                 {"textures_by_view", co.textures_by_view},
                                  {"mode", render::textureModeName(co.mode)},
                                  {"priority", render::priorityModeName(co.selection.priority)},
                                  {"tau", opt.tau},
@@ -538,6 +542,12 @@ RunFn addRenderCommand(CLI::App& app) {
                     "or coarser back) fades in over it (screen-door dither); 0: off; default 0.25, and 0 with --wait "
                     "(pictures of the finished ideal set)")
         ->check(CLI::Range(0.0, 60.0));
+    cmd->add_option("--textures-by-view", opt->textures_by_view,
+                    "on: a leaf drawn with its originals loads only the texture blocks the camera sees (in view and "
+                    "closer than the leaf's min distance, known once its geometry is loaded; with "
+                    "--split-originals, only the tiles in view); off: every block of the leaf")
+        ->default_val("on")
+        ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--lookahead-s", opt->lookahead_s,
                     "Also plan for the camera moved by its velocity times this many seconds (each block keeps the "
                     "better of its two priorities, one budget); 0: off")

@@ -99,6 +99,7 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
     c->resident_->atlases.resize(c->index_.blocks.size());
     c->resident_->original.assign(c->index_.textures.size(), nullptr);
     c->drawn_.assign(c->index_.blocks.size(), 0);
+    c->texture_use_.assign(c->index_.blocks.size(), TextureUse{});
     *status = Status::Ok();
     return c;
 }
@@ -181,6 +182,7 @@ void StreamingClient::loadFeatureBounds() {
 
 SelectionParams StreamingClient::selectionNow() const {
     SelectionParams p = options_.selection;
+    if (options_.textures_by_view) p.texture_use = &texture_use_;
     if (options_.tau_speed_mps > 0) p.tau *= std::max(1.0, speed_mps_ / options_.tau_speed_mps);
     return p;
 }
@@ -345,6 +347,7 @@ uint32_t StreamingClient::upload(double budget_ms, double* spent_ms) {
                     if (ok) {
                         resident_->gpu_bytes += m.gpu_bytes;
                         resident_->meshes[r.id] = std::move(m);
+                        noteTextureUse(r.id, r.block.mesh);
                         // What picking needs stays on the CPU; the uvs go.
                         MeshData& cpu = resident_->cpu_meshes[r.id];
                         cpu.positions = std::move(r.block.mesh.positions);
@@ -391,6 +394,29 @@ uint32_t StreamingClient::upload(double budget_ms, double* spent_ms) {
     arrived_.erase(arrived_.begin(), arrived_.begin() + static_cast<std::ptrdiff_t>(i));
     if (spent_ms) *spent_ms = msSince(t0);
     return done;
+}
+
+void StreamingClient::noteTextureUse(BlockId geometry, const MeshData& mesh) {
+    const BlockInfo& info = index_.blocks[geometry];
+    if (info.node < 0 || !index_.nodes[static_cast<size_t>(info.node)].leaf()) return;
+    const TileNode& n = index_.nodes[static_cast<size_t>(info.node)];
+    TextureUse& use = texture_use_[geometry];
+    use = TextureUse{};
+    for (const MeshData::TextureRange& range : mesh.texture_ranges) {
+        if (range.texture < 0 || static_cast<size_t>(range.texture) >= index_.textures.size() || range.bounds.empty()) continue;
+        const int32_t k = index_.textures[static_cast<size_t>(range.texture)].block;
+        if (k < 0 || static_cast<size_t>(k) >= index_.texture_block_ids.size()) continue;
+        const BlockId block = index_.texture_block_ids[static_cast<size_t>(k)];
+        const Box3d box{n.centre + range.bounds.min, n.centre + range.bounds.max};
+        const auto same = std::find_if(use.boxes.begin(), use.boxes.end(), [&](const BlockBox& b) { return b.block == block; });
+        if (same == use.boxes.end()) {
+            use.boxes.push_back({block, box});
+        } else {
+            same->bounds.extend(box.min);
+            same->bounds.extend(box.max);
+        }
+    }
+    use.known = true;
 }
 
 void StreamingClient::release(BlockId id) {
@@ -593,6 +619,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.ram_bytes = ls.ram_bytes;
     rec.ram_budget_bytes = options_.loader.ram_budget_bytes;
     rec.ideal_bytes = b.ideal_bytes;
+    rec.needed_bytes = b.needed_bytes;
     rec.speed_mps = speed_mps_;
     rec.wasted_bytes = wasted_bytes_;
     rec.speed_limited = speedLimited();

@@ -74,6 +74,11 @@ struct ClientOptions {
     /// (a screen-door dither; GlRenderer::setFade). Fading out never holds
     /// a block: a node whose blocks were evicted stops at once. 0: off.
     double fade_s = 0.25;
+    /// A leaf loads only the texture blocks its camera sees (in the frustum,
+    /// closer than its min distance; SelectionParams::texture_use), once its
+    /// geometry told where it samples each. Off: all of a leaf's blocks load
+    /// with it (the behaviour before; for comparisons).
+    bool textures_by_view = true;
 };
 
 /// What one frame did; the per-frame report of `cityatlas render`.
@@ -97,6 +102,7 @@ struct FrameRecord {
     uint64_t ram_bytes = 0;      ///< bytes the RAM level holds (<= ram_budget_bytes)
     uint64_t ram_budget_bytes = 0;
     uint64_t ideal_bytes = 0;    ///< bytes of this frame's ideal set
+    uint64_t needed_bytes = 0;   ///< of those, the Needed blocks' (what this frame shows at full refinement)
     double speed_mps = 0;        ///< the camera speed the frame was planned with
     bool speed_limited = false;  ///< the speed policy held requests back
     std::array<uint32_t, 3> requests{};  ///< requests made since the previous frame, by BlockKind
@@ -202,6 +208,8 @@ private:
     void takeResults();
     uint32_t upload(double budget_ms, double* spent_ms);
     void release(BlockId id);
+    /// Records where a leaf's decoded geometry samples its texture blocks (texture_use_).
+    void noteTextureUse(BlockId geometry, const MeshData& mesh);
     Selection selectForMode(const Camera& camera) const;
     /// The selection parameters at the current camera speed (tau_speed_mps).
     SelectionParams selectionNow() const;
@@ -231,6 +239,7 @@ private:
     std::vector<Fade> fading_out_;
     double frame_time_s_ = -1;
     std::vector<uint8_t> drawn_;  ///< per block: drawn since it became resident
+    TextureUseMap texture_use_;   ///< per block: leaves' geometry, where it samples its texture blocks (kept past eviction)
     uint64_t wasted_bytes_ = 0;
     std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
     LensStyle last_lens_;

@@ -131,7 +131,9 @@ BlockActions BlockManager::update(const Classification& c) {
     stats_.ideal_bytes = ideal_bytes;
     stats_.ideal_missing = 0;
     stats_.needed_missing = 0;
+    stats_.needed_bytes = 0;
     for (const BlockId b : ideal_) {
+        if (c.priority[b].usage == Usage::Needed) stats_.needed_bytes += bytes(b);
         if (state_[b] == BlockState::Resident) continue;
         ++stats_.ideal_missing;
         if (c.priority[b].usage == Usage::Needed) ++stats_.needed_missing;

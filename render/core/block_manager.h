@@ -47,6 +47,7 @@ struct BudgetStats {
     uint32_t ideal_blocks = 0, ideal_missing = 0;   ///< in the ideal set; of those not resident
     uint32_t needed_missing = 0;                    ///< Needed blocks of the ideal set not resident
     uint64_t ideal_bytes = 0;
+    uint64_t needed_bytes = 0;                      ///< of the ideal set, its Needed blocks (what the frame shows)
     bool ideal_cut = false;                         ///< the budget cut the candidate list short
     uint64_t evictions = 0, cancellations = 0;      ///< since start
 };

@@ -28,6 +28,9 @@ struct MeshData {
     struct TextureRange {
         int32_t texture = -1;
         uint32_t first_index = 0, index_count = 0;
+        /// Its triangles' box, relative to TileNode::centre: where the texture
+        /// is seen, so a client loads only the texture blocks in view.
+        Box3d bounds;
     };
     std::vector<TextureRange> texture_ranges;
     uint64_t cpuBytes() const;

@@ -16,9 +16,9 @@ double farthestCorner(const Vec3d& p, const Box3d& b) {
 }
 
 // The sort key within a usage category.
-double priorityKey(const TileNode& node, double distance, const Camera& camera, PriorityMode mode) {
+double priorityKey(const Box3d& bounds, double distance, const Camera& camera, PriorityMode mode) {
     if (mode == PriorityMode::Distance) return distance;
-    const Vec3d centre = 0.5 * (node.bounds.min + node.bounds.max);
+    const Vec3d centre = 0.5 * (bounds.min + bounds.max);
     const Vec3d to = centre - camera.position;
     const double l = length(to);
     if (l < 1e-9) return 0;
@@ -33,6 +33,41 @@ void forEachNodeBlock(const TileNode& node, Fn&& fn) {
         if (layer.geometry != kNoBlock) fn(layer.geometry);
         if (layer.atlas != kNoBlock) fn(layer.atlas);
     }
+}
+
+// A leaf's texture blocks with the box each is sampled over; false while
+// that is not known (a layer's geometry not decoded yet).
+bool leafBlockBoxes(const TileNode& n, const SelectionParams& params, std::vector<BlockBox>* out) {
+    out->clear();
+    if (params.texture_use == nullptr) return false;
+    for (const NodeLayer& l : n.layers) {
+        if (!l.present) continue;
+        if (l.geometry >= params.texture_use->size() || !(*params.texture_use)[l.geometry].known) return false;
+        for (const BlockBox& b : (*params.texture_use)[l.geometry].boxes) {
+            // Only the blocks tileset.json lists for the leaf, whatever the mesh says.
+            if (std::find(n.texture_blocks.begin(), n.texture_blocks.end(), b.block) == n.texture_blocks.end()) continue;
+            const auto same = std::find_if(out->begin(), out->end(), [&](const BlockBox& o) { return o.block == b.block; });
+            if (same == out->end()) {
+                out->push_back(b);
+            } else {
+                same->bounds.extend(b.bounds.min);
+                same->bounds.extend(b.bounds.max);
+            }
+        }
+    }
+    return true;
+}
+
+// How a leaf drawn with originals uses a texture block sampled over `box`,
+// `threshold` being the leaf's scaled min distance: Needed on screen and
+// closer than it (the atlas is not sharp enough there), Parent needed up to
+// twice it (the next octave, prefetched as an inner node's children are),
+// Culled off screen, Unused beyond.
+Usage blockUse(const Box3d& box, const Frustum& frustum, const Vec3d& eye, double threshold, double* distance) {
+    *distance = distanceToBox(eye, box);
+    if (outsideFrustum(frustum, box)) return Usage::Culled;
+    if (*distance < threshold) return Usage::Needed;
+    return *distance < 2 * threshold ? Usage::ParentNeeded : Usage::Unused;
 }
 
 }  // namespace
@@ -70,7 +105,7 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
     std::vector<double> key(index.nodes.size());
     for (size_t i = 0; i < index.nodes.size(); ++i) {
         distance[i] = distanceToBox(camera.position, index.nodes[i].bounds);
-        key[i] = priorityKey(index.nodes[i], distance[i], camera, params.priority);
+        key[i] = priorityKey(index.nodes[i].bounds, distance[i], camera, params.priority);
     }
     // Highest-priority wins when a block qualifies several times (a texture
     // block shared by leaves): usage first, then key, then level.
@@ -91,9 +126,22 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
         forEachNodeBlock(n, [&](BlockId b) { mark(b, usage, key[static_cast<size_t>(id)], n.level); });
     };
-    auto markTextures = [&](int32_t id, Usage usage) {
+    // A leaf's originals: where it is known which blocks its triangles
+    // sample where, each block by its own box (`prefetch_only`: the leaf is
+    // sharp, only the next octave is prefetched); else every block as the leaf.
+    std::vector<BlockBox> boxes;
+    auto markTextures = [&](int32_t id, Usage usage, bool prefetch_only) {
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
-        for (const BlockId b : n.texture_blocks) mark(b, usage, key[static_cast<size_t>(id)], n.level + 1);
+        if (!leafBlockBoxes(n, params, &boxes)) {
+            for (const BlockId b : n.texture_blocks) mark(b, usage, key[static_cast<size_t>(id)], n.level + 1);
+            return;
+        }
+        for (const BlockBox& bb : boxes) {
+            double d = 0;
+            const Usage u = blockUse(bb.bounds, frustum, camera.position, n.min_distance_m * scale, &d);
+            if (u == Usage::Unused || (prefetch_only && u != Usage::ParentNeeded)) continue;
+            mark(bb.block, u, priorityKey(bb.bounds, d, camera, params.priority), n.level + 1);
+        }
     };
 
     // The rendering traversal, as if every block were resident.
@@ -115,7 +163,7 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
             // papers/004's height rule).
             if (n.leaf()) {
                 if (params.originals && distance[static_cast<size_t>(id)] < 2 * n.min_distance_m * scale)
-                    markTextures(id, Usage::ParentNeeded);
+                    markTextures(id, Usage::ParentNeeded, true);
             } else {
                 for (const int32_t ch : n.children) {
                     markNode(ch, Usage::ParentNeeded);
@@ -125,7 +173,7 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
             continue;
         }
         if (n.leaf()) {
-            if (params.originals) markTextures(id, Usage::Needed);
+            if (params.originals) markTextures(id, Usage::Needed, false);
             continue;
         }
         std::vector<int32_t> visible, culled;
@@ -177,6 +225,22 @@ bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& 
     return true;
 }
 
+namespace {
+// A leaf's refinement with what the camera sees of its texture blocks: only
+// those Needed (blockUse) must be resident; the others' triangles draw with
+// the atlas, which is sharp enough there or off screen.
+bool leafRefinementPossible(const TilesetIndex& index, const TileNode& n, const Frustum& frustum, const Vec3d& eye,
+                            double threshold, const SelectionParams& params,
+                            const std::function<bool(BlockId)>& resident) {
+    std::vector<BlockBox> boxes;
+    if (!leafBlockBoxes(n, params, &boxes)) return refinementPossible(index, n.id, frustum, resident);
+    return std::all_of(boxes.begin(), boxes.end(), [&](const BlockBox& bb) {
+        double d = 0;
+        return blockUse(bb.bounds, frustum, eye, threshold, &d) != Usage::Needed || resident(bb.block);
+    });
+}
+}  // namespace
+
 Selection selectDraws(const TilesetIndex& index, const Camera& camera, const SelectionParams& params,
                       const std::function<bool(BlockId)>& resident) {
     Selection s;
@@ -203,7 +267,12 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
         bool coarse = false;
         // The atlas is the finest there is: originals off, or none listed (it holds every texture exactly).
         if (!use_atlas && n.leaf() && (!params.originals || n.texture_blocks.empty())) use_atlas = true;
-        if (!use_atlas && !refinementPossible(index, id, frustum, resident)) {
+        const auto possible = [&] {
+            return n.leaf() ? leafRefinementPossible(index, n, frustum, camera.position, n.min_distance_m * scale,
+                                                     params, resident)
+                            : refinementPossible(index, id, frustum, resident);
+        };
+        if (!use_atlas && !possible()) {
             use_atlas = true;
             coarse = true;
         }

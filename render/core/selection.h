@@ -37,10 +37,31 @@ enum class PriorityMode : uint8_t {
 };
 const char* priorityModeName(PriorityMode mode);  ///< "distance", "view"
 
+/// Where a leaf samples one of its texture blocks: the box (local frame) of
+/// its triangles whose original textures that block holds.
+struct BlockBox {
+    BlockId block = kNoBlock;
+    Box3d bounds;
+};
+/// Per block, for leaves' geometry blocks: the texture blocks its triangles
+/// sample and where (from the decoded mesh's texture ranges). A leaf whose
+/// geometry blocks are all `known` loads only the texture blocks seen from
+/// the camera (in the frustum, closer than the leaf's min distance; papers/004
+/// §2: "a street-level view loads only the tiles it sees"); otherwise each of
+/// its blocks counts over the leaf's whole box.
+struct TextureUse {
+    bool known = false;
+    std::vector<BlockBox> boxes;
+};
+using TextureUseMap = std::vector<TextureUse>;
+
 struct SelectionParams {
     double tau = 1.0;                 ///< pixels per texel: > 1 accepts coarser atlases (fewer loads)
     bool originals = true;            ///< leaves closer than their min distance draw original textures
     PriorityMode priority = PriorityMode::Distance;
+    /// Where leaves sample their texture blocks (not owned; null: unknown, a
+    /// leaf's blocks count over its whole box).
+    const TextureUseMap* texture_use = nullptr;
 };
 
 /// min_distance_m multiplier for this viewport (see the file comment).
@@ -75,7 +96,8 @@ void orderCandidates(const TilesetIndex& index, Classification* c);
 bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident);
 
 /// Fig. 30's refinementPossible: an inner node's children are each drawable
-/// or outside the frustum; a leaf's original textures are all resident.
+/// or outside the frustum; a leaf's original textures are all resident
+/// (selectDraws asks only for those its camera sees, SelectionParams::texture_use).
 bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& frustum,
                         const std::function<bool(BlockId)>& resident);
 

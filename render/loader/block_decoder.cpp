@@ -64,9 +64,14 @@ Status decodeGeometryBlock(const TilesetIndex& index, BlockId id, const std::vec
     for (const uint32_t t : order) {
         const int32_t tex = textureOf(t);
         if (d.texture_ranges.empty() || d.texture_ranges.back().texture != tex)
-            d.texture_ranges.push_back({tex, static_cast<uint32_t>(d.indices.size()), 0});
-        for (int k = 0; k < 3; ++k) d.indices.push_back(mesh.indices[3 * t + static_cast<uint32_t>(k)]);
-        d.texture_ranges.back().index_count += 3;
+            d.texture_ranges.push_back({tex, static_cast<uint32_t>(d.indices.size()), 0, Box3d{}});
+        MeshData::TextureRange& range = d.texture_ranges.back();
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = mesh.indices[3 * t + static_cast<uint32_t>(k)];
+            d.indices.push_back(v);
+            range.bounds.extend({d.positions[3 * v], d.positions[3 * v + 1], d.positions[3 * v + 2]});
+        }
+        range.index_count += 3;
     }
     return Status::Ok();
 }

@@ -256,6 +256,88 @@ TEST(Selection, RefinementOnlyWhenPossible) {
     EXPECT_TRUE(s.draws.empty());
 }
 
+// Texture blocks by view (papers/004 §2: a street-level view loads only the
+// tiles it sees). Leaf 9 [150,175] (d = 10 < 25: drawn with originals) gets
+// four blocks, sampled over sub-boxes of it whose usage follows by hand from
+// the camera at (140, 50, 5) looking along +x with a 60 degree fov:
+//   A x [150,155] y [48,52]  : d = 10, in view              -> Needed
+//   B x [170,175] y [48,52]  : d = 30 in [25, 50), in view  -> Parent needed
+//   C x [150,152] y [95,100] : 77 degrees off axis          -> Culled
+//   D none (the mesh samples no texture of it)              -> Unused
+// Leaf 10 [175,200] (d = 35 >= 25: sharp, prefetch within 50) gets A' at
+// x [175,180] (d 35: Parent needed) and B' at x [195,200] (d 55: Unused).
+struct ByView {
+    Fixture f;
+    TextureUseMap use;
+    BlockId a = 0, b = 0, c = 0, d = 0, a2 = 0, b2 = 0;
+    BlockId addBlock(int leaf) {
+        TilesetIndex& ix = f.index;
+        const auto k = static_cast<int32_t>(ix.texture_block_ids.size());
+        ix.blocks.push_back({BlockKind::Textures, -1, -1, k, "t", 1000});
+        ix.texture_block_ids.push_back(static_cast<BlockId>(ix.blocks.size() - 1));
+        ix.nodes[static_cast<size_t>(leaf)].texture_blocks.push_back(ix.texture_block_ids.back());
+        return ix.texture_block_ids.back();
+    }
+    ByView() {
+        a = f.index.nodes[9].texture_blocks[0];
+        b = addBlock(9);
+        c = addBlock(9);
+        d = addBlock(9);
+        a2 = f.index.nodes[10].texture_blocks[0];
+        b2 = addBlock(10);
+        use.assign(f.index.blocks.size(), TextureUse{});
+        use[f.index.nodes[9].layers[0].geometry] = {true, {{a, box(150, 48, 0, 155, 52, 10)},
+                                                           {b, box(170, 48, 0, 175, 52, 10)},
+                                                           {c, box(150, 95, 0, 152, 100, 10)}}};
+        use[f.index.nodes[10].layers[0].geometry] = {true, {{a2, box(175, 48, 0, 180, 52, 10)},
+                                                            {b2, box(195, 48, 0, 200, 52, 10)}}};
+    }
+    SelectionParams params() const {
+        SelectionParams p;
+        p.texture_use = &use;
+        return p;
+    }
+};
+
+TEST(Selection, TextureBlocksByWhatTheCameraSees) {
+    ByView v;
+    const Classification c = classifyBlocks(v.f.index, v.f.camera, v.params());
+    EXPECT_STREQ(usageName(c.priority[v.a].usage), "needed");
+    EXPECT_STREQ(usageName(c.priority[v.b].usage), "parent_needed");
+    EXPECT_STREQ(usageName(c.priority[v.c].usage), "culled");
+    EXPECT_STREQ(usageName(c.priority[v.d].usage), "unused");
+    EXPECT_STREQ(usageName(c.priority[v.a2].usage), "parent_needed");
+    EXPECT_STREQ(usageName(c.priority[v.b2].usage), "unused");
+    // Each block by its own box's distance.
+    EXPECT_DOUBLE_EQ(c.priority[v.a].key, 10);
+    EXPECT_DOUBLE_EQ(c.priority[v.b].key, 30);
+    EXPECT_DOUBLE_EQ(c.priority[v.a2].key, 35);
+
+    // Without the boxes (or before the geometry is decoded) every block counts as the leaf.
+    TextureUseMap unknown = v.use;
+    unknown[v.f.index.nodes[9].layers[0].geometry].known = false;
+    SelectionParams not_yet = v.params();
+    not_yet.texture_use = &unknown;
+    for (const SelectionParams& p : {SelectionParams{}, not_yet}) {
+        const Classification u = classifyBlocks(v.f.index, v.f.camera, p);
+        for (const BlockId blk : {v.a, v.b, v.c, v.d}) EXPECT_EQ(u.priority[blk].usage, Usage::Needed) << blk;
+    }
+
+    // Refinement needs only the Needed block: the leaf draws originals with
+    // B, C and D missing (their triangles fall back to the atlas), not with A.
+    const auto modeOf9 = [&](const Selection& s) {
+        for (const DrawItem& d : s.draws)
+            if (d.node == 9) return std::make_pair(d.mode, d.coarse);
+        return std::make_pair(DrawMode::Atlas, true);
+    };
+    EXPECT_EQ(modeOf9(selectDraws(v.f.index, v.f.camera, v.params(), allBut({v.b, v.c, v.d}))),
+              std::make_pair(DrawMode::Originals, false));
+    EXPECT_EQ(modeOf9(selectDraws(v.f.index, v.f.camera, v.params(), allBut({v.a}))),
+              std::make_pair(DrawMode::Atlas, true));
+    // Without the boxes every block must be resident.
+    EXPECT_EQ(modeOf9(selectDraws(v.f.index, v.f.camera, {}, allBut({v.c}))), std::make_pair(DrawMode::Atlas, true));
+}
+
 TEST(Selection, RefinementPossibleSemantics) {
     Fixture f;
     const Frustum fr = frustumOf(f.camera);

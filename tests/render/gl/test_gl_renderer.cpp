@@ -414,7 +414,7 @@ TEST_F(GlTest, UploadsRefuseMalformedDataWithOneLine) {
     EXPECT_FALSE(r->upload(bad_index, &status).valid());
     EXPECT_NE(status.error.find("index 4 is 99"), std::string::npos) << status.error;
     MeshData bad_range = m;
-    bad_range.texture_ranges = {{3, 3, 6}};
+    bad_range.texture_ranges = {{3, 3, 6, {}}};
     EXPECT_FALSE(r->upload(bad_range, &status).valid());
     EXPECT_FALSE(status.ok());
     MeshData bad_uv = m;
@@ -456,7 +456,7 @@ TEST_F(GlTest, DrawOriginalsBindsEachTextureOnceAndFallsBackToTheAtlas) {
     addQuad(&m, -1, 0, -1, 1, {0, 0, 0.5F, 1}, {0, 0, 2, 2}, -1);
     addQuad(&m, 0, 1, -1, 1, {0.5F, 0, 1, 1}, {0, 0, 2, 2}, -1);
     m.texture_id = {5, 5, 5, 5, 7, 7, 7, 7};
-    m.texture_ranges = {{5, 0, 6}, {7, 6, 6}};
+    m.texture_ranges = {{5, 0, 6, {}}, {7, 6, 6, {}}};
     Status status;
     GpuMesh mesh = r->upload(m, &status);
     ASSERT_TRUE(status.ok()) << status.error;
@@ -846,7 +846,7 @@ TEST_F(GlTest, SplitOriginalsAreSeamFreeWithOverlapAndNotWithout) {
         MeshData whole;
         for (const tiles::ClipVertex& v : corners) vertex(&whole, v, 0);
         whole.indices = {0, 1, 2, 0, 2, 3};
-        whole.texture_ranges = {{0, 0, 6}};
+        whole.texture_ranges = {{0, 0, 6, {}}};
         GpuTexture whole_texture = r->upload(compress(image, true), false);
         const std::vector<uint8_t> reference = draw(whole, {&whole_texture});
         // Tiled, at overlaps 0, 4 * 2^(level - 1) (too little for this level) and 4 * 2^level.
@@ -864,7 +864,7 @@ TEST_F(GlTest, SplitOriginalsAreSeamFreeWithOverlapAndNotWithout) {
             std::vector<const GpuTexture*> textures(static_cast<size_t>(grid.count()), nullptr);
             for (const tiles::TilePiece& p : pieces) {
                 if (tiled.texture_ranges.empty() || tiled.texture_ranges.back().texture != p.tile)
-                    tiled.texture_ranges.push_back({p.tile, static_cast<uint32_t>(tiled.indices.size()), 0});
+                    tiled.texture_ranges.push_back({p.tile, static_cast<uint32_t>(tiled.indices.size()), 0, {}});
                 for (const tiles::ClipVertex& v : p.corners) {
                     tiled.indices.push_back(static_cast<uint32_t>(tiled.positions.size() / 3));
                     vertex(&tiled, v, p.tile);

@@ -195,8 +195,19 @@ TEST(BlockDecoder, EveryBlockOfATownDecodes) {
                     EXPECT_EQ(r.first_index, next);
                     EXPECT_GT(r.texture, last);
                     last = r.texture;
-                    for (uint32_t k = r.first_index; k < r.first_index + r.index_count; ++k)
+                    // Its box is exactly its triangles' (the vertices as drawn, float).
+                    Box3d box;
+                    for (uint32_t k = r.first_index; k < r.first_index + r.index_count; ++k) {
                         ASSERT_EQ(m.texture_id[m.indices[k]], r.texture) << info.uri;
+                        const uint32_t v = m.indices[k];
+                        box.extend({m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]});
+                    }
+                    EXPECT_EQ(r.bounds.min.x, box.min.x);
+                    EXPECT_EQ(r.bounds.min.y, box.min.y);
+                    EXPECT_EQ(r.bounds.min.z, box.min.z);
+                    EXPECT_EQ(r.bounds.max.x, box.max.x);
+                    EXPECT_EQ(r.bounds.max.y, box.max.y);
+                    EXPECT_EQ(r.bounds.max.z, box.max.z);
                     next += r.index_count;
                 }
                 EXPECT_EQ(next, m.indices.size());
