@@ -322,7 +322,14 @@ void StreamingClient::plan(const Camera& camera) {
         loader_->request(b);
         ++requests_[static_cast<size_t>(index_.blocks[b].kind)];
     }
-    if (options_.loader.ram_budget_bytes > 0) loader_->touch(manager_->idealSet(), ++plans_);
+    // The RAM level's least-recently-used stamps move when the ideal set
+    // does: stamping an unchanged set again changes no order, but costs a
+    // lookup per block under the loader's lock at every plan (a teleport's
+    // wait plans hundreds of times: +0.3 s to 0.45 s of loading, measured).
+    if (options_.loader.ram_budget_bytes > 0 && manager_->idealSet() != touched_ideal_) {
+        touched_ideal_ = manager_->idealSet();
+        loader_->touch(touched_ideal_, ++plans_);
+    }
 }
 
 void StreamingClient::takeResults() {

@@ -230,7 +230,8 @@ private:
     uint64_t pinned_bytes_ = 0;
     uint64_t bytes_fetched_seen_ = 0;
     uint64_t ram_hits_seen_ = 0;
-    uint64_t plans_ = 0;  ///< frames planned: the RAM level's clock
+    uint64_t plans_ = 0;  ///< ideal sets that changed: the RAM level's clock
+    std::vector<BlockId> touched_ideal_;  ///< the ideal set the RAM level was last stamped with
     double speed_mps_ = 0;
     Vec3d velocity_{0, 0, 0};
     int preload_level_ = -1;
