@@ -30,6 +30,8 @@ list(APPEND CMAKE_MODULE_PATH /usr/share/cmake/geographiclib)
 find_package(GeographicLib REQUIRED)
 
 find_package(meshoptimizer CONFIG REQUIRED)
+# Build-time ray casting (atlas/raycast.h: computed textures); the target is `embree`.
+find_package(embree 3 CONFIG REQUIRED)
 # tileset.json validation in `cityatlas inspect` (header-only), content hashes for `build`.
 find_package(valijson CONFIG REQUIRED)
 pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
