@@ -249,13 +249,13 @@ std::vector<uint8_t> readBytes(const fs::path& path, uint64_t offset, uint64_t m
 // header is read. `what` prefixes the messages (empty for a file that is one DDS).
 void checkDds(const fs::path& path, const std::string& uri, uint64_t offset, const std::string& what, int channels,
               int64_t width, int64_t height, int64_t mips, uint64_t bytes, Defects& d) {
-    const std::vector<uint8_t> head = readBytes(path, offset, 128);
+    const std::vector<uint8_t> head = readBytes(path, offset, 148);  // with a DX10 header's 20 bytes
     DdsInfo info;
     if (Status st = parseDdsHeader(head.data(), head.size(), &info); !st.ok()) {
         d.push_back(fmt::format("{}: {}{}", uri, what, st.error));
         return;
     }
-    auto name = [](int c) { return c == 4 ? "BC3" : "BC1"; };
+    const auto name = format::bcFormatName;
     if (info.channels != channels || info.width != width || info.height != height || info.mips != mips)
         d.push_back(fmt::format("{}: {}the DDS is {} {}x{} with {} mips, tileset.json says {} {}x{} with {}", uri, what,
                                 name(info.channels), info.width, info.height, info.mips, name(channels), width, height,

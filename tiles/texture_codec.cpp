@@ -26,8 +26,8 @@ using format::dds_detail::blockSize;
 using format::dds_detail::fourCC;
 
 void checkImage(const Image8& img, const char* what) {
-    if (img.channels != 3 && img.channels != 4)
-        throw std::invalid_argument(fmt::format("{}: {} channels, expected 3 or 4", what, img.channels));
+    if (img.channels != 1 && img.channels != 3 && img.channels != 4)
+        throw std::invalid_argument(fmt::format("{}: {} channels, expected 1, 3 or 4", what, img.channels));
     if (img.width < 1 || img.height < 1)
         throw std::invalid_argument(fmt::format("{}: empty image {}x{}", what, img.width, img.height));
     const size_t want = size_t(img.width) * size_t(img.height) * size_t(img.channels);
@@ -71,6 +71,19 @@ std::vector<Span> footprints(int in) {
     return spans;
 }
 
+// One channel is a linear scalar (a computed texture's value in [0, 1]): the plain mean, rounded.
+void downsampleScalar(const Image8& src, const std::vector<Span>& xs, const std::vector<Span>& ys, Image8* dst) {
+    for (int oy = 0; oy < dst->height; ++oy)
+        for (int ox = 0; ox < dst->width; ++ox) {
+            const Span sy = ys[size_t(oy)], sx = xs[size_t(ox)];
+            int sum = 0;
+            for (int y = sy.begin; y < sy.end; ++y)
+                for (int x = sx.begin; x < sx.end; ++x) sum += src.pixels[size_t(y) * size_t(src.width) + size_t(x)];
+            const int n = (sy.end - sy.begin) * (sx.end - sx.begin);
+            dst->pixels[size_t(oy) * size_t(dst->width) + size_t(ox)] = uint8_t((2 * sum + n) / (2 * n));
+        }
+}
+
 Image8 downsample(const Image8& src) {
     const SrgbTables& t = srgb();
     const int ch = src.channels;
@@ -80,6 +93,10 @@ Image8 downsample(const Image8& src) {
     dst.channels = ch;
     dst.pixels.resize(size_t(dst.width) * size_t(dst.height) * size_t(ch));
     const std::vector<Span> xs = footprints(src.width), ys = footprints(src.height);
+    if (ch == 1) {
+        downsampleScalar(src, xs, ys, &dst);
+        return dst;
+    }
 
     tbb::parallel_for(tbb::blocked_range<int>(0, dst.height), [&](const tbb::blocked_range<int>& rows) {
         for (int oy = rows.begin(); oy < rows.end(); ++oy) {
@@ -133,6 +150,15 @@ void gatherBlock(const Image8& img, int bx, int by, uint8_t rgba[64]) {
     }
 }
 
+// One 4x4 block of a one-channel image, edges replicated.
+void gatherScalarBlock(const Image8& img, int bx, int by, uint8_t v[16]) {
+    for (int py = 0; py < 4; ++py) {
+        const int sy = std::min(by * 4 + py, img.height - 1);
+        for (int px = 0; px < 4; ++px)
+            v[py * 4 + px] = img.pixels[size_t(sy) * size_t(img.width) + size_t(std::min(bx * 4 + px, img.width - 1))];
+    }
+}
+
 void put32(std::vector<uint8_t>& out, uint32_t v) {
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(v >> (8 * i)));  // DDS is little-endian
 }
@@ -183,8 +209,13 @@ std::vector<uint8_t> encodeBc(const Image8& image, BcQuality quality) {
                       [&](const tbb::blocked_range<size_t>& r) {
                           uint8_t rgba[64];
                           for (size_t i = r.begin(); i < r.end(); ++i) {
-                              gatherBlock(image, int(i % size_t(bw)), int(i / size_t(bw)), rgba);
                               uint8_t* dst = &out[i * bsize];
+                              if (image.channels == 1) {  // BC4: stb at either quality (libsquish has none)
+                                  gatherScalarBlock(image, int(i % size_t(bw)), int(i / size_t(bw)), rgba);
+                                  stb_compress_bc4_block(dst, rgba);
+                                  continue;
+                              }
+                              gatherBlock(image, int(i % size_t(bw)), int(i / size_t(bw)), rgba);
                               if (quality == BcQuality::Fast)
                                   stb_compress_dxt_block(dst, rgba, alpha ? 1 : 0, STB_DXT_HIGHQUAL);
                               else  // metric = null: uniform RGB weights, the measure psnrRgb reports
@@ -225,10 +256,17 @@ std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality qualit
     for (int i = 0; i < 11; ++i) put32(out, 0);                                  // dwReserved1
     put32(out, 32);                                                              // ddspf.dwSize
     put32(out, kDdpfFourCC);                                                     // ddspf.dwFlags
-    put32(out, fourCC(base.channels == 3 ? "DXT1" : "DXT5"));
+    put32(out, fourCC(base.channels == 1 ? "DX10" : base.channels == 3 ? "DXT1" : "DXT5"));
     for (int i = 0; i < 5; ++i) put32(out, 0);  // bit count and the four masks (unused with FourCC)
     put32(out, kCapsTexture | (many ? kCapsMipMap | kCapsComplex : 0u));
     for (int i = 0; i < 4; ++i) put32(out, 0);  // dwCaps2..4, dwReserved2
+    if (base.channels == 1) {  // BC4 has no FourCC of its own everyone reads: the DX10 header
+        put32(out, format::dds_detail::kDxgiBc4Unorm);
+        put32(out, format::dds_detail::kDimensionTexture2d);
+        put32(out, 0);  // miscFlag
+        put32(out, 1);  // arraySize
+        put32(out, 0);  // miscFlags2: alpha mode unknown
+    }
     for (const Image8& level : mips) {
         const std::vector<uint8_t> blocks = encodeBc(level, quality);
         out.insert(out.end(), blocks.begin(), blocks.end());

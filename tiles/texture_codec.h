@@ -2,9 +2,11 @@
 #pragma once
 /// Texture encoding for the tiles stage: mip chains in linear light and S3TC
 /// (BC1 for RGB, BC3 for RGBA) blocks in DDS files, which every desktop GPU
-/// samples without decoding (../shared/STACK.md §3 for the encoder choice).
+/// samples without decoding (../shared/STACK.md §3 for the encoder choice);
+/// and one-channel images (a computed texture's linear scalar in [0, 1],
+/// issue 19) as BC4 (RGTC1, core since GL 3.0), 4 bits a texel.
 ///
-/// Malformed arguments (wrong buffer size, channels other than 3 or 4, a mip
+/// Malformed arguments (wrong buffer size, channels other than 1, 3 or 4, a mip
 /// list whose sizes do not halve) are programmer errors and throw
 /// std::invalid_argument; only file-system failures come back as a Status.
 
@@ -42,20 +44,23 @@ std::optional<BcQuality> bcQualityFromName(std::string_view name);
 /// 2i and 2i+1 per axis; when the input size is odd the last output texel also
 /// covers the final input texel (3 texels). A footprint that is fully
 /// transparent keeps the plain linear mean of its colours (nothing to weight by).
+/// One channel is already linear: the plain mean of the codes, rounded.
 /// Level 0 is a copy of `base`.
 std::vector<Image8> mipChain(const Image8& base);
 
 /// BC1 blocks (3 channels; opaque: alpha is never encoded, so no block uses
-/// BC1's transparent index) or BC3 blocks (4 channels) of one image, row-major
+/// BC1's transparent index), BC3 blocks (4 channels) or BC4 blocks (1
+/// channel; stb_compress_bc4_block at either quality) of one image, row-major
 /// blocks, partial edge blocks padded by replicating the last row/column.
 /// Deterministic for any thread count (each block is encoded on its own).
 std::vector<uint8_t> encodeBc(const Image8& image, BcQuality quality);
 
 /// A complete DDS file: "DDS " + 124-byte DDS_HEADER (flags
 /// CAPS|HEIGHT|WIDTH|PIXELFORMAT|MIPMAPCOUNT|LINEARSIZE, pitchOrLinearSize =
-/// bytes of level 0, mipMapCount = levels, FourCC "DXT1" for 3 channels or
-/// "DXT5" for 4, caps TEXTURE, plus MIPMAP|COMPLEX when more than one level),
-/// then each level's blocks. `mips` is level 0 first; each further level must
+/// bytes of level 0, mipMapCount = levels, FourCC "DXT1" for 3 channels,
+/// "DXT5" for 4, "DX10" for 1 followed by the 20-byte DX10 header (format
+/// BC4_UNORM, a 2D texture, array size 1), caps TEXTURE, plus MIPMAP|COMPLEX
+/// when more than one level), then each level's blocks. `mips` is level 0 first; each further level must
 /// be the halved size of the one before (a chain may stop before 1x1).
 std::vector<uint8_t> encodeDds(const std::vector<Image8>& mips, BcQuality quality);
 

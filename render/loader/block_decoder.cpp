@@ -81,15 +81,15 @@ Status decodeDds(const uint8_t* data, size_t size, int expect_channels, Compress
     if (Status st = format::parseDdsHeader(data, size, &info); !st.ok()) return st;
     if (info.expected_bytes != size)
         return Status::Invalid(fmt::format("{} bytes, the DDS header needs {}", size, info.expected_bytes));
-    if (expect_channels && info.channels != expect_channels)
-        return Status::Invalid(fmt::format("{} in the header, tileset.json says {}", info.channels == 4 ? "DXT5" : "DXT1",
-                                        expect_channels == 4 ? "BC3" : "BC1"));
+    // BC4 (a computed texture) only where asked for: the renderer samples BC1 and BC3.
+    if ((expect_channels && info.channels != expect_channels) || (!expect_channels && info.channels == 1))
+        return Status::Invalid(fmt::format("{} in the header, tileset.json says {}", format::bcFormatName(info.channels),
+                                        expect_channels ? format::bcFormatName(expect_channels) : "BC1 or BC3"));
     CompressedTexture& t = *out;
     t = CompressedTexture{};
     t.width = info.width;
     t.height = info.height;
     t.channels = info.channels;
-    constexpr size_t kHeader = 128;
     uint64_t offset = 0;
     int w = info.width, h = info.height;
     for (int level = 0; level < info.mips; ++level) {
@@ -99,7 +99,7 @@ Status decodeDds(const uint8_t* data, size_t size, int expect_channels, Compress
         w = std::max(1, w / 2);
         h = std::max(1, h / 2);
     }
-    t.data.assign(data + kHeader, data + size);
+    t.data.assign(data + info.header_bytes, data + size);
     return Status::Ok();
 }
 

@@ -6,6 +6,7 @@
 #include "tiles/texture_codec.h"
 
 #include <algorithm>
+#include <random>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -648,6 +649,89 @@ TEST(TextureCodec, RejectsMalformedInput) {
     mixed[1] = tiles::mipChain(photoLike(8, 8, 4, 72))[1];
     EXPECT_THROW(tiles::encodeDds(mixed, BcQuality::Fast), std::invalid_argument);
     EXPECT_THROW(tiles::decodeBc(std::vector<uint8_t>(7), 4, 4, 3), std::invalid_argument);
+}
+
+// BC4 (one channel: a computed texture's scalar, issue 19). OpenImageIO's
+// DDS reader is the independent decoder: it reads our DX10 header and every
+// level, and its texels equal our decoder's exactly; against the source each
+// block is within half an interpolation step of its range (stb picks the
+// block's min and max as endpoints: 7 steps, so <= range / 14, +1 rounding);
+// level 1 is the rounded plain mean of level 0 (linear values, no sRGB).
+TEST(TextureCodec, Bc4RoundTripThroughOiioAndOurDecoder) {
+    TempDir tmp;
+    Image8 base{61, 45, 1, {}};
+    std::mt19937_64 rng(5);
+    std::uniform_int_distribution<int> noise(-6, 6);
+    for (int y = 0; y < base.height; ++y)
+        for (int x = 0; x < base.width; ++x) {
+            const int v = x < 30 ? 4 * x + noise(rng) : (y % 9 < 4 ? 250 : 3);  // a ramp, then stripes
+            base.pixels.push_back(uint8_t(std::clamp(v, 0, 255)));
+        }
+    const std::vector<Image8> mips = tiles::mipChain(base);
+    ASSERT_EQ(mips[1].channels, 1);
+    for (int y = 0; y < mips[1].height; ++y)
+        for (int x = 0; x < mips[1].width; ++x) {
+            if (x == mips[1].width - 1 || y == mips[1].height - 1) continue;  // the last of an odd axis takes 3 texels
+            int sum = 0;
+            for (int dy = 0; dy < 2; ++dy)
+                for (int dx = 0; dx < 2; ++dx) sum += base.pixels[size_t(2 * y + dy) * size_t(base.width) + size_t(2 * x + dx)];
+            ASSERT_EQ(mips[1].pixels[size_t(y) * size_t(mips[1].width) + size_t(x)], (2 * sum + 4) / 8) << x << "," << y;
+        }
+    const std::vector<uint8_t> dds = tiles::encodeDds(mips, BcQuality::Best);
+    tiles::DdsInfo info;
+    ASSERT_TRUE(tiles::parseDdsHeader(dds.data(), dds.size(), &info).ok());
+    EXPECT_EQ(info.channels, 1);
+    EXPECT_EQ(info.header_bytes, 148u);
+    EXPECT_EQ(info.expected_bytes, dds.size());
+    EXPECT_EQ(info.mips, int(mips.size()));
+    const fs::path path = tmp.dir / "scalar.dds";
+    ASSERT_TRUE(tiles::writeDds(path, mips, BcQuality::Fast).ok());
+    const DdsRead oiio = readDds(path);
+    ASSERT_EQ(oiio.levels.size(), mips.size());
+    size_t offset = info.header_bytes;
+    int exact = 0, compared = 0;
+    for (size_t m = 0; m < mips.size(); ++m) {
+        const Image8& src = mips[m];
+        const size_t bytes = tiles::bcBlockBytes(src.width, src.height, 1);
+        const Image8 ours = tiles::decodeBc(std::vector<uint8_t>(dds.begin() + std::ptrdiff_t(offset),
+                                                                 dds.begin() + std::ptrdiff_t(offset + bytes)),
+                                            src.width, src.height, 1);
+        offset += bytes;
+        ASSERT_EQ(oiio.levels[m].width, src.width);
+        ASSERT_GE(oiio.levels[m].channels, 1);
+        for (int y = 0; y < src.height; ++y)
+            for (int x = 0; x < src.width; ++x) {
+                const size_t i = size_t(y) * size_t(src.width) + size_t(x);
+                // The format defines the interpolated values as fractions (e.g. (6 e0 + e1) / 7);
+                // decoders round them to 8 bits differently (we round, OIIO truncates): 1 apart at most.
+                const int theirs = oiio.levels[m].pixels[i * size_t(oiio.levels[m].channels)];
+                ASSERT_LE(std::abs(theirs - int(ours.pixels[i])), 1) << "level " << m << " texel " << x << "," << y;
+                exact += theirs == int(ours.pixels[i]) ? 1 : 0;
+                ++compared;
+                int lo = 255, hi = 0;  // the texel's 4x4 block range in the source
+                for (int by = y / 4 * 4; by < std::min(src.height, y / 4 * 4 + 4); ++by)
+                    for (int bx = x / 4 * 4; bx < std::min(src.width, x / 4 * 4 + 4); ++bx) {
+                        lo = std::min<int>(lo, src.pixels[size_t(by) * size_t(src.width) + size_t(bx)]);
+                        hi = std::max<int>(hi, src.pixels[size_t(by) * size_t(src.width) + size_t(bx)]);
+                    }
+                ASSERT_LE(std::abs(int(ours.pixels[i]) - int(src.pixels[i])), (hi - lo) / 14 + 1)
+                    << "level " << m << " texel " << x << "," << y;
+            }
+    }
+    EXPECT_EQ(offset, dds.size());
+    std::cout << "BC4: " << exact << " of " << compared << " texels equal OIIO's decoding, the rest 1 apart\n";
+    EXPECT_GT(exact, compared / 2);  // endpoints and exact fractions agree
+    // The DX10 part is checked: cut off, another format, or an array.
+    auto with = [&](size_t at, uint32_t value) {
+        std::vector<uint8_t> b = dds;
+        for (int i = 0; i < 4; ++i) b[at + size_t(i)] = uint8_t(value >> (8 * i));
+        return b;
+    };
+    tiles::DdsInfo bad;
+    EXPECT_NE(tiles::parseDdsHeader(dds.data(), 128, &bad).error.find("DX10"), std::string::npos);
+    const std::vector<uint8_t> bc5 = with(128, 83), array = with(140, 2);
+    EXPECT_NE(tiles::parseDdsHeader(bc5.data(), bc5.size(), &bad).error.find("BC4_UNORM"), std::string::npos);
+    EXPECT_NE(tiles::parseDdsHeader(array.data(), array.size(), &bad).error.find("2D"), std::string::npos);
 }
 
 // parseDdsHeader reads back what encodeDds writes, for full and partial chains,
