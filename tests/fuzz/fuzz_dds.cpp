@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // libFuzzer target for DDS files as the client and `inspect` read them: the
 // header (format::parseDdsHeader), the client's render::decodeDds (levels and
-// their byte ranges) and the CPU S3TC decode of every level (format::decodeBc,
+// their byte ranges) and the CPU BC1/BC3/BC4 decode of every level (format::decodeBc,
 // what the renderer does where the GPU has no sRGB S3TC). Any bytes give a
 // Status, never a crash, an exception, a hang or a sanitizer report.
 #include <cstdint>
@@ -15,12 +15,13 @@ using namespace cityatlas;
 using namespace cityatlas::render;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-    // inspect reads the header alone (128 bytes) and compares the length itself.
+    // inspect reads the header alone (148 bytes: with a DX10 part) and compares the length itself.
     format::DdsInfo info;
-    (void)format::parseDdsHeader(data, size < 128 ? size : 128, &info);
+    const bool header = format::parseDdsHeader(data, size < 148 ? size : 148, &info).ok();
 
+    // The loader takes BC4 (a computed texture) only where tileset.json asks for it.
     CompressedTexture t;
-    if (!decodeDds(data, size, 0, &t).ok()) return 0;
+    if (!decodeDds(data, size, header && info.channels == 1 ? 1 : 0, &t).ok()) return 0;
     // Every level lies inside the data; the CPU decode of each must not throw.
     for (const CompressedTexture::Level& level : t.levels) {
         if (level.offset > t.data.size() || level.bytes > t.data.size() - level.offset) __builtin_trap();
