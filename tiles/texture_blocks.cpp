@@ -154,12 +154,10 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
         const int32_t ti = texture_index[st];
         if (ti < 0) continue;
         const TextureRef& ref = scene.textures[st];
-        // The whole texture, then a split one's tiles (texture_tiles.h).
-        const TileGrid grid = splitGridOf(ref, tree.params.atlas_size_px, split);
-        const int entries = 1 + grid.count();
-        if (b.textures.size() < static_cast<size_t>(ti + entries)) b.textures.resize(static_cast<size_t>(ti + entries));
-        for (int k = 0; k < entries; ++k) {
-            TextureEntry& e = b.textures[static_cast<size_t>(ti + k)];
+        const std::vector<TexelRect> entries = tilesetEntries(ref, tree.params.atlas_size_px, split);
+        if (b.textures.size() < static_cast<size_t>(ti) + entries.size()) b.textures.resize(static_cast<size_t>(ti) + entries.size());
+        for (size_t k = 0; k < entries.size(); ++k) {
+            TextureEntry& e = b.textures[static_cast<size_t>(ti) + k];
             e.scene_texture = static_cast<int32_t>(st);
             e.width = ref.width_px;
             e.height = ref.height_px;
@@ -168,8 +166,8 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
             e.exact = true;
             if (k > 0) {
                 // A tile is sampled clamped: its overlap holds what lies beyond its core.
-                e.tile = k - 1;
-                e.tile_rect = grid.rectOf(k - 1);
+                e.tile = static_cast<int32_t>(k) - 1;
+                e.tile_rect = entries[k];
                 e.width = e.tile_rect.width(), e.height = e.tile_rect.height();
                 e.wrap = WrapMode::Clamp;
             }

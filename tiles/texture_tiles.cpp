@@ -36,6 +36,13 @@ TileGrid splitGridOf(const TextureRef& texture, int atlas_size_px, bool split) {
     return tileGridFor(texture.width_px, texture.height_px, texture.wrap, atlas_size_px);
 }
 
+std::vector<TexelRect> tilesetEntries(const TextureRef& texture, int atlas_size_px, bool split) {
+    const TileGrid grid = splitGridOf(texture, atlas_size_px, split);
+    std::vector<TexelRect> out{TexelRect{0, 0, texture.width_px, texture.height_px}};
+    for (int k = 0; k < grid.count(); ++k) out.push_back(grid.rectOf(k));
+    return out;
+}
+
 format::Image8 cropTile(const format::Image8& image, const TexelRect& rect, bool wraps) {
     if (image.width < 1 || image.height < 1 || rect.width() < 1 || rect.height() < 1)
         throw std::invalid_argument("cropTile: empty image or rect");

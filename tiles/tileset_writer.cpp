@@ -82,14 +82,10 @@ std::vector<double> textureSizes(const Scene& scene, const std::vector<int32_t>&
     for (size_t s = 0; s < texture_index.size(); ++s) {
         const int32_t t = texture_index[s];
         if (t < 0) continue;
-        // The whole texture, then a split one's tiles (texture_blocks.h).
-        const TileGrid grid = splitGridOf(scene.textures[s], atlas_size_px, split);
-        const int entries = 1 + grid.count();
-        if (sizes.size() < static_cast<size_t>(t + entries)) sizes.resize(static_cast<size_t>(t + entries), 0.0);
-        for (int k = 0; k < entries; ++k) {
-            const TexelRect r = k > 0 ? grid.rectOf(k - 1) : TexelRect{0, 0, scene.textures[s].width_px, scene.textures[s].height_px};
-            sizes[static_cast<size_t>(t + k)] = std::max(r.width(), r.height());
-        }
+        const std::vector<TexelRect> entries = tilesetEntries(scene.textures[s], atlas_size_px, split);
+        if (sizes.size() < static_cast<size_t>(t) + entries.size()) sizes.resize(static_cast<size_t>(t) + entries.size(), 0.0);
+        for (size_t k = 0; k < entries.size(); ++k)
+            sizes[static_cast<size_t>(t) + k] = std::max(entries[k].width(), entries[k].height());
     }
     return sizes;
 }

@@ -42,6 +42,24 @@ TEST(TileGrid, SplitsTexturesAboveTwoAtlasesOfTexels) {
     EXPECT_FALSE(splitsTexture(100000, 1, 512)) << "texels, not sides";
 }
 
+TEST(TileGrid, TilesetEntriesAreTheWholeImageThenItsTiles) {
+    // 1202 x 532 at 512: 3 x 2 tiles, clamped, cores of 512 (the last ones smaller), 16 texels of overlap.
+    TextureRef ortho{"o.png", 1202, 532, 3, WrapMode::Clamp};
+    const std::vector<TexelRect> e = tilesetEntries(ortho, 512, true);
+    ASSERT_EQ(e.size(), 7u);
+    EXPECT_EQ(e[0].width(), 1202);
+    EXPECT_EQ(e[0].height(), 532);
+    const int x0[3] = {0, 512 - 16, 1024 - 16}, x1[3] = {512 + 16, 1024 + 16, 1202};
+    const int y0[2] = {0, 512 - 16}, y1[2] = {512 + 16, 532};
+    for (int k = 0; k < 6; ++k) {
+        const TexelRect& r = e[static_cast<size_t>(k + 1)];
+        EXPECT_EQ(r.width(), x1[k % 3] - x0[k % 3]) << k;
+        EXPECT_EQ(r.height(), y1[k / 3] - y0[k / 3]) << k;
+    }
+    EXPECT_EQ(tilesetEntries(ortho, 512, false).size(), 1u);  // split off: the whole image only
+    EXPECT_EQ(tilesetEntries(TextureRef{"f.png", 1024, 512, 3, WrapMode::Wrap}, 512, true).size(), 1u);  // two atlases: whole
+}
+
 // Each texel holds its own coordinates: (x, y, x ^ y) modulo 256.
 format::Image8 coordinates(int w, int h) {
     format::Image8 img{w, h, 3, std::vector<uint8_t>(static_cast<size_t>(w) * static_cast<size_t>(h) * 3)};
