@@ -46,6 +46,7 @@ json atlasParamsJson(const AtlasParams& p) {
             {"vertical_fov_deg", p.vertical_fov_deg},
             {"filter", filterName(p.filter)},
             {"packing", packingMethodName(p.packing)},
+            {"unique_charts", p.unique_charts},
             {"critical_fraction", p.critical_fraction},
             {"threads", p.threads},
             {"cache_mb", p.cache_mb}};

@@ -100,6 +100,11 @@ struct AtlasParams {
     /// range of textures at a time, a pass over its triangles each. Does not
     /// change the output.
     uint64_t model_budget_bytes = uint64_t{256} << 20;
+    /// No two world-distinct triangles share atlas texels (charts.h
+    /// surfaceComponents): what a computed texture over the atlas
+    /// coordinates needs. Off: triangles that reuse one part of a texture
+    /// (real CityGML walls mapping one photo 0..1) share its texels.
+    bool unique_charts = false;
     bool render_images = true;        ///< false: structure, ranges and coordinates only (no files)
     /// The level of this tree's root in the tree it is part of (a shard's
     /// subtree, cli/shards.h): the depth rules (count-balanced cuts from level

@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "atlas/charts.h"
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
 #include <algorithm>
+#include <cstring>
 #include <queue>
 #include <tuple>
 #include <unordered_map>
@@ -55,8 +58,13 @@ public:
         std::priority_queue<Candidate> heap;
         auto touch = [&](uint32_t a, uint32_t b) {
             const RegionSize &x = sizes[a], &y = sizes[b];
-            return x.uv_min.x <= y.uv_max.x && y.uv_min.x <= x.uv_max.x && x.uv_min.y <= y.uv_max.y &&
-                   y.uv_min.y <= x.uv_max.y;
+            const bool bordered = x.uv_min.x <= y.uv_max.x && y.uv_min.x <= x.uv_max.x && x.uv_min.y <= y.uv_max.y &&
+                                  y.uv_min.y <= x.uv_max.y;
+            if (!bordered || !s_.unique) return bordered;
+            // Unique charts: one region may hold two charts only where no
+            // texel can lie inside both (their closed uv boxes are disjoint).
+            const Chart &p = charts[a], &q = charts[b];
+            return p.hi.x < q.lo.x || q.hi.x < p.lo.x || p.hi.y < q.lo.y || q.hi.y < p.lo.y;
         };
         auto consider = [&](uint32_t a, uint32_t b) {
             if (!touch(a, b)) return;
@@ -113,6 +121,68 @@ private:
 
 }  // namespace
 
+std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
+    using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+    std::vector<uint32_t> parent(t.size());
+    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = k;
+    auto find = [&](uint32_t k) {
+        while (parent[k] != k) k = parent[k] = parent[parent[k]];
+        return k;
+    };
+    auto uvPoint = [](const Vec2d& p) { return K::Point_2(p.x, p.y); };
+    // Which side of its edge (a, b) the third corner lies on in uv, exactly.
+    auto side = [&](const SurfaceTriangle& tri, int a, int b) {
+        return CGAL::orientation(uvPoint(tri.uv[a]), uvPoint(tri.uv[b]), uvPoint(tri.uv[3 - a - b]));
+    };
+    // An edge's key: its two endpoints (position and uv, bit for bit) in a
+    // fixed order, so both triangles along it give the same key.
+    struct Corner {
+        double v[5];
+        bool operator<(const Corner& o) const { return std::memcmp(v, o.v, sizeof v) < 0; }
+        bool operator==(const Corner& o) const { return std::memcmp(v, o.v, sizeof v) == 0; }
+    };
+    struct Edge {
+        Corner lo, hi;
+        uint32_t triangle;
+        int a, b;  // the corners of the triangle along the edge, as (lo, hi)
+    };
+    std::vector<Edge> edges;
+    edges.reserve(3 * t.size());
+    for (uint32_t i = 0; i < t.size(); ++i) {
+        if (side(t[i], 0, 1) == CGAL::COLLINEAR) continue;  // zero uv area: joins nothing
+        for (int e = 0; e < 3; ++e) {
+            int a = e, b = (e + 1) % 3;
+            Corner ca{{t[i].position[a].x, t[i].position[a].y, t[i].position[a].z, t[i].uv[a].x, t[i].uv[a].y}};
+            Corner cb{{t[i].position[b].x, t[i].position[b].y, t[i].position[b].z, t[i].uv[b].x, t[i].uv[b].y}};
+            if (ca == cb) continue;
+            if (cb < ca) std::swap(ca, cb), std::swap(a, b);
+            edges.push_back({ca, cb, i, a, b});
+        }
+    }
+    std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) {
+        if (!(x.lo == y.lo)) return x.lo < y.lo;
+        if (!(x.hi == y.hi)) return x.hi < y.hi;
+        return x.triangle < y.triangle;
+    });
+    for (size_t s = 0; s < edges.size();) {
+        size_t e = s + 1;
+        while (e < edges.size() && edges[e].lo == edges[s].lo && edges[e].hi == edges[s].hi) ++e;
+        // Exactly two triangles along it, their third corners on opposite
+        // sides in uv. More than two (a non-manifold edge) join nothing: two
+        // of them on opposite sides of a third could fold over each other.
+        if (e - s == 2) {
+            const Edge &x = edges[s], &y = edges[s + 1];
+            if (side(t[x.triangle], x.a, x.b) == -side(t[y.triangle], y.a, y.b)) {
+                const uint32_t p = find(x.triangle), q = find(y.triangle);
+                if (p != q) parent[std::max(p, q)] = std::min(p, q);
+            }
+        }
+        s = e;
+    }
+    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = find(k);
+    return parent;
+}
+
 // Charts: the members whose uv boxes overlap, transitively. Each chart becomes
 // its own region, so the two opposite walls of a building sharing a wrapped
 // facade texture do not pay for the walls between them in texture space (the
@@ -138,6 +208,7 @@ std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
     struct Open {
         Vec2d lo, hi;
         uint32_t member;
+        uint32_t surface;
     };
     std::vector<Open> active;
     size_t compress_at = 256;
@@ -146,14 +217,14 @@ std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
         for (const Open& o : active) {
             if (o.hi.x < m[k].uv_min.x) continue;  // ends before this one starts: never overlaps a later one
             active[kept++] = o;
-            if (overlaps1d(o.lo.x, o.hi.x, m[k].uv_min.x, m[k].uv_max.x) &&
+            if (o.surface == m[k].surface && overlaps1d(o.lo.x, o.hi.x, m[k].uv_min.x, m[k].uv_max.x) &&
                 overlaps1d(o.lo.y, o.hi.y, m[k].uv_min.y, m[k].uv_max.y)) {
                 const uint32_t a = find(o.member), b = find(k);
                 if (a != b) parent[std::max(a, b)] = std::min(a, b);
             }
         }
         active.resize(kept);
-        active.push_back({m[k].uv_min, m[k].uv_max, k});
+        active.push_back({m[k].uv_min, m[k].uv_max, k, m[k].surface});
         if (active.size() > compress_at) {
             std::vector<Open> merged;
             std::unordered_map<uint32_t, size_t> slot;

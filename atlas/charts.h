@@ -7,6 +7,7 @@
 /// region costs fewer texels than two (their borders and gaps overlap).
 /// Internal to the atlas stage; exposed for tests.
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -20,6 +21,9 @@ namespace cityatlas::atlas {
 struct ChartMember {
     Vec2d uv_min, uv_max;
     double per_u_1m = 0, per_v_1m = 0;
+    /// Unique charts only (surfaceComponents): members of different surfaces
+    /// never share a chart, whatever their uv boxes. 0 everywhere otherwise.
+    uint32_t surface = 0;
 };
 
 struct PlannedRegion {
@@ -44,9 +48,29 @@ struct ChartSettings {
     /// Hold the texture at its own resolution on both axes (texture_economy.h):
     /// exact regions, no original needed. Needs a known native size.
     bool promote = false;
+    /// Unique charts (`--unique-charts`): no two world-distinct triangles
+    /// share atlas texels. Charts never join members of different surfaces,
+    /// and two charts merge only where their uv boxes are disjoint.
+    bool unique = false;
 };
 
-/// Charts: members whose uv boxes overlap, transitively. Returns a chart id per
+/// World-connected surfaces of one texture's triangles, for unique charts:
+/// two triangles are one surface when they are the only two along an edge
+/// (both endpoints equal in position and in uv, bit for bit) and lie on
+/// opposite sides of it in uv, so their uv triangles meet along it without
+/// folding over it; transitively. Inside such a surface the uv -> world map is continuous and
+/// one-to-one along every joint, so the surface's texels belong to one place
+/// each (a surface that wraps around onto its own texels again is not
+/// detected: charts are checked texel by texel in the tests). A triangle
+/// with zero uv area joins nothing. Returns a surface id per triangle (the
+/// smallest position in it).
+struct SurfaceTriangle {
+    std::array<Vec3d, 3> position;
+    std::array<Vec2d, 3> uv;
+};
+std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> triangles);
+
+/// Charts: members whose uv boxes overlap (and whose surfaces agree), transitively. Returns a chart id per
 /// member (the smallest member position in its chart).
 std::vector<uint32_t> uvCharts(std::span<const ChartMember> members);
 

@@ -270,7 +270,17 @@ private:
                     const TexelDensity& d = info_[ids[positions[k]]].density;
                     members[k] = {d.uv_min, d.uv_max, d.s_world * ppm_, d.t_world * ppm_};
                 }
+                if (params_.unique_charts) {
+                    std::vector<SurfaceTriangle> surface(positions.size());
+                    for (size_t k = 0; k < positions.size(); ++k) {
+                        const Triangle& t = tris_[ids[positions[k]]];
+                        surface[k] = {t.position_local, t.uv};
+                    }
+                    const std::vector<uint32_t> of = surfaceComponents(surface);
+                    for (size_t k = 0; k < positions.size(); ++k) members[k].surface = of[k];
+                }
                 ChartSettings cs;
+                cs.unique = params_.unique_charts;
                 cs.d_min_m = d_min_, cs.shrink = shrink, cs.border_px = params_.border_px, cs.atlas_size_px = a;
                 cs.native = static_cast<size_t>(texture) < native_.size() ? native_[static_cast<size_t>(texture)] : NativeSize{};
                 cs.promote = static_cast<size_t>(texture) < promote_.size() && promote_[static_cast<size_t>(texture)];

@@ -187,6 +187,11 @@ void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt) {
                     "Packing heuristic: maxrects (best short side fit) or igarashi-cosgrove (the papers')")
         ->default_val("maxrects")
         ->group(g);
+    cmd->add_flag("--unique-charts", opt->params.unique_charts,
+                  "No two world-distinct triangles share atlas texels: triangles that reuse one part of a texture "
+                  "(walls mapping one photo 0..1) each get their own region (what a computed texture needs; costs "
+                  "the duplicated regions' texels)")
+        ->group(g);
     cmd->add_option("--critical-percent", opt->critical_percent,
                     "If more textured triangles than this are critical (too large for one atlas), d_min is enlarged "
                     "until this many are; the rest are split (and d_min grows further if splitting would add more "

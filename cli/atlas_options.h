@@ -21,7 +21,7 @@ struct AtlasTreeOptions {
 };
 
 /// Registers --d-min, --atlas-size, --border, --screen, --fov, --filter,
-/// --packing, --critical-percent, --threads, --cache-mb and --models-mb.
+/// --packing, --unique-charts, --critical-percent, --threads, --cache-mb and --models-mb.
 void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt);
 
 /// Options -> parameters; the message names the bad option.

@@ -72,6 +72,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
     k.push_back(fmt::format("atlas={} border={} screen={}x{} fov={} filter={} packing={} critical={}", a.atlas_size_px,
                             a.border_px, a.screen_width_px, a.screen_height_px, a.vertical_fov_deg,
                             atlas::filterName(a.filter), atlas::packingMethodName(a.packing), a.critical_fraction));
+    if (a.unique_charts) k.push_back("unique_charts=on");
     const tiles::TilesParams& t = opt.tiles;
     k.push_back(fmt::format("position_error={}", t.position_error_target_m));
     k.push_back(fmt::format("writer={} revision={}", kCityAtlasVersion, tiles::kWriterRevision));

@@ -103,6 +103,7 @@ atlas::AtlasParams atlasParamsFrom(const json& j) {
     p.d_min_from_data = j.at("d_min_from_data");
     p.filter = atlas::filterFromName(j.at("filter").get<std::string>()).value();
     p.packing = atlas::packingMethodFromName(j.at("packing").get<std::string>()).value();
+    p.unique_charts = j.value("unique_charts", false);
     p.critical_fraction = j.at("critical_fraction");
     p.cache_mb = j.at("cache_mb");
     return p;

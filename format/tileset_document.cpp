@@ -204,6 +204,7 @@ BuildEntry readBuild(const json& build) {
         fail(w + ": focal_px and tau must be positive and corner_factor >= 1");
     b.filter = optText(build, "filter", w);
     b.packing = optText(build, "packing", w);
+    b.unique_charts = optFlag(build, "unique_charts", w);
     b.position_bits = optSmall(build, "position_bits", w);
     b.position_error_target_mm = optNumber(build, "position_error_target_mm", w, 0);
     b.uv_bits = optSmall(build, "uv_bits", w);
@@ -394,7 +395,7 @@ json tileJson(const TilesetDocument& doc, int32_t id) {
 }
 
 json buildJson(const BuildEntry& b) {
-    return {{"d_min_m", b.d_min_m},
+    json j = {{"d_min_m", b.d_min_m},
             {"d_min_requested_m", b.d_min_requested_m},
             {"atlas_size_px", b.atlas_size_px},
             {"border_px", b.border_px},
@@ -415,6 +416,8 @@ json buildJson(const BuildEntry& b) {
             {"node_triangles", b.node_triangles},
             {"geometry_encoder", b.geometry_encoder},
             {"texture_encoder", b.texture_encoder}};
+    if (b.unique_charts) j["unique_charts"] = true;  // written only when on: default folders keep their bytes
+    return j;
 }
 
 }  // namespace

@@ -109,6 +109,7 @@ struct BuildEntry {
     int screen_width_px = 0, screen_height_px = 0;
     double vertical_fov_deg = 60, focal_px = 0, corner_factor = 1;
     std::string filter, packing;
+    bool unique_charts = false;  ///< --unique-charts (absent: off)
     int position_bits = 0;
     double position_error_target_mm = 0;
     int uv_bits = 0;

@@ -700,6 +700,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     b.corner_factor = tree.projection.corner_factor;
     b.filter = atlas::filterName(ap.filter);
     b.packing = atlas::packingMethodName(ap.packing);
+    b.unique_charts = ap.unique_charts;
     b.position_bits = params.draco.position_bits;
     b.position_error_target_mm = params.position_error_target_m * 1000.0;
     b.uv_bits = params.draco.uv_bits;
