@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "atlas/computed_texture.h"
 
+#include "atlas/placement.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -143,6 +145,53 @@ ScalarImage evaluateComputed(const LeafTexelMap& map, const std::function<double
     for (size_t k = 0; k < map.texel.size(); ++k)
         if (map.texel[k] >= 0) image.value[k] = per_surface[static_cast<size_t>(map.texel[k])];
     return image;
+}
+
+ScalarImage innerComputed(const AtlasTree& tree, int32_t node, Layer layer, int scale,
+                          const std::function<const ScalarImage*(int32_t child)>& child_image) {
+    ScalarImage out;
+    const NodeLayer& nl = tree.nodes[static_cast<size_t>(node)].layers[static_cast<size_t>(layer)];
+    if (nl.width <= 0 || nl.height <= 0 || scale < 1) return out;
+    out.width = (nl.width + scale - 1) / scale, out.height = (nl.height + scale - 1) / scale;
+    out.value.assign(static_cast<size_t>(out.width) * static_cast<size_t>(out.height), kNoValue);
+    for (const ChildPlacement& p : childPlacements(tree, node, static_cast<int>(layer))) {
+        const ScalarImage* c = child_image(p.child);
+        if (!c || c->width == 0) continue;
+        const int x0 = p.x / scale, y0 = p.y / scale;
+        for (int y = 0; 2 * y < c->height; ++y)
+            for (int x = 0; 2 * x < c->width; ++x) {
+                const int px = x0 + x, py = y0 + y;
+                if (px >= out.width || py >= out.height) continue;
+                double sum = 0;
+                int n = 0;
+                for (int dy = 0; dy < 2; ++dy)
+                    for (int dx = 0; dx < 2; ++dx) {
+                        const int cx = 2 * x + dx, cy = 2 * y + dy;
+                        if (cx >= c->width || cy >= c->height) continue;
+                        const float v = c->value[static_cast<size_t>(cy) * static_cast<size_t>(c->width) + static_cast<size_t>(cx)];
+                        if (std::isnan(v)) continue;
+                        sum += v, ++n;
+                    }
+                if (n > 0)
+                    out.value[static_cast<size_t>(py) * static_cast<size_t>(out.width) + static_cast<size_t>(px)] =
+                        static_cast<float>(sum / n);
+            }
+    }
+    return out;
+}
+
+format::Image8 quantizeUnit(const ScalarImage& image) {
+    format::Image8 out;
+    out.width = image.width, out.height = image.height, out.channels = 1;
+    out.pixels.resize(static_cast<size_t>(image.width) * static_cast<size_t>(image.height));
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x) {
+            const float v = image.value[static_cast<size_t>(y) * static_cast<size_t>(image.width) + static_cast<size_t>(x)];
+            const double q = std::isnan(v) ? 0.0 : std::clamp(std::round(255.0 * v), 0.0, 255.0);
+            out.pixels[static_cast<size_t>(image.height - 1 - y) * static_cast<size_t>(image.width) + static_cast<size_t>(x)] =
+                static_cast<uint8_t>(q);
+        }
+    return out;
 }
 
 }  // namespace cityatlas::atlas

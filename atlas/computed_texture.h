@@ -26,6 +26,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "atlas/atlas_tree.h"
@@ -63,5 +64,22 @@ struct ScalarImage {
 /// threads; the image does not depend on the thread count.
 ScalarImage evaluateComputed(const LeafTexelMap& map, const std::function<double(const TexelSurface&)>& field,
                              int threads = 0, float empty = 0.0f);
+
+/// Texels that stand for nothing, in the images the hierarchy is built from.
+inline constexpr float kNoValue = std::numeric_limits<float>::quiet_NaN();
+
+/// An inner node's computed image at 1/`scale` of its photo atlas: each
+/// child's image halved (the mean of each 2x2 block's texels that hold a
+/// value: a chart's edge is not darkened by empty space) and placed where
+/// the photo atlas places the child (childPlacements; its texels are
+/// multiples of 4, so of `scale` <= 4). `child_image(c)` gives child c's
+/// image (leaves: evaluateComputed with kNoValue as `empty`), or null for
+/// none. Texels no child covers hold kNoValue.
+ScalarImage innerComputed(const AtlasTree& tree, int32_t node, Layer layer, int scale,
+                          const std::function<const ScalarImage*(int32_t child)>& child_image);
+
+/// 8 bits of a unit-range field, rows top-down (the DDS writer's order):
+/// round(255 v) clamped to [0, 255]; kNoValue as 0.
+format::Image8 quantizeUnit(const ScalarImage& image);
 
 }  // namespace cityatlas::atlas

@@ -160,6 +160,11 @@ TEST(ComputedTexture, SkyViewImagesMeetT1AndT3AndIgnoreThreads) {
         const ScalarImage one = evaluateComputed(map, svf, 1, -1.0f);
         const ScalarImage two = evaluateComputed(map, svf, 2, -1.0f);
         ASSERT_EQ(one.value, two.value) << "leaf " << n << " depends on the thread count";
+        const format::Image8 q = quantizeUnit(one);  // rows top-down
+        auto stored = [&](size_t k) {
+            const size_t x = k % static_cast<size_t>(map.width), y = k / static_cast<size_t>(map.width);
+            return q.pixels[(static_cast<size_t>(map.height) - 1 - y) * static_cast<size_t>(map.width) + x];
+        };
         for (size_t k = 0; k < map.texel.size(); ++k) {
             if (map.texel[k] < 0) {
                 EXPECT_EQ(one.value[k], -1.0f);
@@ -171,10 +176,12 @@ TEST(ComputedTexture, SkyViewImagesMeetT1AndT3AndIgnoreThreads) {
             if (t.feature == c.tallest && t.semantic == SurfaceSemantic::Roof && s.normal.z > 0.999 &&
                 t.position_local[0].z == top) {
                 EXPECT_EQ(one.value[k], 1.0f) << "T1";
+                EXPECT_EQ(stored(k), 255) << "T1 stored";
                 ++t1;
             }
             if (t.semantic == SurfaceSemantic::Wall) {
                 EXPECT_LE(one.value[k], 0.5f) << "T3";
+                EXPECT_LE(stored(k), 128) << "T3 stored (0.5 rounds to 128)";
                 ++t3;
             }
         }
@@ -182,6 +189,63 @@ TEST(ComputedTexture, SkyViewImagesMeetT1AndT3AndIgnoreThreads) {
     std::printf("  T1 on %d roof texels, T3 on %d wall texels\n", t1, t3);
     EXPECT_GT(t1, 10);
     EXPECT_GT(t3, 1000);
+}
+
+// Inner nodes: each texel is the mean of the child texels (with a value)
+// whose centres fall in it, the children located through the root atlas
+// coordinates (offset and level, as a draw samples them; not the placement
+// list the code uses); texels no child texel falls in hold no value. Over
+// every level of the tree, at scales 1, 2 and 4.
+TEST(ComputedTexture, InnerNodesAreTheirChildrensMeans) {
+    const TownTree& c = town();
+    const AtlasTree& tree = c.tree;
+    const int a = tree.params.atlas_size_px;
+    auto field = [](const TexelSurface& s) { return std::fmod(std::abs(s.point.z), 10.0) / 10.0; };
+    for (int scale : {1, 2, 4}) {
+        std::vector<ScalarImage> image(tree.nodes.size());
+        uint64_t checked = 0;
+        for (size_t id = tree.nodes.size(); id-- > 0;) {  // preorder reversed: children first
+            const auto n = static_cast<int32_t>(id);
+            if (tree.nodes[id].leaf()) {
+                image[id] = evaluateComputed(leafTexelMap(tree, n, Layer::Opaque, scale), field, 0, kNoValue);
+                continue;
+            }
+            image[id] = innerComputed(tree, n, Layer::Opaque, scale, [&](int32_t ch) { return &image[static_cast<size_t>(ch)]; });
+            const NodeLayer& nl = tree.nodes[id].layers[0];
+            if (nl.width == 0) continue;
+            std::vector<double> sum(image[id].value.size(), 0);
+            std::vector<int> count(image[id].value.size(), 0);
+            for (int32_t ch : tree.nodes[id].children) {
+                if (ch < 0) continue;
+                const NodeLayer& cl = tree.nodes[static_cast<size_t>(ch)].layers[0];
+                const ScalarImage& ci = image[static_cast<size_t>(ch)];
+                const double child_scale = std::ldexp(static_cast<double>(a), tree.nodes[static_cast<size_t>(ch)].level);
+                for (int y = 0; y < ci.height; ++y)
+                    for (int x = 0; x < ci.width; ++x) {
+                        const float v = ci.value[static_cast<size_t>(y) * ci.width + x];
+                        if (std::isnan(v)) continue;
+                        const Vec2d root{((x + 0.5) * scale + static_cast<double>(cl.offset[0])) / child_scale,
+                                         ((y + 0.5) * scale + static_cast<double>(cl.offset[1])) / child_scale};
+                        const Vec2d t = nl.texelFromRoot(root, tree.nodes[id].level, a);
+                        const int px = static_cast<int>(std::floor(t.x / scale)), py = static_cast<int>(std::floor(t.y / scale));
+                        ASSERT_TRUE(px >= 0 && px < image[id].width && py >= 0 && py < image[id].height);
+                        sum[static_cast<size_t>(py) * image[id].width + px] += v;
+                        ++count[static_cast<size_t>(py) * image[id].width + px];
+                    }
+            }
+            for (size_t k = 0; k < sum.size(); ++k) {
+                const float got = image[id].value[k];
+                if (count[k] == 0) {
+                    ASSERT_TRUE(std::isnan(got)) << "node " << id << " texel " << k << " has a value no child gives";
+                } else {
+                    ASSERT_NEAR(got, sum[k] / count[k], 1e-6) << "node " << id << " texel " << k;
+                    ++checked;
+                }
+            }
+        }
+        std::printf("  scale %d: %llu inner texels checked\n", scale, static_cast<unsigned long long>(checked));
+        EXPECT_GT(checked, 1000u);
+    }
 }
 
 }  // namespace
