@@ -32,6 +32,11 @@ find_package(GeographicLib REQUIRED)
 find_package(meshoptimizer CONFIG REQUIRED)
 # Build-time ray casting (atlas/raycast.h: computed textures); the target is `embree`.
 find_package(embree 3 CONFIG REQUIRED)
+# The sun's position (atlas/sun_hours.h); libnova ships neither a config nor a .pc file.
+find_path(NOVA_INCLUDE_DIR libnova/solar.h REQUIRED)
+find_library(NOVA_LIBRARY nova REQUIRED)
+add_library(nova::nova UNKNOWN IMPORTED)
+set_target_properties(nova::nova PROPERTIES IMPORTED_LOCATION ${NOVA_LIBRARY} INTERFACE_INCLUDE_DIRECTORIES ${NOVA_INCLUDE_DIR})
 # tileset.json validation in `cityatlas inspect` (header-only), content hashes for `build`.
 find_package(valijson CONFIG REQUIRED)
 pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)

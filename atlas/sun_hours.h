@@ -1,0 +1,47 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// Sun hours (issue 19's `sun_hours` computed texture; papers/000 §5.1's "the
+/// annual average number of hours per day during which the sun is visible"):
+/// the fraction of a year's daylight sun positions that reach a surface point.
+///
+/// Sun positions come from libnova (apparent solar coordinates, VSOP87, then
+/// the observer's horizon; no atmospheric refraction: the sun counts from the
+/// moment its centre's geometric altitude is above 0). A year is sampled as
+/// `days` representative days (the 15th of each month for 12), every
+/// `step_minutes` over the 24 hours of UTC, starting at 00:00 + step / 2;
+/// daylight steps are those with the sun above the horizon. A point receives
+/// a step's sun when the sun is in front of its surface (n . s > 0) and the
+/// ray toward it leaves the scene (RayCaster::occluded).
+///
+/// Directions are east, north, up (ENU) at the given latitude and longitude.
+/// A scene in a projected CRS has grid north, not true north: the caller
+/// rotates the directions into the scene's frame (meridian convergence).
+
+#include <vector>
+
+#include "atlas/raycast.h"
+#include "core/geometry.h"
+
+namespace cityatlas::atlas {
+
+struct SunSchedule {
+    double latitude_deg = 0, longitude_deg = 0;  ///< WGS 84, east positive
+    int year = 2025;
+    int days = 12;             ///< 12: the 15th of each month; otherwise that many days from January 1
+    double step_minutes = 15;
+};
+
+/// The unit direction toward the sun (ENU) at Julian day `jd` (UT), seen
+/// from `latitude_deg`, `longitude_deg`.
+Vec3d sunDirectionEnu(double latitude_deg, double longitude_deg, double jd);
+
+/// The sun's directions (ENU) at every daylight step of the schedule.
+std::vector<Vec3d> daylightSunDirections(const SunSchedule& schedule);
+
+/// The fraction of `sun` (unit directions in the caster's frame) that reach
+/// `point` on a surface with outward `normal`: in front of the surface and
+/// not blocked. Rays start 1 cm off the surface. 0 when `sun` is empty.
+double sunHoursFraction(const RayCaster& caster, const Vec3d& point, const Vec3d& normal, const std::vector<Vec3d>& sun);
+
+}  // namespace cityatlas::atlas

@@ -1,0 +1,110 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Sun hours (atlas/sun_hours.h; issue 19): the sun's position against
+// published almanac values, and the fraction of daylight a surface receives
+// against closed forms:
+// - Berlin (52.52 N, 13.405 E), 21 June 2026: solar noon at 11:08 UTC
+//   (13:08 CEST in the almanacs) at an altitude of 60.9 degrees
+//   (90 - 52.52 + 23.44), due south;
+// - an unobstructed horizontal roof receives every daylight step: 1;
+// - an unobstructed north-facing wall: on a day of declination d > 0 at
+//   latitude p the sun stands north of the wall's plane while the hour angle
+//   is beyond acos(tan d / tan p), within the day's acos(-tan p tan d); the
+//   year's fraction is the sum of those spans over the sum of the days
+//   (none on days with d <= 0);
+// - a slab in front of a south wall blocks what the geometry says it blocks.
+#include "atlas/sun_hours.h"
+
+#include <gtest/gtest.h>
+#include <libnova/julian_day.h>
+#include <libnova/solar.h>
+
+#include <cmath>
+
+namespace cityatlas::atlas {
+namespace {
+
+double degrees(double r) { return r * 180.0 / M_PI; }
+
+TEST(SunHours, BerlinSolarNoonAtTheSolsticeMatchesTheAlmanac) {
+    ln_date day{2026, 6, 21, 0, 0, 0.0};
+    const double jd0 = ln_get_julian_day(&day);
+    double best_alt = -1, best_minute = 0;
+    Vec3d best_dir;
+    for (int minute = 0; minute < 24 * 60; ++minute) {
+        const Vec3d s = sunDirectionEnu(52.52, 13.405, jd0 + minute / 1440.0);
+        EXPECT_NEAR(length(s), 1, 1e-12);
+        const double alt = degrees(std::asin(s.z));
+        if (alt > best_alt) best_alt = alt, best_minute = minute, best_dir = s;
+    }
+    std::printf("  noon at %02d:%02d UTC, altitude %.3f deg\n", static_cast<int>(best_minute) / 60,
+                static_cast<int>(best_minute) % 60, best_alt);
+    EXPECT_NEAR(best_minute, 11 * 60 + 8, 3);
+    EXPECT_NEAR(best_alt, 90 - 52.52 + 23.44, 0.1);
+    EXPECT_LT(best_dir.y, 0);                       // south
+    EXPECT_NEAR(best_dir.x / -best_dir.y, 0, 0.01);  // due south, within the minute's turn
+    // Morning in the east, evening in the west (three hours either side of noon).
+    EXPECT_GT(sunDirectionEnu(52.52, 13.405, jd0 + (best_minute - 180) / 1440.0).x, 0.5);
+    EXPECT_LT(sunDirectionEnu(52.52, 13.405, jd0 + (best_minute + 180) / 1440.0).x, -0.5);
+}
+
+TEST(SunHours, UnobstructedRoofGetsEveryDaylightStep) {
+    const auto caster = RayCaster::build({});
+    const auto sun = daylightSunDirections({52.52, 13.405, 2025, 12, 15});
+    ASSERT_GT(sun.size(), 400u);  // about 12 h a day on average, 4 steps an hour
+    ASSERT_LT(sun.size(), 800u);
+    for (const Vec3d& s : sun) ASSERT_GT(s.z, 0);
+    EXPECT_EQ(sunHoursFraction(*caster, {0, 0, 10}, {0, 0, 1}, sun), 1.0);
+    EXPECT_EQ(sunHoursFraction(*caster, {0, 0, 10}, {0, 0, -1}, sun), 0.0);  // facing down
+}
+
+TEST(SunHours, NorthFacingWallGetsTheClosedFormFraction) {
+    const double lat = 52.52, lon = 13.405;
+    SunSchedule schedule{lat, lon, 2025, 12, 1};  // one-minute steps: the sampling error stays below 0.003
+    const auto caster = RayCaster::build({});
+    const double got = sunHoursFraction(*caster, {0, 0, 5}, {0, 1, 0}, daylightSunDirections(schedule));
+    // The closed form, with each day's declination at its noon.
+    const double p = lat * M_PI / 180.0;
+    double north = 0, day = 0;
+    for (int m = 1; m <= 12; ++m) {
+        ln_date noon{2025, m, 15, 12, 0, 0.0};
+        ln_equ_posn equ{};
+        ln_get_solar_equ_coords(ln_get_julian_day(&noon), &equ);
+        const double d = equ.dec * M_PI / 180.0;
+        const double h0 = std::acos(std::clamp(-std::tan(p) * std::tan(d), -1.0, 1.0));
+        day += 2 * h0;
+        if (d > 0) north += 2 * (h0 - std::acos(std::clamp(std::tan(d) / std::tan(p), -1.0, 1.0)));
+    }
+    std::printf("  north wall at %.2f N: %.4f of daylight, closed form %.4f\n", lat, got, north / day);
+    EXPECT_GT(north / day, 0.05);
+    EXPECT_NEAR(got, north / day, 0.003);
+}
+
+// A south wall at y = 0 facing -y, a 20 m slab 10 m in front of it (its top
+// at z = 20, from y = -10 to -11, x from -500 to 500): a point at height z
+// sees the sun only where tan(altitude) * (horizontal run to the slab along
+// the sun's azimuth) exceeds the slab's rise over it; counted here directly.
+TEST(SunHours, ASlabBlocksWhatTheGeometrySays) {
+    std::vector<std::array<Vec3d, 3>> tris;
+    const Vec3d a{-500, -10, 0}, b{500, -10, 0}, c{500, -10, 20}, d{-500, -10, 20};
+    tris.push_back({a, b, c});
+    tris.push_back({a, c, d});
+    const auto caster = RayCaster::build(tris);
+    const auto sun = daylightSunDirections({52.52, 13.405, 2025, 12, 15});
+    for (double z : {2.0, 10.0, 19.0}) {
+        const Vec3d origin{0, 0.0 - 0.01, z};  // the 1 cm offset the function applies
+        size_t expected = 0;
+        for (const Vec3d& s : sun) {
+            if (s.y >= 0) continue;  // behind the wall
+            const double t = (-10 - origin.y) / s.y;  // ray parameter at the slab's plane
+            const double x = origin.x + t * s.x, h = origin.z + t * s.z;
+            const bool blocked = x > -500 && x < 500 && h < 20;
+            expected += !blocked;
+        }
+        const double got = sunHoursFraction(*caster, {0, 0, z}, {0, -1, 0}, sun);
+        std::printf("  south wall at z %.0f m: %.4f\n", z, got);
+        EXPECT_NEAR(got, static_cast<double>(expected) / sun.size(), 1e-12);
+    }
+}
+
+}  // namespace
+}  // namespace cityatlas::atlas
