@@ -50,6 +50,21 @@ std::vector<Vec3d> daylightSunDirections(const SunSchedule& s) {
     return out;
 }
 
+std::vector<Vec3d> sunDiscDirections(const SunDisc& disc) {
+    std::vector<Vec3d> out;
+    const double az = radians(disc.azimuth_deg), el = radians(disc.elevation_deg);
+    const Vec3d c{std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
+    const Vec3d e1{std::cos(az), -std::sin(az), 0};  // horizontal, across the sun's azimuth
+    const Vec3d e2 = cross(e1, c);
+    const double golden = M_PI * (3.0 - std::sqrt(5.0));
+    for (int i = 0; i < disc.samples; ++i) {
+        const double rho = radians(disc.radius_deg) * std::sqrt((i + 0.5) / disc.samples), phi = i * golden;
+        const Vec3d d = c + std::tan(rho) * (std::cos(phi) * e1 + std::sin(phi) * e2);
+        out.push_back((1.0 / length(d)) * d);
+    }
+    return out;
+}
+
 double sunHoursFraction(const RayCaster& caster, const Vec3d& point, const Vec3d& normal, const std::vector<Vec3d>& sun) {
     if (sun.empty() || !(length(normal) > 0)) return 0;
     const Vec3d n = (1.0 / length(normal)) * normal;

@@ -39,6 +39,21 @@ Vec3d sunDirectionEnu(double latitude_deg, double longitude_deg, double jd);
 /// The sun's directions (ENU) at every daylight step of the schedule.
 std::vector<Vec3d> daylightSunDirections(const SunSchedule& schedule);
 
+/// The sun as a disc (issue 19's `shadow` computed texture; papers/000
+/// §5.2.3's smooth shadows, done physically): a soft shadow is the fraction
+/// of the disc a point sees, sunHoursFraction over these directions.
+struct SunDisc {
+    double azimuth_deg = 180;   ///< clockwise from north (ENU: 90 = east)
+    double elevation_deg = 45;
+    double radius_deg = 0.2665; ///< the sun's own angular radius; larger softens the penumbra
+    int samples = 256;
+};
+
+/// `samples` unit directions (ENU) spread evenly over the disc's area (a
+/// Vogel spiral: radius sqrt((i + 1/2) / n), the golden angle between
+/// successive points).
+std::vector<Vec3d> sunDiscDirections(const SunDisc& disc);
+
 /// The fraction of `sun` (unit directions in the caster's frame) that reach
 /// `point` on a surface with outward `normal`: in front of the surface and
 /// not blocked. Rays start 1 cm off the surface. 0 when `sun` is empty.

@@ -108,3 +108,58 @@ TEST(SunHours, ASlabBlocksWhatTheGeometrySays) {
 
 }  // namespace
 }  // namespace cityatlas::atlas
+
+namespace cityatlas::atlas {
+namespace {
+
+// A soft shadow (SunDisc): a 2 degree sun due south at 30 degrees over a
+// long east-west wall 20 m high; a ground point x metres north of the wall's
+// foot sees the wall's top at beta = atan(20 / x). With d = (beta - 30) / 2
+// (degrees; the disc is small enough to be flat), the visible part of the
+// disc is the segment above the line: (acos d - d sqrt(1 - d^2)) / pi, all
+// of it for d <= -1 and none for d >= 1 (exactly: every sample is then on
+// one side).
+TEST(SunHours, SoftShadowOfAWallEdgeIsTheDiscSegment) {
+    std::vector<std::array<Vec3d, 3>> tris;
+    const Vec3d a{-2000, 0, 0}, b{2000, 0, 0}, c{2000, 0, 20}, d{-2000, 0, 20};
+    tris.push_back({a, b, c});
+    tris.push_back({a, c, d});
+    const auto caster = RayCaster::build(tris);
+    SunDisc disc;
+    disc.azimuth_deg = 180, disc.elevation_deg = 30, disc.radius_deg = 2, disc.samples = 256;
+    const auto dirs = sunDiscDirections(disc);
+    ASSERT_EQ(dirs.size(), 256u);
+    for (const Vec3d& s : dirs) {
+        EXPECT_NEAR(length(s), 1, 1e-12);
+        const double angle = std::acos(std::clamp(dot(s, dirs.front()), -1.0, 1.0)) * 180 / M_PI;
+        EXPECT_LE(angle, 4.0 + 1e-9);  // within the disc's diameter of each other
+        EXPECT_LT(s.y, 0);             // south
+    }
+    int full = 0, none = 0, partial = 0;
+    double worst = 0;
+    for (double x = 25; x <= 45; x += 0.25) {
+        const double beta = std::atan(20 / x) * 180 / M_PI;
+        const double dd = (beta - 30) / 2;
+        const double got = sunHoursFraction(*caster, {0, x, 0}, {0, 0, 1}, dirs);
+        if (dd <= -1.02) {
+            EXPECT_EQ(got, 1.0) << "x " << x;
+            ++full;
+        } else if (dd >= 1.02) {
+            EXPECT_EQ(got, 0.0) << "x " << x;
+            ++none;
+        } else {
+            const double e = std::clamp(dd, -1.0, 1.0);
+            const double expected = (std::acos(e) - e * std::sqrt(1 - e * e)) / M_PI;
+            EXPECT_NEAR(got, expected, 0.02) << "x " << x;
+            worst = std::max(worst, std::abs(got - expected));
+            ++partial;
+        }
+    }
+    std::printf("  %d lit, %d shadowed, %d penumbra points (off the segment by <= %.4f)\n", full, none, partial, worst);
+    EXPECT_GT(full, 5);
+    EXPECT_GT(none, 5);
+    EXPECT_GT(partial, 10);
+}
+
+}  // namespace
+}  // namespace cityatlas::atlas
