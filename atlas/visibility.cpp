@@ -14,11 +14,12 @@ Vec3d unit(const Vec3d& v) { return (1.0 / length(v)) * v; }
 
 }  // namespace
 
-double visibilityRatio(const VisibilityTarget& t, const Vec3d& point, const Vec3d& normal) {
-    if (!t.scene || !t.target || t.box.empty() || t.grid < 1 || !(length(normal) > 0)) return 0;
+VisibilityCounts visibilityCounts(const VisibilityTarget& t, const Vec3d& point, const Vec3d& normal) {
+    VisibilityCounts out;
+    if (!t.scene || !t.target || t.box.empty() || t.grid < 1 || !(length(normal) > 0)) return out;
     const Vec3d origin = point + kOffsetM * unit(normal);
     const Vec3d m = 0.5 * (t.box.min + t.box.max);
-    if (!(length(m - origin) > 0)) return 0;
+    if (!(length(m - origin) > 0)) return out;
     // The camera frame: d at the box centre, r and u across the image.
     const Vec3d d = unit(m - origin);
     const Vec3d helper = std::abs(d.z) < 0.9 ? Vec3d{0, 0, 1} : Vec3d{1, 0, 0};
@@ -37,17 +38,21 @@ double visibilityRatio(const VisibilityTarget& t, const Vec3d& point, const Vec3
         half = std::max({half, std::abs(dot(v, r)) / z, std::abs(dot(v, u)) / z});
     }
     half = std::min(half, kMaxHalfTan);
-    int total = 0, unoccluded = 0;
     for (int j = 0; j < t.grid; ++j)
         for (int i = 0; i < t.grid; ++i) {
             const double x = ((i + 0.5) / t.grid * 2 - 1) * half, y = ((j + 0.5) / t.grid * 2 - 1) * half;
             const Vec3d dir = d + x * r + y * u;
             if (!t.target->occluded(origin, dir)) continue;
-            ++total;
+            ++out.total;
             const RayHit first = t.scene->nearest(origin, dir);
-            if (first.hit && first.triangle < t.is_target.size() && t.is_target[first.triangle]) ++unoccluded;
+            if (first.hit && first.triangle < t.is_target.size() && t.is_target[first.triangle]) ++out.unoccluded;
         }
-    return total > 0 ? static_cast<double>(unoccluded) / total : 0.0;
+    return out;
+}
+
+double visibilityRatio(const VisibilityTarget& t, const Vec3d& point, const Vec3d& normal) {
+    const VisibilityCounts c = visibilityCounts(t, point, normal);
+    return c.total > 0 ? static_cast<double>(c.unoccluded) / c.total : 0.0;
 }
 
 }  // namespace cityatlas::atlas

@@ -36,7 +36,14 @@ struct VisibilityTarget {
     int grid = 16;
 };
 
-/// f(p) for a point on a surface with outward `normal`.
+/// The grid's counts at a point: rays that hit the target alone (A_total)
+/// and rays whose first hit is the target (A_unoccluded).
+struct VisibilityCounts {
+    int total = 0, unoccluded = 0;
+};
+VisibilityCounts visibilityCounts(const VisibilityTarget& t, const Vec3d& point, const Vec3d& normal);
+
+/// f(p) = unoccluded / total (0 without a total) for a point on a surface with outward `normal`.
 double visibilityRatio(const VisibilityTarget& t, const Vec3d& point, const Vec3d& normal);
 
 }  // namespace cityatlas::atlas
