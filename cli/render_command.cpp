@@ -544,8 +544,8 @@ RunFn addRenderCommand(CLI::App& app) {
         ->check(CLI::Range(0.0, 60.0));
     cmd->add_option("--textures-by-view", opt->textures_by_view,
                     "on: a leaf drawn with its originals loads only the texture blocks the camera sees (in view and "
-                    "closer than the leaf's min distance, known once its geometry is loaded; with "
-                    "--split-originals, only the tiles in view); off: every block of the leaf")
+                    "closer than the leaf's min distance, known once its geometry is loaded; in a folder built with "
+                    "--split-originals on, only the tiles in view); off: every block of the leaf")
         ->default_val("on")
         ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--lookahead-s", opt->lookahead_s,
