@@ -140,20 +140,46 @@ std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
         double v[5];
         bool operator<(const Corner& o) const { return std::memcmp(v, o.v, sizeof v) < 0; }
         bool operator==(const Corner& o) const { return std::memcmp(v, o.v, sizeof v) == 0; }
+        bool operator!=(const Corner& o) const { return !(*this == o); }
     };
     struct Edge {
         Corner lo, hi;
         uint32_t triangle;
         int a, b;  // the corners of the triangle along the edge, as (lo, hi)
     };
+    auto cornerOf = [&](uint32_t i, int c) {
+        return Corner{{t[i].position[c].x, t[i].position[c].y, t[i].position[c].z, t[i].uv[c].x, t[i].uv[c].y}};
+    };
+    // Copies of one triangle (the same surface written twice, as a solid's
+    // member and in a multi-surface) are one place: they join first, and
+    // count as one triangle along their edges.
+    {
+        std::vector<std::pair<std::array<Corner, 3>, uint32_t>> keyed(t.size());
+        for (uint32_t i = 0; i < t.size(); ++i) {
+            std::array<Corner, 3> k{cornerOf(i, 0), cornerOf(i, 1), cornerOf(i, 2)};
+            std::sort(k.begin(), k.end());
+            keyed[i] = {k, i};
+        }
+        std::sort(keyed.begin(), keyed.end(), [](const auto& x, const auto& y) {
+            for (int c = 0; c < 3; ++c)
+                if (!(x.first[c] == y.first[c])) return x.first[c] < y.first[c];
+            return x.second < y.second;
+        });
+        for (size_t k = 1; k < keyed.size(); ++k)
+            if (keyed[k].first == keyed[k - 1].first) {
+                const uint32_t p = find(keyed[k].second), q = find(keyed[k - 1].second);
+                if (p != q) parent[std::max(p, q)] = std::min(p, q);
+            }
+    }
+    std::vector<uint32_t> copy_of(t.size());  // the copy class of each triangle, before any edge joins
+    for (uint32_t k = 0; k < t.size(); ++k) copy_of[k] = find(k);
     std::vector<Edge> edges;
     edges.reserve(3 * t.size());
     for (uint32_t i = 0; i < t.size(); ++i) {
         if (side(t[i], 0, 1) == CGAL::COLLINEAR) continue;  // zero uv area: joins nothing
         for (int e = 0; e < 3; ++e) {
             int a = e, b = (e + 1) % 3;
-            Corner ca{{t[i].position[a].x, t[i].position[a].y, t[i].position[a].z, t[i].uv[a].x, t[i].uv[a].y}};
-            Corner cb{{t[i].position[b].x, t[i].position[b].y, t[i].position[b].z, t[i].uv[b].x, t[i].uv[b].y}};
+            Corner ca = cornerOf(i, a), cb = cornerOf(i, b);
             if (ca == cb) continue;
             if (cb < ca) std::swap(ca, cb), std::swap(a, b);
             edges.push_back({ca, cb, i, a, b});
@@ -167,11 +193,22 @@ std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
     for (size_t s = 0; s < edges.size();) {
         size_t e = s + 1;
         while (e < edges.size() && edges[e].lo == edges[s].lo && edges[e].hi == edges[s].hi) ++e;
-        // Exactly two triangles along it, their third corners on opposite
-        // sides in uv. More than two (a non-manifold edge) join nothing: two
-        // of them on opposite sides of a third could fold over each other.
-        if (e - s == 2) {
-            const Edge &x = edges[s], &y = edges[s + 1];
+        // Exactly two triangles along it (copies counting once), their third
+        // corners on opposite sides in uv. More than two (a non-manifold
+        // edge) join nothing: two of them on opposite sides of a third could
+        // fold over each other.
+        size_t other = e;
+        bool two = true;
+        for (size_t k = s + 1; k < e && two; ++k) {
+            if (copy_of[edges[k].triangle] == copy_of[edges[s].triangle]) continue;
+            if (other == e) {
+                other = k;
+            } else if (copy_of[edges[k].triangle] != copy_of[edges[other].triangle]) {
+                two = false;
+            }
+        }
+        if (two && other != e) {
+            const Edge &x = edges[s], &y = edges[other];
             if (side(t[x.triangle], x.a, x.b) == -side(t[y.triangle], y.a, y.b)) {
                 const uint32_t p = find(x.triangle), q = find(y.triangle);
                 if (p != q) parent[std::max(p, q)] = std::min(p, q);
