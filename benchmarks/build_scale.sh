@@ -5,8 +5,8 @@
 # position bits 11/14/16 (with the per-node error target off, so the bits are
 # exactly those) and BC quality fast/best.
 # Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all] [TEXTURE_PX=512]
-#   RUNS: all, main, bits, bc, or a comma list of run names
-#   (default, bits11, bits14, bits16, bc-best).
+#   RUNS: all, main, bits, bc, charts (default and unique-charts), or a comma
+#   list of run names (default, bits11, bits14, bits16, bc-best, unique-charts).
 #   The city-scale runs of issue 17: `10000 400 main` and `100000 2000 main 32`.
 # Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>[-<TEXTURE_PX>px].json (one record per run,
 # updated after each run; records of runs not repeated are kept) and prints a
@@ -32,7 +32,9 @@ town, dmin, tag, runs = sys.argv[1:5]
 all_variants = [("default", [])]
 all_variants += [(f"bits{b}", ["--position-bits", str(b), "--position-error-mm", "0"]) for b in (11, 14, 16)]
 all_variants.append(("bc-best", ["--bc-quality", "best"]))
-groups = {"all": [n for n, _ in all_variants], "main": ["default"], "bits": ["bits11", "bits14", "bits16"], "bc": ["bc-best"]}
+all_variants.append(("unique-charts", ["--unique-charts"]))  # what computed textures need (issue 19)
+groups = {"all": [n for n, _ in all_variants], "main": ["default"], "bits": ["bits11", "bits14", "bits16"], "bc": ["bc-best"],
+          "charts": ["default", "unique-charts"]}
 wanted = groups.get(runs, runs.split(","))
 unknown = set(wanted) - {n for n, _ in all_variants}
 if unknown: sys.exit(f"unknown runs: {', '.join(sorted(unknown))}")
