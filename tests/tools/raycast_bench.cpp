@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The ray caster's throughput on a synthetic town (issue 19's benchmark:
 // rays per second and seconds per million surface points of the sky-view
-// factor at N directions), at 1 thread and at every core; then the same
+// factor at N directions), at 1 thread and at every core; the error of
+// 16..1,024 directions against 4,096 (the speed/accuracy trade); then the same
 // field as a computed texture: the town's atlas tree (structure only, unique
 // charts, --d-min 400 as benchmarks/build_scale.sh), its leaf texels at scale 2, the seconds per
 // million computed texels through the texel -> surface map on a sample of
@@ -12,7 +13,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -85,6 +88,37 @@ int main(int argc, char** argv) {
     }
     std::printf("%u buildings, %zu triangles: tree built in %.2f s\n", buildings, caster->triangles(), build_s);
 
+    // The speed/accuracy trade of the direction count: the error against
+    // 4,096 directions on 2,000 of the points, and the time per million points.
+    std::string trade;
+    {
+        const size_t n_points = std::min<size_t>(points.size(), 2000);
+        const auto reference_dirs = atlas::hemisphereDirections(4096);
+        std::vector<double> reference(n_points);
+        tbb::parallel_for(size_t{0}, n_points, [&](size_t i) {
+            reference[i] = atlas::skyViewFactor(*caster, points[i].first, points[i].second, reference_dirs);
+        });
+        for (const int n : {16, 32, 64, 128, 256, 1024}) {
+            const auto d = atlas::hemisphereDirections(n);
+            std::vector<double> err(n_points);
+            t0 = Clock::now();
+            tbb::parallel_for(size_t{0}, n_points, [&](size_t i) {
+                err[i] = std::abs(atlas::skyViewFactor(*caster, points[i].first, points[i].second, d) - reference[i]);
+            });
+            const double secs = seconds(t0);
+            double mean = 0;
+            for (const double e : err) mean += e / static_cast<double>(n_points);
+            std::sort(err.begin(), err.end());
+            const double p99 = err[static_cast<size_t>(0.99 * static_cast<double>(n_points - 1))], worst = err.back();
+            std::printf("N = %4d: |SVF - SVF(4096)| mean %.4f, p99 %.4f, max %.4f (%.2f of an 8-bit step at p99); %.1f s per million points\n",
+                        n, mean, p99, worst, p99 * 255, secs / static_cast<double>(n_points) * 1e6);
+            if (!trade.empty()) trade += ",";
+            trade += "{\"directions\":" + std::to_string(n) + ",\"mean_error\":" + std::to_string(mean) +
+                     ",\"p99_error\":" + std::to_string(p99) + ",\"max_error\":" + std::to_string(worst) +
+                     ",\"seconds_per_million_points\":" + std::to_string(secs / static_cast<double>(n_points) * 1e6) + "}";
+        }
+    }
+
     std::string computed = "null";
     if (texels_wanted > 0) {
         constexpr int kScale = 2;
@@ -149,6 +183,6 @@ int main(int argc, char** argv) {
     std::ofstream out(argv[5]);
     out << "{\"benchmark\":\"raycast\",\"buildings\":" << buildings << ",\"triangles\":" << caster->triangles()
         << ",\"directions\":" << directions << ",\"points\":" << points.size() << ",\"build_seconds\":" << build_s
-        << ",\"runs\":[" << runs << "],\"computed\":" << computed << "}\n";
+        << ",\"runs\":[" << runs << "],\"directions_trade\":[" << trade << "],\"computed\":" << computed << "}\n";
     return out ? 0 : 1;
 }
