@@ -5,6 +5,7 @@
 #include <libnova/solar.h>
 #include <libnova/transform.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace cityatlas::atlas {
@@ -48,6 +49,40 @@ std::vector<Vec3d> daylightSunDirections(const SunSchedule& s) {
         }
     }
     return out;
+}
+
+Vec3d SunFrame::toLocal(const Vec3d& d) const {
+    const auto& m = enu_to_local;
+    const Vec3d v{m[0] * d.x + m[1] * d.y + m[2] * d.z, m[3] * d.x + m[4] * d.y + m[5] * d.z,
+                  m[6] * d.x + m[7] * d.y + m[8] * d.z};
+    return (1.0 / length(v)) * v;
+}
+
+std::optional<SunFrame> sunFrame(const Georeference& g) {
+    if (!g.local_to_ecef || !g.enu_to_ecef) return std::nullopt;
+    // 3x3 parts, row-major, of the column-major 4x4 matrices.
+    auto part = [](const std::array<double, 16>& m) {
+        return std::array<double, 9>{m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10]};
+    };
+    const std::array<double, 9> a = part(*g.local_to_ecef), e = part(*g.enu_to_ecef);
+    // A^-1 by the adjugate.
+    const double det = a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) +
+                       a[2] * (a[3] * a[7] - a[4] * a[6]);
+    if (!(std::abs(det) > 0) || !std::isfinite(det)) return std::nullopt;
+    const std::array<double, 9> inv{(a[4] * a[8] - a[5] * a[7]) / det, (a[2] * a[7] - a[1] * a[8]) / det,
+                                    (a[1] * a[5] - a[2] * a[4]) / det, (a[5] * a[6] - a[3] * a[8]) / det,
+                                    (a[0] * a[8] - a[2] * a[6]) / det, (a[2] * a[3] - a[0] * a[5]) / det,
+                                    (a[3] * a[7] - a[4] * a[6]) / det, (a[1] * a[6] - a[0] * a[7]) / det,
+                                    (a[0] * a[4] - a[1] * a[3]) / det};
+    SunFrame f;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+            f.enu_to_local[3 * r + c] = inv[3 * r] * e[c] + inv[3 * r + 1] * e[3 + c] + inv[3 * r + 2] * e[6 + c];
+    // E's third column, up = (cos lat cos lon, cos lat sin lon, sin lat).
+    const Vec3d up{e[2], e[5], e[8]};
+    f.latitude_deg = std::asin(std::clamp(up.z / length(up), -1.0, 1.0)) * 180.0 / M_PI;
+    f.longitude_deg = std::atan2(up.y, up.x) * 180.0 / M_PI;
+    return f;
 }
 
 std::vector<Vec3d> sunDiscDirections(const SunDisc& disc) {

@@ -18,10 +18,13 @@
 /// A scene in a projected CRS has grid north, not true north: the caller
 /// rotates the directions into the scene's frame (meridian convergence).
 
+#include <array>
+#include <optional>
 #include <vector>
 
 #include "atlas/raycast.h"
 #include "core/geometry.h"
+#include "ingest/scene.h"
 
 namespace cityatlas::atlas {
 
@@ -53,6 +56,21 @@ struct SunDisc {
 /// Vogel spiral: radius sqrt((i + 1/2) / n), the golden angle between
 /// successive points).
 std::vector<Vec3d> sunDiscDirections(const SunDisc& disc);
+
+/// Where the sun is seen from, and how its ENU directions turn into the
+/// scene's local frame: local = A^-1 E d, with A the 3x3 part of the
+/// georeference's local_to_ecef (for a grid frame the tangent-linear map at
+/// the origin, which holds the grid's meridian convergence and scale) and E
+/// that of enu_to_ecef; the result normalised. Latitude and longitude are
+/// the origin's, from E's up axis (the ellipsoid normal).
+struct SunFrame {
+    double latitude_deg = 0, longitude_deg = 0;
+    std::array<double, 9> enu_to_local{};  ///< row-major 3x3, before normalising
+    Vec3d toLocal(const Vec3d& enu) const;
+};
+/// Nullopt for a scene without a georeference (a local engineering CRS):
+/// it has no sun.
+std::optional<SunFrame> sunFrame(const Georeference& georef);
 
 /// The fraction of `sun` (unit directions in the caster's frame) that reach
 /// `point` on a surface with outward `normal`: in front of the surface and

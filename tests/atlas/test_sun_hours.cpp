@@ -163,3 +163,58 @@ TEST(SunHours, SoftShadowOfAWallEdgeIsTheDiscSegment) {
 
 }  // namespace
 }  // namespace cityatlas::atlas
+
+#include <GeographicLib/TransverseMercator.hpp>
+#include <GeographicLib/UTMUPS.hpp>
+
+#include "ingest/georef.h"
+
+namespace cityatlas::atlas {
+namespace {
+
+// The sun's ENU directions in a scene's local frame. A grid frame's north is
+// grid north: in UTM, true north lies at grid bearing -gamma, gamma the
+// meridian convergence (GeographicLib's, the bearing of grid north from true
+// north), as the oracle; its latitude and longitude are GeographicLib's UTM
+// inverse. An ENU frame is its own: the identity. No georeference, no sun.
+TEST(SunHours, SunDirectionsTurnIntoTheScenesGridNorth) {
+    struct Case {
+        const char* srs;
+        int zone;
+        Vec3d origin;
+    };
+    for (const Case& c : {Case{"EPSG:25833", 33, {391779.259, 5820072.159, 34}}, Case{"EPSG:32633", 33, {200000, 5817000, 0}},
+                          Case{"EPSG:32632", 32, {640000, 1000, 5}}}) {
+        SourceCrs crs;
+        ASSERT_TRUE(parseSrsName(c.srs, &crs).ok());
+        std::unique_ptr<LocalFrame> frame;
+        ASSERT_TRUE(LocalFrame::create(crs, c.origin, &frame).ok());
+        std::unique_ptr<LocalToEcef> map;
+        ASSERT_TRUE(LocalToEcef::create(*frame, &map).ok());
+        Georeference g;
+        g.local_to_ecef = localToEcefMatrix(*map);
+        g.enu_to_ecef = map->earth().enu_to_ecef;
+        const auto f = sunFrame(g);
+        ASSERT_TRUE(f.has_value());
+        double lat, lon, x, y, gamma_deg, k;
+        GeographicLib::UTMUPS::Reverse(c.zone, true, c.origin.x, c.origin.y, lat, lon);
+        GeographicLib::TransverseMercator::UTM().Forward(6.0 * c.zone - 183, lat, lon, x, y, gamma_deg, k);
+        EXPECT_NEAR(f->latitude_deg, lat, 1e-6) << c.srs;
+        EXPECT_NEAR(f->longitude_deg, lon, 1e-6) << c.srs;
+        const Vec3d north = f->toLocal({0, 1, 0});
+        std::printf("  %s: true north at grid bearing %.6f deg, convergence %.6f deg\n", c.srs,
+                    std::atan2(north.x, north.y) * 180 / M_PI, gamma_deg);
+        EXPECT_NEAR(std::atan2(north.x, north.y) * 180 / M_PI, -gamma_deg, 1e-6) << c.srs;
+        EXPECT_NEAR(f->toLocal({0, 0, 1}).z, 1, 1e-9) << "up stays up";
+    }
+    // An ENU frame: the same matrix twice is the identity.
+    Georeference enu;
+    enu.local_to_ecef = enu.enu_to_ecef = std::array<double, 16>{0.6, 0.8, 0, 0, -0.8, 0.6, 0, 0, 0, 0, 1, 0, 1e6, 2e6, 3e6, 1};
+    const Vec3d d = sunFrame(enu)->toLocal({0.6, 0, 0.8});
+    EXPECT_NEAR(d.x, 0.6, 1e-12);
+    EXPECT_NEAR(d.z, 0.8, 1e-12);
+    EXPECT_FALSE(sunFrame(Georeference{}).has_value());
+}
+
+}  // namespace
+}  // namespace cityatlas::atlas
