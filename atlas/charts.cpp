@@ -12,6 +12,31 @@
 namespace cityatlas::atlas {
 namespace {
 
+// Disjoint sets whose representative is their smallest member, so the ids
+// that come out do not depend on the order of the joins.
+class SmallestRootSets {
+public:
+    explicit SmallestRootSets(size_t n) : parent_(n) {
+        for (uint32_t k = 0; k < parent_.size(); ++k) parent_[k] = k;
+    }
+    uint32_t find(uint32_t k) {
+        while (parent_[k] != k) k = parent_[k] = parent_[parent_[k]];
+        return k;
+    }
+    void join(uint32_t a, uint32_t b) {
+        const uint32_t p = find(a), q = find(b);
+        if (p != q) parent_[std::max(p, q)] = std::min(p, q);
+    }
+    /// Every member's representative.
+    std::vector<uint32_t> roots() {
+        for (uint32_t k = 0; k < parent_.size(); ++k) parent_[k] = find(k);
+        return parent_;
+    }
+
+private:
+    std::vector<uint32_t> parent_;
+};
+
 bool overlaps1d(double alo, double ahi, double blo, double bhi) {
     const double lo = std::max(alo, blo), hi = std::min(ahi, bhi);
     return hi > lo || (hi == lo && (alo == ahi || blo == bhi));
@@ -123,12 +148,7 @@ private:
 
 std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
     using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-    std::vector<uint32_t> parent(t.size());
-    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = k;
-    auto find = [&](uint32_t k) {
-        while (parent[k] != k) k = parent[k] = parent[parent[k]];
-        return k;
-    };
+    SmallestRootSets sets(t.size());
     auto uvPoint = [](const Vec2d& p) { return K::Point_2(p.x, p.y); };
     // Which side of its edge (a, b) the third corner lies on in uv, exactly.
     auto side = [&](const SurfaceTriangle& tri, int a, int b) {
@@ -140,7 +160,6 @@ std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
         double v[5];
         bool operator<(const Corner& o) const { return std::memcmp(v, o.v, sizeof v) < 0; }
         bool operator==(const Corner& o) const { return std::memcmp(v, o.v, sizeof v) == 0; }
-        bool operator!=(const Corner& o) const { return !(*this == o); }
     };
     struct Edge {
         Corner lo, hi;
@@ -166,13 +185,10 @@ std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
             return x.second < y.second;
         });
         for (size_t k = 1; k < keyed.size(); ++k)
-            if (keyed[k].first == keyed[k - 1].first) {
-                const uint32_t p = find(keyed[k].second), q = find(keyed[k - 1].second);
-                if (p != q) parent[std::max(p, q)] = std::min(p, q);
-            }
+            if (keyed[k].first == keyed[k - 1].first) sets.join(keyed[k].second, keyed[k - 1].second);
     }
     std::vector<uint32_t> copy_of(t.size());  // the copy class of each triangle, before any edge joins
-    for (uint32_t k = 0; k < t.size(); ++k) copy_of[k] = find(k);
+    for (uint32_t k = 0; k < t.size(); ++k) copy_of[k] = sets.find(k);
     std::vector<Edge> edges;
     edges.reserve(3 * t.size());
     for (uint32_t i = 0; i < t.size(); ++i) {
@@ -209,15 +225,11 @@ std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
         }
         if (two && other != e) {
             const Edge &x = edges[s], &y = edges[other];
-            if (side(t[x.triangle], x.a, x.b) == -side(t[y.triangle], y.a, y.b)) {
-                const uint32_t p = find(x.triangle), q = find(y.triangle);
-                if (p != q) parent[std::max(p, q)] = std::min(p, q);
-            }
+            if (side(t[x.triangle], x.a, x.b) == -side(t[y.triangle], y.a, y.b)) sets.join(x.triangle, y.triangle);
         }
         s = e;
     }
-    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = find(k);
-    return parent;
+    return sets.roots();
 }
 
 // Charts: the members whose uv boxes overlap, transitively. Each chart becomes
@@ -226,12 +238,7 @@ std::vector<uint32_t> surfaceComponents(std::span<const SurfaceTriangle> t) {
 // papers take one box per texture and node). Returns a chart id per member
 // (the smallest member position in it).
 std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
-    std::vector<uint32_t> parent(m.size());
-    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = k;
-    auto find = [&](uint32_t k) {
-        while (parent[k] != k) k = parent[k] = parent[parent[k]];
-        return k;
-    };
+    SmallestRootSets sets(m.size());
     std::vector<uint32_t> order(m.size());
     for (uint32_t k = 0; k < order.size(); ++k) order[k] = k;
     std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
@@ -255,10 +262,8 @@ std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
             if (o.hi.x < m[k].uv_min.x) continue;  // ends before this one starts: never overlaps a later one
             active[kept++] = o;
             if (o.surface == m[k].surface && overlaps1d(o.lo.x, o.hi.x, m[k].uv_min.x, m[k].uv_max.x) &&
-                overlaps1d(o.lo.y, o.hi.y, m[k].uv_min.y, m[k].uv_max.y)) {
-                const uint32_t a = find(o.member), b = find(k);
-                if (a != b) parent[std::max(a, b)] = std::min(a, b);
-            }
+                overlaps1d(o.lo.y, o.hi.y, m[k].uv_min.y, m[k].uv_max.y))
+                sets.join(o.member, k);
         }
         active.resize(kept);
         active.push_back({m[k].uv_min, m[k].uv_max, k, m[k].surface});
@@ -266,7 +271,7 @@ std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
             std::vector<Open> merged;
             std::unordered_map<uint32_t, size_t> slot;
             for (const Open& o : active) {
-                const auto [it, fresh] = slot.emplace(find(o.member), merged.size());
+                const auto [it, fresh] = slot.emplace(sets.find(o.member), merged.size());
                 if (fresh) {
                     merged.push_back(o);
                     continue;
@@ -279,8 +284,7 @@ std::vector<uint32_t> uvCharts(std::span<const ChartMember> m) {
             compress_at = std::max<size_t>(256, 2 * active.size());
         }
     }
-    for (uint32_t k = 0; k < parent.size(); ++k) parent[k] = find(k);
-    return parent;
+    return sets.roots();
 }
 
 TextureRegions planTextureRegions(std::span<const ChartMember> members, const ChartSettings& settings) {

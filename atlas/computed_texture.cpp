@@ -19,6 +19,7 @@ using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 struct AtlasTriangle {
     std::array<Vec2d, 3> t;  // computed-image texels
     double area = 0;         // twice the signed area
+    Vec3d normal;            // unit, in the local frame
 };
 
 double cross2(const Vec2d& o, const Vec2d& a, const Vec2d& b) {
@@ -75,20 +76,20 @@ LeafTexelMap leafTexelMap(const AtlasTree& tree, int32_t node_index, Layer layer
             at.t[c] = {q.x * inv, q.y * inv};
         }
         at.area = cross2(at.t[0], at.t[1], at.t[2]);
+        at.normal = unitNormal(t.tri);
         atlas_of.push_back(at);
         if (t.tri.texture < 0 || at.area == 0) continue;
         const int x0 = std::max(0, static_cast<int>(std::floor(std::min({at.t[0].x, at.t[1].x, at.t[2].x}) - 0.5)));
         const int x1 = std::min(map.width - 1, static_cast<int>(std::ceil(std::max({at.t[0].x, at.t[1].x, at.t[2].x}))));
         const int y0 = std::max(0, static_cast<int>(std::floor(std::min({at.t[0].y, at.t[1].y, at.t[2].y}) - 0.5)));
         const int y1 = std::min(map.height - 1, static_cast<int>(std::ceil(std::max({at.t[0].y, at.t[1].y, at.t[2].y}))));
-        const Vec3d normal = unitNormal(t.tri);
         for (int y = y0; y <= y1; ++y)
             for (int x = x0; x <= x1; ++x) {
                 int32_t& slot = map.texel[static_cast<size_t>(y) * static_cast<size_t>(map.width) + static_cast<size_t>(x)];
                 const Vec2d c{x + 0.5, y + 0.5};
                 if (slot >= 0 || !holds(at, c)) continue;
                 slot = static_cast<int32_t>(map.surfaces.size());
-                map.surfaces.push_back({i, pointAt(t.tri, at, c), normal, true});
+                map.surfaces.push_back({i, pointAt(t.tri, at, c), at.normal, true});
             }
     }
     map.covered = map.surfaces.size();
@@ -123,7 +124,7 @@ LeafTexelMap leafTexelMap(const AtlasTree& tree, int32_t node_index, Layer layer
                 const Vec2d c{static_cast<double>(at % static_cast<size_t>(map.width)) + 0.5,
                               static_cast<double>(at / static_cast<size_t>(map.width)) + 0.5};
                 map.texel[at] = static_cast<int32_t>(map.surfaces.size());
-                map.surfaces.push_back({i, pointAt(tree.triangles[i].tri, t, c), unitNormal(tree.triangles[i].tri), false});
+                map.surfaces.push_back({i, pointAt(tree.triangles[i].tri, t, c), t.normal, false});
             }
         }
     }

@@ -30,6 +30,16 @@
 
 namespace cityatlas::atlas {
 
+/// Analyses cast from a surface start this far off it along its normal:
+/// clear of the surface itself at float precision 10 km from the caster's centre.
+inline constexpr double kSurfaceOffsetM = 0.01;
+
+/// Where rays from `point` on a surface with outward `normal` (any length
+/// but 0) start: kSurfaceOffsetM off it.
+inline Vec3d surfaceRayOrigin(const Vec3d& point, const Vec3d& normal) {
+    return point + (kSurfaceOffsetM / length(normal)) * normal;
+}
+
 struct RayHit {
     bool hit = false;
     double distance = std::numeric_limits<double>::infinity();  ///< along the (normalised) direction, metres

@@ -14,8 +14,6 @@ double radicalInverse2(uint32_t i) {
 
 Vec3d unit(const Vec3d& v) { return (1.0 / length(v)) * v; }
 
-constexpr double kOffsetM = 0.01;  // 1 cm off the surface: clear of it at float precision 10 km out
-
 }  // namespace
 
 std::vector<Vec3d> hemisphereDirections(int n) {
@@ -39,7 +37,7 @@ double skyViewFactor(const RayCaster& caster, const Vec3d& point, const Vec3d& n
     Vec3d t = cross(up, n);
     t = length(t) > 1e-12 ? unit(t) : Vec3d{1, 0, 0};
     const Vec3d b = cross(n, t);
-    const Vec3d origin = point + kOffsetM * n;
+    const Vec3d origin = surfaceRayOrigin(point, n);
     int sky = 0;
     for (const Vec3d& d : directions) {
         const Vec3d w = d.x * t + d.y * b + d.z * n;

@@ -11,8 +11,6 @@
 namespace cityatlas::atlas {
 namespace {
 
-constexpr double kOffsetM = 0.01;  // as sky_view.cpp: clear of the surface at float precision
-
 double radians(double deg) { return deg * M_PI / 180.0; }
 
 }  // namespace
@@ -102,11 +100,10 @@ std::vector<Vec3d> sunDiscDirections(const SunDisc& disc) {
 
 double sunHoursFraction(const RayCaster& caster, const Vec3d& point, const Vec3d& normal, const std::vector<Vec3d>& sun) {
     if (sun.empty() || !(length(normal) > 0)) return 0;
-    const Vec3d n = (1.0 / length(normal)) * normal;
-    const Vec3d origin = point + kOffsetM * n;
+    const Vec3d origin = surfaceRayOrigin(point, normal);
     size_t lit = 0;
     for (const Vec3d& s : sun)
-        if (dot(s, n) > 0 && !caster.occluded(origin, s)) ++lit;
+        if (dot(s, normal) > 0 && !caster.occluded(origin, s)) ++lit;
     return static_cast<double>(lit) / static_cast<double>(sun.size());
 }
 

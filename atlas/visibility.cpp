@@ -7,7 +7,6 @@
 namespace cityatlas::atlas {
 namespace {
 
-constexpr double kOffsetM = 0.01;                 // as sky_view.cpp
 const double kMaxHalfTan = std::tan(85.0 * M_PI / 180.0);
 
 Vec3d unit(const Vec3d& v) { return (1.0 / length(v)) * v; }
@@ -17,7 +16,7 @@ Vec3d unit(const Vec3d& v) { return (1.0 / length(v)) * v; }
 VisibilityCounts visibilityCounts(const VisibilityTarget& t, const Vec3d& point, const Vec3d& normal) {
     VisibilityCounts out;
     if (!t.scene || !t.target || t.box.empty() || t.grid < 1 || !(length(normal) > 0)) return out;
-    const Vec3d origin = point + kOffsetM * unit(normal);
+    const Vec3d origin = surfaceRayOrigin(point, normal);
     const Vec3d m = 0.5 * (t.box.min + t.box.max);
     if (!(length(m - origin) > 0)) return out;
     // The camera frame: d at the box centre, r and u across the image.

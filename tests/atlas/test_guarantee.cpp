@@ -27,9 +27,8 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
-#include "ingest/citygml/citygml_reader.h"
-#include "ingest/scene_sink.h"
 #include "ingest/synth/town.h"
+#include "tests/atlas/scenes.h"
 #include "tests/ingest/test_support.h"
 
 namespace cityatlas::atlas {
@@ -660,16 +659,14 @@ TEST(AtlasGuarantee, BerlinVcsExport) {
     const fs::path file = test::sharedDir() / "data/citygml2_textured_berlin_vcs_export/export.gml";
     if (!fs::is_regular_file(file))
         GTEST_SKIP() << file << " is absent (the team's shared data, ../shared beside the clone): no real data to test with";
-    SceneCollector collector;
-    IngestState state;
-    state.sink = &collector;
-    const Status s = readCityGml(file, state);
+    Scene scene;
+    const Status s = test::readCityGmlScene(file, &scene);
     ASSERT_TRUE(s.ok()) << s.error;
-    ASSERT_FALSE(collector.scene.triangles.empty());
-    checkScene(collector.scene, fastParams(), 1000, 107);
+    ASSERT_FALSE(scene.triangles.empty());
+    checkScene(scene, fastParams(), 1000, 107);
     AtlasParams p = fastParams();
     p.d_min_m = 50.0;  // below every texture's own resolution: all capped
-    const SceneCheck c = checkScene(collector.scene, p, 1000, 110);
+    const SceneCheck c = checkScene(scene, p, 1000, 110);
     EXPECT_EQ(c.cap.capped_regions, c.cap.regions);
 }
 

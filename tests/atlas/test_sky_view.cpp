@@ -20,20 +20,13 @@
 #include <random>
 
 #include "ingest/synth/town.h"
+#include "tests/atlas/scenes.h"
 
 namespace cityatlas::atlas {
 namespace {
 
-// A closed box as 12 outward triangles.
-void addBox(const Vec3d& lo, const Vec3d& hi, std::vector<std::array<Vec3d, 3>>* out) {
-    const Vec3d c[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z}, {lo.x, hi.y, lo.z},
-                        {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {hi.x, hi.y, hi.z}, {lo.x, hi.y, hi.z}};
-    const int quads[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
-    for (const auto& q : quads) {
-        out->push_back({c[q[0]], c[q[1]], c[q[2]]});
-        out->push_back({c[q[0]], c[q[2]], c[q[3]]});
-    }
-}
+using test::addBox;
+using test::normalOf;
 
 // View factor from a differential element to a parallel a x b rectangle at
 // distance c with one corner on the element's normal.
@@ -112,11 +105,6 @@ TownCase flatTallestTown() {
     }
     ADD_FAILURE() << "no seed in 1..39 gives a flat tallest building";
     return {};
-}
-
-Vec3d normalOf(const std::array<Vec3d, 3>& p) {
-    const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);
-    return (1.0 / length(n)) * n;
 }
 
 // Points strictly inside a triangle: a barycentric grid of k steps a side.

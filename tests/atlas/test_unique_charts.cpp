@@ -13,10 +13,9 @@
 
 #include "atlas/atlas_tree.h"
 #include "atlas/charts.h"
-#include "ingest/citygml/citygml_reader.h"
-#include "ingest/scene_sink.h"
 #include "ingest/synth/town.h"
 #include "ingest/synth/write_town.h"
+#include "tests/atlas/scenes.h"
 #include "tests/ingest/test_support.h"
 
 namespace cityatlas::atlas {
@@ -228,16 +227,14 @@ TEST(UniqueCharts, NoTexelBelongsToTwoPlacesOnRealData) {
     for (const fs::path& file : files) {
         if (!fs::is_regular_file(file))
             GTEST_SKIP() << file << " is absent (the team's shared data, ../shared beside the clone): no real data to test with";
-        SceneCollector collector;
-        IngestState state;
-        state.sink = &collector;
-        const Status s = readCityGml(file, state);
+        Scene scene;
+        const Status s = test::readCityGmlScene(file, &scene);
         ASSERT_TRUE(s.ok()) << s.error;
         AtlasParams p = structureOnly(true);
         p.d_min_m.reset();  // the default: chosen from the data
-        const Collisions unique = countCollisions(buildTree(collector.scene, p));
+        const Collisions unique = countCollisions(buildTree(scene, p));
         p.unique_charts = false;
-        const Collisions shared = countCollisions(buildTree(collector.scene, p));
+        const Collisions shared = countCollisions(buildTree(scene, p));
         std::cout << file.filename().string() << ": shared " << shared.collisions << " collisions of " << shared.texels
                   << " texels; unique " << unique.collisions << " of " << unique.texels << "\n";
         EXPECT_GT(unique.texels, 1000u);
