@@ -29,7 +29,7 @@ std::vector<Vec3d> hemisphereDirections(int n) {
 }
 
 double skyViewFactor(const RayCaster& caster, const Vec3d& point, const Vec3d& normal,
-                     const std::vector<Vec3d>& directions) {
+                     const std::vector<Vec3d>& directions, double far_m) {
     if (directions.empty() || !(length(normal) > 0)) return 0;
     const Vec3d n = unit(normal);
     // The frame: t horizontal, b up the surface (world up for a wall), n out.
@@ -42,7 +42,7 @@ double skyViewFactor(const RayCaster& caster, const Vec3d& point, const Vec3d& n
     for (const Vec3d& d : directions) {
         const Vec3d w = d.x * t + d.y * b + d.z * n;
         if (w.z <= 0) continue;  // ground
-        if (!caster.occluded(origin, w)) ++sky;
+        if (!caster.occluded(origin, w, 0, far_m)) ++sky;
     }
     return static_cast<double>(sky) / static_cast<double>(directions.size());
 }

@@ -34,8 +34,11 @@ std::vector<Vec3d> hemisphereDirections(int n);
 
 /// The sky-view factor at `point` on a surface with outward `normal` (any
 /// length but 0), from `directions` (hemisphereDirections). 0 for a
-/// surface facing straight down (its hemisphere is all ground).
+/// surface facing straight down (its hemisphere is all ground). Only
+/// triangles within `far_m` of the ray's origin block it (the horizon of a
+/// computed texture: what a shard of a larger build can see).
 double skyViewFactor(const RayCaster& caster, const Vec3d& point, const Vec3d& normal,
-                     const std::vector<Vec3d>& directions);
+                     const std::vector<Vec3d>& directions,
+                     double far_m = std::numeric_limits<double>::infinity());
 
 }  // namespace cityatlas::atlas

@@ -98,12 +98,13 @@ std::vector<Vec3d> sunDiscDirections(const SunDisc& disc) {
     return out;
 }
 
-double sunHoursFraction(const RayCaster& caster, const Vec3d& point, const Vec3d& normal, const std::vector<Vec3d>& sun) {
+double sunHoursFraction(const RayCaster& caster, const Vec3d& point, const Vec3d& normal, const std::vector<Vec3d>& sun,
+                        double far_m) {
     if (sun.empty() || !(length(normal) > 0)) return 0;
     const Vec3d origin = surfaceRayOrigin(point, normal);
     size_t lit = 0;
     for (const Vec3d& s : sun)
-        if (dot(s, normal) > 0 && !caster.occluded(origin, s)) ++lit;
+        if (dot(s, normal) > 0 && !caster.occluded(origin, s, 0, far_m)) ++lit;
     return static_cast<double>(lit) / static_cast<double>(sun.size());
 }
 

@@ -74,7 +74,9 @@ std::optional<SunFrame> sunFrame(const Georeference& georef);
 
 /// The fraction of `sun` (unit directions in the caster's frame) that reach
 /// `point` on a surface with outward `normal`: in front of the surface and
-/// not blocked. Rays start 1 cm off the surface. 0 when `sun` is empty.
-double sunHoursFraction(const RayCaster& caster, const Vec3d& point, const Vec3d& normal, const std::vector<Vec3d>& sun);
+/// not blocked (by a triangle within `far_m`). Rays start 1 cm off the
+/// surface. 0 when `sun` is empty.
+double sunHoursFraction(const RayCaster& caster, const Vec3d& point, const Vec3d& normal, const std::vector<Vec3d>& sun,
+                        double far_m = std::numeric_limits<double>::infinity());
 
 }  // namespace cityatlas::atlas

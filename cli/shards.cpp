@@ -27,6 +27,9 @@
 
 #include "atlas/atlas_images.h"
 #include "atlas/atlas_report.h"
+#include "atlas/computed_layers.h"
+#include "atlas/raycast.h"
+#include "tiles/computed_files.h"
 #include "tiles/texture_blocks.h"
 
 extern char** environ;
@@ -426,6 +429,78 @@ void addStats(const json& j, atlas::AtlasStats* s) {
 }
 
 std::string shardName(int k) { return fmt::format("shard-{}", k); }
+
+// The plan's computed textures (absent: none).
+Status planComputed(const json& plan, std::vector<atlas::ComputedSpec>* out) {
+    out->clear();
+    if (!plan.contains("computed")) return Status::Ok();
+    for (const json& c : plan.at("computed")) {
+        atlas::ComputedSpec spec;
+        if (Status s = atlas::computedSpecFromJson(c, &spec); !s.ok()) return s;
+        out->push_back(spec);
+    }
+    return Status::Ok();
+}
+
+// Per node of a tree: its computed files by layer, each aligned with the plan's computed textures.
+using ComputedFiles = std::vector<std::array<std::vector<format::ComputedFileEntry>, atlas::kLayerCount>>;
+
+json computedFileJson(const format::ComputedFileEntry& f) {
+    return f.file.uri.empty() ? json(nullptr)
+                              : json::array({f.file.uri, f.file.bytes, f.width_px, f.height_px, f.mips});
+}
+format::ComputedFileEntry computedFileFrom(const json& j) {
+    format::ComputedFileEntry f;
+    if (j.is_null()) return f;
+    f.file = {j.at(0).get<std::string>(), j.at(1).get<uint64_t>()};
+    f.width_px = j.at(2), f.height_px = j.at(3), f.mips = j.at(4);
+    return f;
+}
+json computedStatsJson(const atlas::ComputedStats& s) {
+    return {s.texels, s.texels ? json(s.min) : json(nullptr), s.texels ? json(s.max) : json(nullptr), s.sum};
+}
+void addComputedStats(const json& j, atlas::ComputedStats* s) {
+    atlas::ComputedStats x;
+    x.texels = j.at(0);
+    if (x.texels) x.min = j.at(1), x.max = j.at(2);
+    x.sum = j.at(3);
+    s->add(x);
+}
+std::string rootComputedFile(size_t k, int layer) { return fmt::format("root-computed-{}-{}.f32", k, layer); }
+
+// Every computed texture of `tree` into `out_dir` (files[node][layer][k]):
+// leaves evaluated against `caster`, inner nodes from their children, nodes
+// in `given[k]` taken as they are. `roots[k]` (optional) gets the root's images.
+Status writeComputedTextures(const std::vector<atlas::ComputedSpec>& specs, const atlas::AtlasTree& tree,
+                             const atlas::RayCaster* caster, const Georeference& georef,
+                             const std::vector<atlas::GivenComputed>* given, int threads, tiles::BcQuality quality,
+                             const fs::path& out_dir, ComputedFiles* files,
+                             std::vector<std::array<atlas::ScalarImage, atlas::kLayerCount>>* roots,
+                             std::vector<atlas::ComputedStats>* stats, const ShardProgressFn& progress) {
+    files->assign(tree.nodes.size(), {});
+    for (auto& node : *files)
+        for (auto& layer : node) layer.resize(specs.size());
+    if (roots) roots->assign(specs.size(), {});
+    stats->assign(specs.size(), {});
+    for (size_t k = 0; k < specs.size(); ++k) {
+        atlas::SurfaceField field;
+        if (caster)
+            if (Status s = atlas::makeSurfaceField(specs[k], *caster, georef, &field); !s.ok()) return s;
+        uint64_t done = 0;
+        const std::string step = fmt::format("computed: {}", specs[k].name());
+        const auto sink = [&](int32_t node, atlas::Layer layer, const atlas::ScalarImage& image) {
+            if (image.width <= 0) return Status::Ok();
+            if (progress) progress(step.c_str(), ++done, tree.nodes.size() * atlas::kLayerCount);
+            return tiles::writeComputedImage(image, quality, out_dir, tiles::computedUri(k, layer, node),
+                                             &(*files)[static_cast<size_t>(node)][static_cast<size_t>(layer)][k]);
+        };
+        if (Status s = atlas::computeTreeImages(tree, specs[k].scale, field, threads, sink, given ? &(*given)[k] : nullptr,
+                                                roots ? &(*roots)[k] : nullptr, &(*stats)[k]);
+            !s.ok())
+            return s;
+    }
+    return Status::Ok();
+}
 std::string layerFile(const char* what, int l) {
     return fmt::format("{}-{}.bin", what, atlas::layerName(static_cast<Layer>(l)));
 }
@@ -542,6 +617,55 @@ Status PlanSink::finish() {
     return Status::Ok();
 }
 
+namespace {
+
+// Each shard's occluders (writePlan): the other shards' triangles whose box
+// meets the shard's box grown by the margin, in scene order, as positions;
+// they enter the shard's key.
+Status writeOccluders(const fs::path& dir, const fs::path& spill, const atlas::ShardPlan& plan,
+                      const std::vector<atlas::ComputedSpec>& computed, const std::vector<Box3d>& shard_box,
+                      std::vector<ShardKey>& keys, const ShardProgressFn& progress) {
+    double horizon = 0;
+    for (const atlas::ComputedSpec& c : computed) horizon = std::max(horizon, c.horizon_m);
+    const double margin = occluderMargin(horizon);
+    std::vector<Box3d> reach(shard_box.size());
+    for (size_t k = 0; k < reach.size(); ++k)
+        if (!shard_box[k].empty()) {
+            const Vec3d m{margin, margin, margin};
+            reach[k].extend(shard_box[k].min - m), reach[k].extend(shard_box[k].max + m);
+        }
+    std::vector<std::ofstream> files(plan.shards());
+    for (size_t k = 0; k < files.size(); ++k) {
+        const fs::path path = dir / fmt::format("{}.occ", shardName(static_cast<int>(k)));
+        files[k].open(path, std::ios::binary);
+        if (!files[k]) return Status::Io(fmt::format("{}: cannot create", path.string()));
+    }
+    const Status read = forEachSpilled(spill, [&](const Triangle& t) {
+        if (t.feature >= plan.shard_of_feature.size() || plan.shard_of_feature[t.feature] < 0) return;
+        const auto own = static_cast<size_t>(plan.shard_of_feature[t.feature]);
+        Box3d box;
+        for (const Vec3d& p : t.position_local) box.extend(p);
+        for (size_t k = 0; k < reach.size(); ++k) {
+            if (k == own || reach[k].empty()) continue;
+            const Box3d& r = reach[k];
+            // Infinite margins (horizon inf) reach everything.
+            if (box.max.x < r.min.x || box.min.x > r.max.x || box.max.y < r.min.y || box.min.y > r.max.y ||
+                box.max.z < r.min.z || box.min.z > r.max.z)
+                continue;
+            files[k].write(reinterpret_cast<const char*>(t.position_local.data()), sizeof t.position_local);
+            for (const Vec3d& p : t.position_local) keys[k].addValue(p.x), keys[k].addValue(p.y), keys[k].addValue(p.z);
+        }
+    }, "plan: occluders", progress);
+    if (!read.ok()) return read;
+    for (size_t k = 0; k < files.size(); ++k) {
+        files[k].close();
+        if (!files[k]) return Status::Io(fmt::format("{}.occ: cannot write", (dir / shardName(static_cast<int>(k))).string()));
+    }
+    return Status::Ok();
+}
+
+}  // namespace
+
 Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const atlas::AtlasParams& params,
                               atlas::GlobalDecisions* out, const ShardProgressFn& progress) {
     return atlas::decideGlobals(
@@ -554,8 +678,9 @@ Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const 
 
 Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill, const atlas::ShardPlan& plan,
                  const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
-                 const tiles::TilesParams& tiles_params, const std::vector<TextureDigest>& texture_digests,
-                 const tiles::FeatureTables& ft, std::vector<std::string>* keys_out, const ShardProgressFn& progress) {
+                 const tiles::TilesParams& tiles_params, const std::vector<atlas::ComputedSpec>& computed,
+                 const std::vector<TextureDigest>& texture_digests, const tiles::FeatureTables& ft,
+                 std::vector<std::string>* keys_out, const ShardProgressFn& progress) {
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
@@ -576,6 +701,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     std::vector<std::vector<uint8_t>> textures_of(plan.shards(), std::vector<uint8_t>(tables.textures.size(), 0));
     std::vector<std::vector<uint8_t>> materials_of(plan.shards(), std::vector<uint8_t>(tables.materials.size(), 0));
     uint64_t scene_triangles = 0, orphans = 0;
+    std::vector<Box3d> shard_box(plan.shards());
     const Status read = forEachSpilled(spill, [&](const Triangle& t) {
         // Readers give every triangle a feature of the table; one that is not (a
         // reader's bug) has no shard and is counted rather than read out of bounds.
@@ -586,6 +712,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         const auto k = static_cast<size_t>(plan.shard_of_feature[t.feature]);
         files[k].write(reinterpret_cast<const char*>(&t), sizeof t);
         keys[k].add(t);
+        for (const Vec3d& p : t.position_local) shard_box[k].extend(p);
         ++scene_triangles;
         if (t.texture >= 0) used[static_cast<size_t>(t.texture)] = 1, textures_of[k][static_cast<size_t>(t.texture)] = 1;
         if (t.material >= 0) materials_of[k][static_cast<size_t>(t.material)] = 1;
@@ -598,6 +725,8 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         files[k].close();
         if (!files[k]) return Status::Io(fmt::format("{}.tri: cannot write", (dir / shardName(static_cast<int>(k))).string()));
     }
+    if (!computed.empty())
+        if (Status s = writeOccluders(dir, spill, plan, computed, shard_box, keys, progress); !s.ok()) return s;
     json top = json::array();
     for (const atlas::PlanNode& n : plan.nodes)
         top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
@@ -615,11 +744,17 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
               {"feature_tables", feature_tables},
               {"feature_bounds", feature_bounds},
               {"feature_count", ft.features}};
+    if (!computed.empty()) {
+        json c = json::array();
+        for (const atlas::ComputedSpec& spec : computed) c.push_back(atlas::computedSpecJson(spec));
+        j["computed"] = c;
+    }
     // Besides its triangles, a shard depends on the parameters, the distance
     // every node is built for, its level, and the textures and materials it
     // uses: their entries, tileset numbers, promotions and file contents.
-    const std::string common = fmt::format("{} {} {} {} writer {}", kPlanFormat, j.at("atlas").dump(), j.at("tiles").dump(),
-                                           globals.d_min_used_m, tiles::kWriterRevision);
+    const std::string common = fmt::format("{} {} {} {} writer {} computed {}", kPlanFormat, j.at("atlas").dump(),
+                                           j.at("tiles").dump(), globals.d_min_used_m, tiles::kWriterRevision,
+                                           j.value("computed", json::array()).dump());
     std::vector<int> level(plan.shards(), 0);
     for (const atlas::PlanNode& n : plan.nodes)
         if (n.shard >= 0) level[static_cast<size_t>(n.shard)] = n.level;
@@ -741,6 +876,36 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
         !s.ok())
         return s;
     const tiles::EncodedAtlases encoded = hand_off.take(tree.nodes.size());
+    // Computed textures (issue 19), against the shard's triangles and its occluders.
+    std::vector<atlas::ComputedSpec> computed;
+    if (Status s = planComputed(plan, &computed); !s.ok()) return s;
+    ComputedFiles computed_files;
+    std::vector<atlas::ComputedStats> computed_stats;
+    StageClock computed_clock;
+    if (!computed.empty()) {
+        std::vector<std::array<Vec3d, 3>> triangles;
+        triangles.reserve(scene.triangles.size());
+        for (const Triangle& t : scene.triangles) triangles.push_back(t.position_local);
+        const fs::path occ = dir / fmt::format("{}.occ", shardName(shard));
+        std::ifstream f(occ, std::ios::binary);
+        std::array<Vec3d, 3> t;
+        while (f.read(reinterpret_cast<char*>(t.data()), sizeof t)) triangles.push_back(t);
+        if (!f.eof()) return Status::Io(fmt::format("{}: cannot read", occ.string()));
+        const std::unique_ptr<atlas::RayCaster> caster = atlas::RayCaster::build(triangles, threads);
+        std::vector<std::array<Vec3d, 3>>().swap(triangles);
+        std::vector<std::array<atlas::ScalarImage, atlas::kLayerCount>> roots;
+        if (Status s = writeComputedTextures(computed, tree, caster.get(), scene.georef, nullptr, threads, tp.bc_quality,
+                                             part, &computed_files, &roots, &computed_stats, report);
+            !s.ok())
+            return s;
+        for (size_t k = 0; k < computed.size(); ++k)
+            for (int l = 0; l < atlas::kLayerCount; ++l)
+                if (roots[k][static_cast<size_t>(l)].width > 0)
+                    if (Status s = atlas::writeScalarImage(roots[k][static_cast<size_t>(l)], part / rootComputedFile(k, l));
+                        !s.ok())
+                        return s;
+    }
+    const StageCost computed_cost = computed_clock.lap();
     tiles::SubtreeFiles files;
     StageClock tiles_clock;
     if (Status s = tiles::writeSubtreeFiles(scene, tree, part, tp, texture_index, part, report, &encoded, &files); !s.ok())
@@ -767,8 +932,10 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     }
     std::vector<json> steps;
     for (const auto& s : tree.stats.steps) steps.push_back({s.name, s.seconds, s.cpu_seconds, s.peak_rss_mb});
+    if (!computed.empty())
+        steps.push_back({"computed textures", computed_cost.seconds, computed_cost.cpu_seconds, computed_cost.peak_rss_mb});
     steps.push_back({"tiles: geometry and atlases", tiles_cost.seconds, tiles_cost.cpu_seconds, tiles_cost.peak_rss_mb});
-    const json manifest = {{"shard", shard},
+    json manifest = {{"shard", shard},
                            {"nodes", nodes},
                            {"records", records},
                            {"root_subtree_features", files.root_subtree_features},
@@ -776,6 +943,21 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
                            {"leaf_tiles", leaf_tiles},
                            {"stats", statsJson(tree.stats)},
                            {"warnings", diagnosticsToJson(diagnostics)}};
+    if (!computed.empty()) {
+        json by_node = json::array(), stats = json::array();
+        for (const auto& node : computed_files) {
+            json layers = json::array();
+            for (const auto& layer : node) {
+                json list = json::array();
+                for (const format::ComputedFileEntry& f : layer) list.push_back(computedFileJson(f));
+                layers.push_back(list);
+            }
+            by_node.push_back(layers);
+        }
+        for (const atlas::ComputedStats& st : computed_stats) stats.push_back(computedStatsJson(st));
+        manifest["computed_files"] = by_node;
+        manifest["computed_stats"] = stats;
+    }
     if (Status s = writeJson(part / "manifest.json", manifest); !s.ok()) return s;
     // Timings apart: the manifest stays the same for the same shard, wherever and whenever it ran.
     json encode = json::array();
@@ -1033,7 +1215,10 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         std::vector<std::pair<size_t, std::vector<int32_t>>> leaf_tiles;     // shard node, tiles of split textures
         std::vector<uint32_t> root_subtree_features;
         json stats, warnings;
+        json computed_files, computed_stats;  // absent without computed textures
     };
+    std::vector<atlas::ComputedSpec> computed;
+    if (Status s = planComputed(plan, &computed); !s.ok()) return s;
     std::vector<Manifest> manifests(shards);
     std::vector<atlas::AtlasTree> trees(shards);
     for (size_t k = 0; k < shards; ++k) {
@@ -1052,6 +1237,10 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
             typed.root_subtree_features = j.at("root_subtree_features").get<std::vector<uint32_t>>();
             typed.stats = std::move(j.at("stats"));
             typed.warnings = std::move(j.at("warnings"));
+            if (!computed.empty()) {
+                typed.computed_files = std::move(j.at("computed_files"));
+                typed.computed_stats = std::move(j.at("computed_stats"));
+            }
         } catch (const std::exception& e) {
             return Status::Io(fmt::format("{}: not a shard manifest of this cityatlas version: {}", m.string(), e.what()));
         }
@@ -1067,6 +1256,12 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     built.records.resize(n_nodes);
     built.leaf_textures.resize(n_nodes);
     built.leaf_tiles.resize(n_nodes);
+    ComputedFiles& computed_files = built.computed_files;
+    computed_files.assign(computed.empty() ? 0 : n_nodes, {});
+    for (auto& node : computed_files)
+        for (auto& layer : node) layer.resize(computed.size());
+    std::vector<atlas::GivenComputed> given_computed(computed.size());
+    std::vector<atlas::ComputedStats> computed_stats(computed.size());
     std::error_code ec;
     for (const char* d : {"geometry/opaque", "geometry/alpha", "atlas/opaque", "atlas/alpha"}) {
         fs::create_directories(out_dir / d, ec);
@@ -1095,6 +1290,30 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
                 }
             }
             built.records[g] = std::move(rec);
+            if (computed.empty()) continue;
+            const json& node_files = m.computed_files.at(i);
+            for (size_t l = 0; l < atlas::kLayerCount; ++l)
+                for (size_t c = 0; c < computed.size(); ++c) {
+                    format::ComputedFileEntry f = computedFileFrom(node_files.at(l).at(c));
+                    if (f.file.uri.empty()) continue;
+                    const std::string to = tiles::computedUri(c, static_cast<Layer>(l), static_cast<int32_t>(g));
+                    fs::create_directories((out_dir / to).parent_path(), ec);
+                    if (!ec) fs::create_hard_link(sd / f.file.uri, out_dir / to, ec);
+                    if (ec) fs::copy_file(sd / f.file.uri, out_dir / to, fs::copy_options::overwrite_existing, ec);
+                    if (ec) return Status::Io(fmt::format("{}: cannot link to {}: {}", (sd / f.file.uri).string(), (out_dir / to).string(), ec.message()));
+                    f.file.uri = to;
+                    computed_files[g][l][c] = f;
+                }
+        }
+        for (size_t c = 0; c < computed.size(); ++c) {
+            addComputedStats(m.computed_stats.at(c), &computed_stats[c]);
+            given_computed[c][base];  // a shard root stands for its subtree even with no image
+            for (int l = 0; l < atlas::kLayerCount; ++l)
+                if (fs::exists(sd / rootComputedFile(c, l)))
+                    if (Status s = atlas::readScalarImage(sd / rootComputedFile(c, l),
+                                                          &given_computed[c][base][static_cast<size_t>(l)]);
+                        !s.ok())
+                        return s;
         }
         for (auto& [node, list] : m.leaf_textures) built.leaf_textures[static_cast<size_t>(base) + node] = std::move(list);
         for (auto& [node, list] : m.leaf_tiles) built.leaf_tiles[static_cast<size_t>(base) + node] = std::move(list);
@@ -1181,6 +1400,31 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
                     }
     }
     const tiles::EncodedAtlases encoded = hand_off.take(n_nodes);
+    // The top's computed textures: the shard roots' images halved and placed.
+    if (!computed.empty()) {
+        ComputedFiles top;
+        std::vector<atlas::ComputedStats> unused;
+        const auto report = [&](const char* step, uint64_t d, uint64_t t) {
+            if (progress) progress(fmt::format("merge: {}", step).c_str(), d, t);
+        };
+        if (Status s = writeComputedTextures(computed, tree, nullptr, r.tables.georef, &given_computed, 0, tp.bc_quality,
+                                             out_dir, &top, nullptr, &unused, report);
+            !s.ok())
+            return s;
+        given_computed.clear();
+        for (size_t i = 0; i < n_nodes; ++i)
+            if (!built.built[i]) computed_files[i] = std::move(top[i]);
+        for (size_t c = 0; c < computed.size(); ++c) {
+            format::ComputedTextureEntry e;
+            e.name = computed[c].name();
+            e.parameters_json = computed[c].parameters().dump();
+            e.scale = computed[c].scale;
+            const atlas::ComputedStats& st = computed_stats[c];
+            e.texels = st.texels;
+            if (st.texels) e.min = st.min, e.max = st.max, e.mean = st.mean();
+            built.computed.push_back(e);
+        }
+    }
     // Original-texture blocks by content: the textures' files, entries and the BC quality.
     tiles::BlockCache block_cache;
     block_cache.from = previous_cache.empty() ? fs::path() : previous_cache / "blocks";

@@ -41,6 +41,7 @@
 #include <nlohmann/json.hpp>
 
 #include "atlas/atlas_tree.h"
+#include "atlas/computed_spec.h"
 #include "atlas/shard_plan.h"
 #include "cli/build_hash.h"
 #include "core/resource_usage.h"
@@ -96,11 +97,23 @@ Status decideGlobalsFromSpill(const std::filesystem::path& spill, const Scene& t
 /// plan's passes). `texture_digests` (aligned with the scene's textures) are
 /// kept with them (textures.bin) and enter the shards' content keys (`keys`,
 /// also in plan.json).
+///
+/// With computed textures (`computed`, issue 19) each shard also gets
+/// `shard-<k>.occ`: the other shards' triangles (positions) that come within
+/// occluderMargin(the largest horizon) of its box, so a shard's rays meet every triangle
+/// the whole scene would put within the horizon, and its computed textures
+/// do not depend on the sharding.
 Status writePlan(const std::filesystem::path& dir, const Scene& tables, const std::filesystem::path& spill,
                  const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
                  const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params,
+                 const std::vector<atlas::ComputedSpec>& computed,
                  const std::vector<TextureDigest>& texture_digests, const tiles::FeatureTables& feature_tables,
                  std::vector<std::string>* keys, const ShardProgressFn& progress = {});
+
+/// The margin beyond the horizon within which other shards' triangles are
+/// given to a shard as occluders (writePlan): border texels of a chart stand
+/// for points up to a few texels outside their triangles.
+inline double occluderMargin(double horizon_m) { return horizon_m + std::max(50.0, 0.05 * horizon_m); }
 
 /// Where a sharded build keeps its shards, by content key, inside its folder
 /// (hard links to the folder's own files, plus each shard's manifest, root

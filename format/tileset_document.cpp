@@ -184,7 +184,49 @@ LayerEntry readLayer(const json& L, const std::string& lw) {
         l.uv_original_error_texels = numberOf(*u, "uv_original_error_texels", lw);
         l.uv_original_bits = optSmall(L, "uv_original_bits", lw);
     }
+    if (const json* c = find(L, "computed", lw)) {
+        if (!c->is_array()) fail(lw + ": computed is not an array");
+        for (size_t k = 0; k < c->size(); ++k) {
+            const json& e = (*c)[k];
+            ComputedFileEntry f;
+            if (!e.is_null()) {
+                const std::string cw = fmt::format("{} computed {}", lw, k);
+                f.file = fileEntry(e, cw);
+                f.width_px = static_cast<int>(integer(e, "width_px", cw, 1, 1 << 16));
+                f.height_px = static_cast<int>(integer(e, "height_px", cw, 1, 1 << 16));
+                f.mips = optSmall(e, "mips", cw);
+            }
+            l.computed.push_back(f);
+        }
+    }
     return l;
+}
+
+std::vector<ComputedTextureEntry> readComputed(const json& c_all) {
+    std::vector<ComputedTextureEntry> out;
+    if (!c_all.is_array()) fail("extras.cityatlas.computed is not an array");
+    for (size_t k = 0; k < c_all.size(); ++k) {
+        const json& e = c_all[k];
+        const std::string cw = fmt::format("computed texture {}", k);
+        ComputedTextureEntry c;
+        c.name = text(e, "name", cw);
+        const json& p = member(e, "parameters", cw);
+        if (!p.is_object()) fail(cw + ": parameters is not an object");
+        c.parameters_json = p.dump();
+        c.scale = static_cast<int>(integer(e, "scale", cw, 1, 4));
+        c.format = text(e, "format", cw);
+        const json& r = member(e, "range", cw);
+        if (!r.is_array() || r.size() != 2) fail(cw + ": range is not 2 numbers");
+        c.range = {numberOf(r[0], "range", cw), numberOf(r[1], "range", cw)};
+        if (const json* st = find(e, "statistics", cw)) {
+            c.texels = optCount(*st, "texels", cw);
+            c.min = optNumber(*st, "min", cw, 0), c.max = optNumber(*st, "max", cw, 0);
+            c.mean = optNumber(*st, "mean", cw, 0);
+        }
+        c.bytes = optCount(e, "bytes", cw);
+        out.push_back(c);
+    }
+    return out;
 }
 
 BuildEntry readBuild(const json& build) {
@@ -350,6 +392,14 @@ json layerJson(const LayerEntry& l) {
         j["uv_original_error_texels"] = *l.uv_original_error_texels;
         j["uv_original_bits"] = l.uv_original_bits;
     }
+    if (!l.computed.empty()) {
+        json c = json::array();
+        for (const ComputedFileEntry& f : l.computed)
+            c.push_back(f.file.uri.empty() ? json(nullptr)
+                                           : json{{"uri", f.file.uri}, {"bytes", f.file.bytes}, {"width_px", f.width_px},
+                                                  {"height_px", f.height_px}, {"mips", f.mips}});
+        j["computed"] = c;
+    }
     return j;
 }
 
@@ -492,7 +542,7 @@ Status readTilesetDocument(const std::string& text, const std::string& where, Ti
         if (!doc.feature_bounds.empty() && doc.feature_bounds.size() != doc.feature_tables.size())
             fail("feature table 0: \"bounds\" where a later table has none");
         if (const json* totals = find(ca, "totals", "extras.cityatlas")) doc.totals = readTotals(*totals);
-
+        if (const json* computed = find(ca, "computed", "extras.cityatlas")) doc.computed = readComputed(*computed);
         readTree(member(j, "root", "tileset"), -1, 0, doc);
     } catch (const ParseError& e) {
         *out = TilesetDocument{};
@@ -550,6 +600,18 @@ void writeTilesetDocument(const TilesetDocument& doc, std::ostream& os) {
                                       {"features", s.bytes_features},
                                       {"originals_as_bc", s.bytes_originals_as_bc}}},
                            {"texture_ratio", s.texture_ratio}}}};
+    if (!doc.computed.empty()) {
+        json computed = json::array();
+        for (const ComputedTextureEntry& c : doc.computed)
+            computed.push_back({{"name", c.name},
+                                {"parameters", json::parse(c.parameters_json)},
+                                {"scale", c.scale},
+                                {"format", c.format},
+                                {"range", json(c.range)},
+                                {"statistics", {{"texels", c.texels}, {"min", c.min}, {"max", c.max}, {"mean", c.mean}}},
+                                {"bytes", c.bytes}});
+        ca["computed"] = computed;
+    }
     json tileset = json::object();
     tileset["asset"] = {{"version", doc.version},
                         {"generator", doc.generator},

@@ -44,6 +44,14 @@ struct AtlasEntry {
     double psnr_db = 0;               ///< level 0 against the PNG atlas, 0.01 dB steps; +inf (null in the file): exact
 };
 
+/// One computed texture of a node layer (issue 19): single-channel BC4 over
+/// the layer's atlas coordinates, 1/scale of its atlas's texels per axis.
+struct ComputedFileEntry {
+    FileEntry file;
+    int width_px = 0, height_px = 0;
+    int mips = 0;
+};
+
 struct LayerEntry {
     uint64_t triangles = 0, triangles_source = 0;
     FileEntry geometry;
@@ -54,6 +62,8 @@ struct LayerEntry {
     std::optional<AtlasEntry> atlas;                  ///< absent: the layer draws with material colours
     std::optional<double> uv_original_error_texels;   ///< leaves with original uvs only
     int uv_original_bits = 0;                         ///< with uv_original_error_texels
+    /// Aligned with TilesetDocument::computed; an empty uri: none for this layer.
+    std::vector<ComputedFileEntry> computed;
 };
 
 /// One tile (= one atlas-tree node); tiles are stored in depth-first preorder.
@@ -118,6 +128,19 @@ struct BuildEntry {
     std::string geometry_encoder, texture_encoder;
 };
 
+/// A computed texture the folder carries (`build --computed`): its model and
+/// parameters, the range of its values and statistics over the leaves' texels.
+struct ComputedTextureEntry {
+    std::string name;             ///< "sky_view", "sun_hours", "shadow"
+    std::string parameters_json;  ///< the model's parameters, a JSON object (atlas/computed_spec.h)
+    int scale = 4;                ///< computed texels per atlas texel, per axis: 1 / scale
+    std::string format = "BC4";
+    std::array<double, 2> range{0, 1};  ///< value = range[0] + code / 255 * (range[1] - range[0])
+    uint64_t texels = 0;          ///< leaf texels holding a value
+    double min = 0, max = 0, mean = 0;
+    uint64_t bytes = 0;           ///< of all its files
+};
+
 struct TotalsEntry {
     uint64_t nodes = 0, leaves = 0, depth = 0;
     uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0, bytes_originals_as_bc = 0;
@@ -142,6 +165,7 @@ struct TilesetDocument {
     /// features/bounds/<k>.bin, one per table (format/feature_bounds.h);
     /// empty for folders written before them (tables[k].bounds absent).
     std::vector<FileEntry> feature_bounds;
+    std::vector<ComputedTextureEntry> computed;  ///< absent from the file when empty
     TotalsEntry totals;
 };
 

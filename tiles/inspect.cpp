@@ -281,6 +281,7 @@ struct Layer {
     std::string atlas_uri, atlas_format;
     int64_t atlas_bytes = 0, atlas_w = 0, atlas_h = 0, atlas_mips = 0;
     std::array<int64_t, 2> atlas_offset{};
+    std::vector<format::ComputedFileEntry> computed;  // aligned with extras.cityatlas.computed
 };
 
 struct Node {
@@ -340,6 +341,7 @@ void readNode(const json& tile, Node& n) {
             l.atlas_offset = e->atlas->offset;
             l.atlas_mips = e->atlas->mips;
         }
+        l.computed = e->computed;
         n.layers.push_back(std::move(l));
     }
     n.contents = t.contents;
@@ -380,7 +382,40 @@ struct Index {
     bool all_originals = false;  // build.originals == "all": leaves list the blocks of every texture they use
     std::vector<int64_t> texture_block;  // per texture; -2: the entry cannot be read
     size_t blocks = 0, tables = 0;
+    std::vector<int64_t> computed_scale;   // per computed texture (extras.cityatlas.computed)
+    std::vector<uint64_t> computed_bytes;  // what each entry says its files take
 };
+
+// A node layer's computed textures against the index: one per computed
+// texture where the layer has an atlas (none where it has not), each
+// 1/scale of the atlas with the full mip chain; their bytes add up to `sums`.
+void checkComputedLayer(const Layer& l, const Index& ix, std::vector<uint64_t>& sums,
+                        const std::function<void(const std::string&)>& bad) {
+    const size_t k_all = ix.computed_scale.size();
+    if (l.computed.empty() && (!l.has_atlas || k_all == 0)) return;
+    if (l.computed.size() != k_all) {
+        bad(fmt::format("{} layer lists {} computed textures, the index has {}", l.name, l.computed.size(), k_all));
+        return;
+    }
+    for (size_t k = 0; k < k_all; ++k) {
+        const format::ComputedFileEntry& c = l.computed[k];
+        if (c.file.uri.empty()) {
+            if (l.has_atlas) bad(fmt::format("{} layer: no computed texture {} for its atlas", l.name, k));
+            continue;
+        }
+        if (!l.has_atlas) {
+            bad(fmt::format("{} layer: computed texture {} without an atlas", l.name, k));
+            continue;
+        }
+        sums[k] += c.file.bytes;
+        const int64_t s = ix.computed_scale[k];
+        const int64_t w = (l.atlas_w + s - 1) / s, h = (l.atlas_h + s - 1) / s;
+        if (c.width_px != w || c.height_px != h)
+            bad(fmt::format("{}: {}x{}, its {}x{} atlas at scale {} makes {}x{}", c.file.uri, c.width_px, c.height_px,
+                            l.atlas_w, l.atlas_h, s, w, h));
+        if (c.mips != fullMipCount(c.width_px, c.height_px)) bad(fmt::format("{}: {} mips, not the full chain", c.file.uri, c.mips));
+    }
+}
 
 // Corner extremes of a 3D Tiles box per axis (exact for the writer's
 // axis-aligned boxes; the enclosing axis-aligned box otherwise).
@@ -434,6 +469,7 @@ void checkPlacement(const Node& n, const Node& p, std::vector<PlacedRect>& sibli
 }
 
 void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
+    std::vector<uint64_t> computed_sums(ix.computed_scale.size(), 0);
     std::set<int64_t> ids;
     std::map<int, std::set<int64_t>> quadrants;
     std::map<int, std::vector<PlacedRect>> placed;
@@ -464,6 +500,7 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
         int64_t bytes = 0;
         std::set<std::string> layer_uris;
         for (const Layer& l : n.layers) {
+            checkComputedLayer(l, ix, computed_sums, bad);
             bytes += l.geometry_bytes + (l.has_atlas ? l.atlas_bytes : 0);
             layer_uris.insert(l.geometry_uri);
             if (l.geometric_error_m > 0 && l.geometric_error_m >= n.world_texel_m)
@@ -512,6 +549,10 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
             }
         }
     }
+    for (size_t k = 0; k < computed_sums.size(); ++k)
+        if (computed_sums[k] != ix.computed_bytes[k])
+            d.push_back(fmt::format("tileset.json: /extras/cityatlas/computed/{}: bytes {}, its files take {}", k,
+                                    ix.computed_bytes[k], computed_sums[k]));
     for (const auto& [parent, widest] : widest_child) {
         const Node& p = nodes[static_cast<size_t>(parent)];
         if (p.usable && !near(p.min_distance_m, 2 * widest))
@@ -575,6 +616,9 @@ void checkNodeFiles(const Node& n, const Index& ix, Folder& folder, Defects& d) 
         if (folder.check(l.atlas_uri, l.atlas_bytes, d))
             checkDds(folder.path(l.atlas_uri), l.atlas_uri, 0, "", channels, l.atlas_w, l.atlas_h, l.atlas_mips,
                      static_cast<uint64_t>(l.atlas_bytes), d);
+        for (const format::ComputedFileEntry& c : l.computed)
+            if (!c.file.uri.empty() && folder.check(c.file.uri, static_cast<int64_t>(c.file.bytes), d))
+                checkDds(folder.path(c.file.uri), c.file.uri, 0, "", 1, c.width_px, c.height_px, c.mips, c.file.bytes, d);
     }
     if (!decoded_all) return;  // the comparisons below need every layer
     auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", n.where(), what)); };
@@ -824,6 +868,21 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
         ix.tables = tables->size();
         ix.blocks = blocks->size();
         if (!(ix.focal_px > 0 && ix.corner_factor > 0)) throw BadEntry("focal_px or corner_factor not positive");
+        if (ca->contains("computed"))
+            for (const json& c : arrayOf(*ca, "computed")) {
+                ix.computed_scale.push_back(std::max<int64_t>(1, count(c, "scale")));
+                ix.computed_bytes.push_back(static_cast<uint64_t>(count(c, "bytes")));
+                const json& st = member(c, "statistics");
+                const json& range = member(c, "range");
+                if (count(st, "texels") > 0) {
+                    const double lo = number(st, "min"), mean = number(st, "mean"), hi = number(st, "max");
+                    const double r0 = numberOf(range.at(0), "range"), r1 = numberOf(range.at(1), "range");
+                    if (!(r0 <= lo && lo <= mean + 1e-9 && mean <= hi + 1e-9 && hi <= r1))
+                        d.push_back(fmt::format("tileset.json: /extras/cityatlas/computed: {} statistics min {} mean {} max "
+                                                "{} not ordered within its range [{}, {}]",
+                                                text(c, "name"), lo, mean, hi, r0, r1));
+                }
+            }
     } catch (const BadEntry& e) {
         d.push_back(fmt::format("tileset.json: /extras/cityatlas unusable ({}); nothing further checked", e.what()));
         return r;

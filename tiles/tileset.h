@@ -268,6 +268,10 @@ struct BuiltSubtrees {
     std::vector<std::vector<int32_t>> leaf_tiles;     ///< per node: the tiles of split textures it uses (leafTiles)
     std::optional<FeatureTables> feature_tables;  ///< written already (by the plan); else from the scene's features
     BlockCache* block_cache = nullptr;            ///< original-texture blocks kept between builds (texture_blocks.h)
+    /// Computed textures (issue 19), written already (tiles/computed_files.h):
+    /// their entries, and per node and layer their files, aligned with them.
+    std::vector<format::ComputedTextureEntry> computed;
+    std::vector<std::array<std::vector<format::ComputedFileEntry>, atlas::kLayerCount>> computed_files;
 };
 
 /// asset.tilesetVersion. An original texture that cannot be read is a counted

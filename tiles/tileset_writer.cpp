@@ -582,7 +582,16 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         t.geometric_error = node.min_distance_m / focal;
         for (int li = 0; li < atlas::kLayerCount; ++li) {
             const LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
-            if (!lr.present) continue;
+            if (!lr.present) {
+                // A layer the geometry step left empty lists no computed textures either.
+                if (built && static_cast<size_t>(id) < built->computed_files.size())
+                    for (const format::ComputedFileEntry& c : built->computed_files[static_cast<size_t>(id)][static_cast<size_t>(li)])
+                        if (!c.file.uri.empty()) {
+                            std::error_code ignored;
+                            fs::remove(out_dir / c.file.uri, ignored);
+                        }
+                continue;
+            }
             format::LayerEntry le;
             const atlas::NodeLayer& nl = node.layers[static_cast<size_t>(li)];
             if (!lr.atlas_uri.empty()) {
@@ -624,6 +633,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
                 stats.max_uv_original_error_texels = std::max(stats.max_uv_original_error_texels, lr.uv_original_error_texels);
                 stats.uv_original_bits_max = std::max(stats.uv_original_bits_max, lr.uv_original_bits);
             }
+            if (built && static_cast<size_t>(id) < built->computed_files.size())
+                le.computed = built->computed_files[static_cast<size_t>(id)][static_cast<size_t>(li)];
             t.layers[static_cast<size_t>(li)] = std::move(le);
             t.contents.push_back(lr.geometry_uri);
             t.bytes += lr.geometry_bytes + lr.atlas_bytes;
@@ -711,6 +722,15 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     b.geometry_encoder =
         fmt::format("Draco {} (KHR_draco_mesh_compression, speed {})", draco::kDracoVersion, params.draco.speed);
     b.texture_encoder = params.bc_quality == BcQuality::Fast ? "stb_dxt (STB_DXT_HIGHQUAL)" : "libsquish (cluster fit)";
+    if (built) {
+        doc.computed = built->computed;
+        for (format::ComputedTextureEntry& c : doc.computed) c.bytes = 0;
+        for (const format::TileEntry& t : doc.tiles)
+            for (const auto& layer : t.layers)
+                if (layer)
+                    for (size_t k = 0; k < layer->computed.size() && k < doc.computed.size(); ++k)
+                        doc.computed[k].bytes += layer->computed[k].file.bytes;
+    }
     doc.totals = {stats.nodes,          stats.leaves,        stats.depth,
                   stats.bytes_geometry, stats.bytes_atlases, stats.bytes_textures,
                   stats.bytes_features, stats.bytes_originals_bc, textureRatio(stats)};

@@ -1,0 +1,149 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "atlas/computed_layers.h"
+
+#include <cmath>
+#include <fstream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "atlas/sky_view.h"
+#include "atlas/sun_hours.h"
+
+namespace cityatlas::atlas {
+namespace fs = std::filesystem;
+
+namespace {
+
+// The sun's directions in the scene's frame for a sun model.
+Status sunDirections(const ComputedSpec& spec, const Georeference& georef, std::vector<Vec3d>* out) {
+    const std::optional<SunFrame> frame = sunFrame(georef);
+    if (!frame)
+        return Status::Usage(fmt::format("--computed {}: the scene has no georeference (a local engineering CRS), so no "
+                                         "sun; give --crs",
+                                         spec.name()));
+    std::vector<Vec3d> enu;
+    if (spec.model == ComputedModel::SunHours) {
+        SunSchedule s;
+        s.latitude_deg = frame->latitude_deg, s.longitude_deg = frame->longitude_deg;
+        s.year = spec.year, s.days = spec.days, s.step_minutes = spec.step_minutes;
+        enu = daylightSunDirections(s);
+    } else {
+        SunDisc disc = spec.disc;
+        if (!spec.time_utc.empty()) {
+            const Vec3d d = sunDirectionEnu(frame->latitude_deg, frame->longitude_deg, *julianDayUtc(spec.time_utc));
+            if (!(d.z > 0))
+                return Status::Usage(fmt::format("--computed shadow: at {} UTC the sun is below the horizon at {:.4f}, {:.4f}",
+                                                 spec.time_utc, frame->latitude_deg, frame->longitude_deg));
+            disc.azimuth_deg = std::atan2(d.x, d.y) * 180.0 / M_PI;
+            disc.elevation_deg = std::asin(std::clamp(d.z, -1.0, 1.0)) * 180.0 / M_PI;
+        }
+        enu = sunDiscDirections(disc);
+    }
+    out->clear();
+    for (const Vec3d& d : enu) out->push_back(frame->toLocal(d));
+    return Status::Ok();
+}
+
+}  // namespace
+
+Status makeSurfaceField(const ComputedSpec& spec, const RayCaster& caster, const Georeference& georef, SurfaceField* out) {
+    const double far = spec.horizon_m;
+    if (spec.model == ComputedModel::SkyView) {
+        auto dirs = std::make_shared<const std::vector<Vec3d>>(hemisphereDirections(spec.directions));
+        *out = [&caster, dirs, far](const TexelSurface& s) { return skyViewFactor(caster, s.point, s.normal, *dirs, far); };
+        return Status::Ok();
+    }
+    auto sun = std::make_shared<std::vector<Vec3d>>();
+    if (Status s = sunDirections(spec, georef, sun.get()); !s.ok()) return s;
+    *out = [&caster, sun, far](const TexelSurface& s) { return sunHoursFraction(caster, s.point, s.normal, *sun, far); };
+    return Status::Ok();
+}
+
+void ComputedStats::add(const ScalarImage& image) {
+    for (float v : image.value) {
+        if (std::isnan(v)) continue;
+        ++texels, sum += v;
+        min = std::min(min, static_cast<double>(v)), max = std::max(max, static_cast<double>(v));
+    }
+}
+
+void ComputedStats::add(const ComputedStats& o) {
+    texels += o.texels, sum += o.sum;
+    min = std::min(min, o.min), max = std::max(max, o.max);
+}
+
+Status computeTreeImages(const AtlasTree& tree, int scale, const SurfaceField& field, int threads,
+                         const ComputedImageSink& sink, const GivenComputed* given,
+                         std::array<ScalarImage, kLayerCount>* root, ComputedStats* stats) {
+    if (tree.nodes.empty()) return Status::Ok();
+    // Post-order: a node's images are made once its children's are, which are
+    // then dropped; at most the open path's siblings are held.
+    std::function<Status(int32_t, std::array<ScalarImage, kLayerCount>*)> visit =
+        [&](int32_t n, std::array<ScalarImage, kLayerCount>* images) -> Status {
+        const AtlasNode& node = tree.nodes[static_cast<size_t>(n)];
+        if (given) {
+            if (const auto it = given->find(n); it != given->end()) {
+                *images = it->second;
+                return Status::Ok();
+            }
+        }
+        if (node.leaf()) {
+            for (int l = 0; l < kLayerCount; ++l) {
+                const auto layer = static_cast<Layer>(l);
+                if (!node.layers[static_cast<size_t>(l)].present()) continue;
+                const LeafTexelMap map = leafTexelMap(tree, n, layer, scale);
+                ScalarImage& img = (*images)[static_cast<size_t>(l)];
+                img = evaluateComputed(map, field, threads, kNoValue);
+                if (stats) stats->add(img);
+                if (Status s = sink(n, layer, img); !s.ok()) return s;
+            }
+            return Status::Ok();
+        }
+        std::map<int32_t, std::array<ScalarImage, kLayerCount>> children;
+        for (int32_t c : node.children) {
+            if (c < 0) continue;
+            if (Status s = visit(c, &children[c]); !s.ok()) return s;
+        }
+        for (int l = 0; l < kLayerCount; ++l) {
+            const auto layer = static_cast<Layer>(l);
+            if (!node.layers[static_cast<size_t>(l)].present()) continue;
+            ScalarImage& img = (*images)[static_cast<size_t>(l)];
+            img = innerComputed(tree, n, layer, scale, [&](int32_t c) -> const ScalarImage* {
+                const auto it = children.find(c);
+                return it == children.end() ? nullptr : &it->second[static_cast<size_t>(l)];
+            });
+            if (Status s = sink(n, layer, img); !s.ok()) return s;
+        }
+        return Status::Ok();
+    };
+    std::array<ScalarImage, kLayerCount> top;
+    if (Status s = visit(0, &top); !s.ok()) return s;
+    if (root) *root = std::move(top);
+    return Status::Ok();
+}
+
+Status writeScalarImage(const ScalarImage& image, const fs::path& path) {
+    std::ofstream f(path, std::ios::binary);
+    const int32_t size[2] = {image.width, image.height};
+    f.write(reinterpret_cast<const char*>(size), sizeof size);
+    f.write(reinterpret_cast<const char*>(image.value.data()), static_cast<std::streamsize>(image.value.size() * sizeof(float)));
+    f.close();
+    if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
+    return Status::Ok();
+}
+
+Status readScalarImage(const fs::path& path, ScalarImage* out) {
+    std::ifstream f(path, std::ios::binary);
+    int32_t size[2] = {0, 0};
+    f.read(reinterpret_cast<char*>(size), sizeof size);
+    if (!f || size[0] < 0 || size[1] < 0 || size[0] > 65536 || size[1] > 65536)
+        return Status::Io(fmt::format("{}: not a computed image", path.string()));
+    out->width = size[0], out->height = size[1];
+    out->value.resize(static_cast<size_t>(size[0]) * static_cast<size_t>(size[1]));
+    f.read(reinterpret_cast<char*>(out->value.data()), static_cast<std::streamsize>(out->value.size() * sizeof(float)));
+    if (!f || f.peek() != EOF) return Status::Io(fmt::format("{}: truncated or too long", path.string()));
+    return Status::Ok();
+}
+
+}  // namespace cityatlas::atlas
