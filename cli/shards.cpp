@@ -884,8 +884,9 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     StageClock computed_clock;
     if (!computed.empty()) {
         std::vector<std::array<Vec3d, 3>> triangles;
-        triangles.reserve(scene.triangles.size());
-        for (const Triangle& t : scene.triangles) triangles.push_back(t.position_local);
+        // The tree holds the shard's triangles now (buildAtlasTree took the scene's).
+        triangles.reserve(tree.triangles.size());
+        for (const atlas::TreeTriangle& t : tree.triangles) triangles.push_back(t.tri.position_local);
         const fs::path occ = dir / fmt::format("{}.occ", shardName(shard));
         std::ifstream f(occ, std::ios::binary);
         std::array<Vec3d, 3> t;
