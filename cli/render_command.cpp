@@ -15,6 +15,7 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 #include <stb_image_write.h>
 
@@ -64,6 +65,9 @@ struct RenderCliOptions {
     std::string picks_file;  // JSON [[x, y], ...]: picked after the last frame
     bool ids = false;        // write the id buffer next to each frame written
     bool quiet = false;
+    std::string computed;                 // a computed texture's name; empty: none
+    std::string computed_mode = "ramp";
+    std::string computed_range = "0.3,1";
 };
 
 // "512M", "2G", "1500000", "64k": bytes (powers of 1024).
@@ -167,14 +171,17 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"lens_occluder_ids", r.lens_occluder_ids},
             {"fading", r.fading},
             {"wasted_bytes", r.wasted_bytes},
-            {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]}}},
+            {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]},
+                          {"computed", r.requests[3]}}},
+            {"computed_missing_draws", r.computed_missing_draws},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
             {"requests_in_flight", r.requests_in_flight},
             {"refinement", {{"ideal_blocks", r.ideal_blocks},
                             {"ideal_blocks_by_kind", {{"geometry", r.ideal_blocks_by_kind[0]},
                                                       {"atlas", r.ideal_blocks_by_kind[1]},
-                                                      {"textures", r.ideal_blocks_by_kind[2]}}},
+                                                      {"textures", r.ideal_blocks_by_kind[2]},
+                                                      {"computed", r.ideal_blocks_by_kind[3]}}},
                             {"ideal_missing", r.ideal_missing},
                             {"needed_missing", r.needed_missing},
                             {"ideal_cut_by_budget", r.ideal_cut}}},
@@ -292,6 +299,17 @@ int runRender(const RenderCliOptions& opt) {
                                      : render::TextureMode::AtlasTree;
     co.max_anisotropy = opt.anisotropy;
     co.cpu_decode = opt.cpu_decode;
+    render::ComputedStyle computed_style;
+    if (!opt.computed.empty()) {
+        if (opt.computed_mode == "ramp") computed_style.mode = render::ComputedMode::Ramp;
+        else if (opt.computed_mode == "modulate") computed_style.mode = render::ComputedMode::Modulate;
+        else if (opt.computed_mode == "photo") computed_style.mode = render::ComputedMode::Photo;
+        else return usage(fmt::format("--computed-mode {}: expected ramp, modulate or photo", opt.computed_mode));
+        char tail = 0;
+        if (std::sscanf(opt.computed_range.c_str(), "%f,%f%c", &computed_style.b_min, &computed_style.b_max, &tail) != 2 ||
+            !(computed_style.b_min >= 0 && computed_style.b_max >= computed_style.b_min && computed_style.b_max <= 16))
+            return usage(fmt::format("--computed-range {}: expected BMIN,BMAX with 0 <= BMIN <= BMAX", opt.computed_range));
+    }
     co.loader.decode_threads = opt.threads;
 
     // The GL context first: it must outlive the client and the target, which free GL objects.
@@ -300,6 +318,15 @@ int runRender(const RenderCliOptions& opt) {
     if (!context) return fail(st);
     auto client = render::StreamingClient::open(opt.source, co, &st);
     if (!client) return fail(st);
+    if (!opt.computed.empty()) {
+        const std::vector<std::string>& names = client->index().computed;
+        const auto it = std::find(names.begin(), names.end(), opt.computed);
+        if (it == names.end())
+            return usage(fmt::format("--computed {}: {} has {}", opt.computed, opt.source,
+                                     names.empty() ? std::string("no computed textures (build it with --computed)")
+                                                   : fmt::format("only {}", fmt::join(names, ", "))));
+        client->setComputed(static_cast<int>(it - names.begin()), computed_style);
+    }
 
     CameraPath path;
     std::string path_name = "default (overview, oblique flight, street level)";
@@ -484,6 +511,10 @@ int runRender(const RenderCliOptions& opt) {
                    {"summary", summary},
                    {"frames", frame_list}};
     if (!picks.empty()) report["picks"] = pick_list;
+    if (!opt.computed.empty())
+        report["settings"]["computed"] = {{"name", opt.computed},
+                                          {"mode", render::computedModeName(computed_style.mode)},
+                                          {"range", {computed_style.b_min, computed_style.b_max}}};
     std::string report_path = opt.report;
     if (report_path.empty() && !opt.out_dir.empty()) report_path = (fs::path(opt.out_dir) / "report.json").string();
     if (!report_path.empty()) {
@@ -597,6 +628,15 @@ RunFn addRenderCommand(CLI::App& app) {
                   "Also write each frame's id buffer as ids_NNNNN.bin next to its PNG: width x height uint32 "
                   "(little-endian, top row first), the building index drawn at each pixel, 0xFFFFFFFF for none; "
                   "with --picks, each pick also gives the id buffer's value at its pixel");
+    cmd->add_option("--computed", opt->computed,
+                    "Show a computed texture of the folder (build --computed: sky_view, sun_hours, shadow) on its "
+                    "textured surfaces; only its blocks are loaded, under the same budget, and a node shows the photo "
+                    "until they arrive");
+    cmd->add_option("--computed-mode", opt->computed_mode,
+                    "ramp: the value as a blue-to-yellow colour ramp; modulate: the photo times min(1, BMIN + value "
+                    "(BMAX - BMIN)) (papers/000 Fig. 20); photo: the photo only (none of its blocks load)")
+        ->default_val("ramp");
+    cmd->add_option("--computed-range", opt->computed_range, "modulate: BMIN,BMAX")->default_val("0.3,1");
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress and no summary line");
     return [opt]() { return runRender(*opt); };
 }

@@ -59,6 +59,7 @@ TilesetIndex indexOf(const TilesetDocument& doc) {
     for (const TextureEntry& t : doc.textures)
         index.textures.push_back({t.block, t.offset, t.bytes, t.width, t.height, t.format == "BC3" ? 4 : 3, t.mips,
                                   t.wrap != "clamp"});
+    for (const ComputedTextureEntry& c : doc.computed) index.computed.push_back(c.name);
     index.feature_count = doc.feature_count;
     index.feature_block_size = static_cast<int>(doc.feature_block_size);
     for (size_t k = 0; k < doc.feature_tables.size(); ++k) {
@@ -95,6 +96,11 @@ TilesetIndex indexOf(const TilesetDocument& doc) {
                 nl.atlas_height_px = l->atlas->height_px;
                 nl.atlas_channels = l->atlas->format == "BC3" ? 4 : 3;
             }
+            nl.computed.assign(doc.computed.size(), kNoBlock);
+            for (size_t k = 0; k < l->computed.size() && k < doc.computed.size(); ++k)
+                if (!l->computed[k].file.uri.empty())
+                    nl.computed[k] = addBlock(index, {BlockKind::Computed, n.id, li, static_cast<int32_t>(k),
+                                                      l->computed[k].file.uri, l->computed[k].file.bytes});
         }
         for (const int64_t b : e.texture_blocks) n.texture_blocks.push_back(index.texture_block_ids[static_cast<size_t>(b)]);
         index.depth = std::max(index.depth, n.level);
@@ -111,6 +117,7 @@ const char* blockKindName(BlockKind kind) {
         case BlockKind::Geometry: return "geometry";
         case BlockKind::Atlas: return "atlas";
         case BlockKind::Textures: return "textures";
+        case BlockKind::Computed: return "computed";
     }
     return "?";
 }

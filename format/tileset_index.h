@@ -8,8 +8,11 @@
 ///
 /// Blocks (papers/000 §4.6, extended to geometry): a node layer's geometry
 /// (geometry/<layer>/<node>.glb), a node layer's atlas (atlas/<layer>/<node>.dds)
-/// and a texture block of leaves' original textures (textures/<k>.bin). A node
-/// is drawable when the geometry and atlas of each of its layers are resident.
+/// a texture block of leaves' original textures (textures/<k>.bin), and a
+/// node layer's computed texture (computed/<k>/<layer>/<node>.dds, BC4; issue
+/// 19). A node is drawable when the geometry and atlas of each of its layers
+/// are resident; computed textures draw where resident (the photo stands in
+/// until they are).
 
 #include <array>
 #include <cstdint>
@@ -26,8 +29,9 @@ namespace cityatlas::format {
 inline constexpr int kLayerCount = 2;  ///< 0: opaque (BC1 atlas), 1: alpha (BC3 atlas, blended)
 const char* layerName(int layer);      ///< "opaque", "alpha"
 
-enum class BlockKind : uint8_t { Geometry, Atlas, Textures };
-const char* blockKindName(BlockKind kind);  ///< "geometry", "atlas", "textures"
+enum class BlockKind : uint8_t { Geometry, Atlas, Textures, Computed };
+inline constexpr int kBlockKinds = 4;
+const char* blockKindName(BlockKind kind);  ///< "geometry", "atlas", "textures", "computed"
 
 using BlockId = uint32_t;  ///< index into TilesetIndex::blocks
 inline constexpr BlockId kNoBlock = std::numeric_limits<BlockId>::max();
@@ -36,7 +40,7 @@ struct BlockInfo {
     BlockKind kind = BlockKind::Geometry;
     int32_t node = -1;           ///< Geometry, Atlas: the node; Textures: -1
     int layer = -1;              ///< Geometry, Atlas: 0 opaque, 1 alpha
-    int32_t texture_block = -1;  ///< Textures: index of textures/<k>.bin
+    int32_t texture_block = -1;  ///< Textures: index of textures/<k>.bin; Computed: which computed texture
     std::string uri;             ///< relative to the folder / base URL
     uint64_t bytes = 0;          ///< the file's size, from tileset.json
 };
@@ -49,6 +53,8 @@ struct NodeLayer {
     int atlas_channels = 3;      ///< 3: BC1, 4: BC3
     double geometric_error_m = 0;
     double position_error_mm = 0;
+    /// Per computed texture (TilesetIndex::computed): its block, kNoBlock where none.
+    std::vector<BlockId> computed;
 };
 
 struct TileNode {
@@ -113,7 +119,8 @@ struct TilesetIndex {
     std::optional<std::array<double, 16>> local_to_ecef;  ///< column-major; absent: no georeference
     std::string source_crs;
     uint64_t bytes_total = 0;          ///< every block
-    uint64_t bytes_by_kind[3] = {0, 0, 0};  ///< indexed by BlockKind
+    uint64_t bytes_by_kind[kBlockKinds] = {0, 0, 0, 0};  ///< indexed by BlockKind
+    std::vector<std::string> computed;  ///< the computed textures' names (extras.cityatlas.computed)
     int depth = 0;                     ///< deepest level
 };
 

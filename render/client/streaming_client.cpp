@@ -49,7 +49,7 @@ const char* textureModeName(TextureMode mode) {
 struct StreamingClient::Resident {
     std::vector<GpuMesh> meshes;        ///< per block (Geometry)
     std::vector<MeshData> cpu_meshes;   ///< per block (Geometry): positions, indices, feature ids for picking
-    std::vector<GpuTexture> atlases;    ///< per block (Atlas)
+    std::vector<GpuTexture> atlases;    ///< per block (Atlas, Computed)
     std::unordered_map<BlockId, std::vector<std::pair<int32_t, GpuTexture>>> textures;  ///< Textures blocks
     std::vector<const GpuTexture*> original;  ///< per tileset texture: resident or nullptr
     uint64_t gpu_bytes = 0;
@@ -184,6 +184,9 @@ SelectionParams StreamingClient::selectionNow() const {
     SelectionParams p = options_.selection;
     if (options_.textures_by_view) p.texture_use = &texture_use_;
     if (options_.tau_speed_mps > 0) p.tau *= std::max(1.0, speed_mps_ / options_.tau_speed_mps);
+    p.computed = options_.mode == TextureMode::AtlasTree && options_.computed_style.mode != ComputedMode::Photo
+                     ? options_.computed
+                     : -1;
     return p;
 }
 
@@ -363,7 +366,8 @@ uint32_t StreamingClient::upload(double budget_ms, double* spent_ms) {
                     }
                     break;
                 }
-                case BlockKind::Atlas: {
+                case BlockKind::Atlas:
+                case BlockKind::Computed: {
                     GpuTexture t = gl_->upload(r.block.atlas, false, &st);
                     ok = st.ok();
                     if (ok) {
@@ -554,6 +558,8 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
         lens_uploaded_ = lens_.active();
     }
     gl_->beginFrame(camera, {0.55F, 0.70F, 0.90F, 1.0F});
+    gl_->setComputed(options_.computed_style);
+    const int computed = selectionNow().computed;
     const Resident& r = *resident_;
     const auto original = [&](int32_t t) -> const GpuTexture* {
         return t >= 0 && static_cast<size_t>(t) < r.original.size() ? r.original[static_cast<size_t>(t)] : nullptr;
@@ -574,17 +580,30 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
             const GpuMesh& mesh = r.meshes[l.geometry];
             if (!mesh.valid()) continue;
             const GpuTexture* atlas = l.atlas != kNoBlock && r.atlases[l.atlas].valid() ? &r.atlases[l.atlas] : nullptr;
+            // The shown computed texture, where resident; the photo stands in until it is.
+            const GpuTexture* shown = nullptr;
+            if (computed >= 0 && static_cast<size_t>(computed) < l.computed.size() &&
+                l.computed[static_cast<size_t>(computed)] != kNoBlock) {
+                const BlockId cb = l.computed[static_cast<size_t>(computed)];
+                if (r.atlases[cb].valid()) {
+                    shown = &r.atlases[cb];
+                    drawn_[cb] = 1;
+                } else {
+                    ++computed_missing_;
+                }
+            }
             if (options_.mode == TextureMode::Dummy) {
                 gl_->drawDummy(mesh, n.centre, li);
             } else if (d.mode == DrawMode::Originals) {
-                gl_->drawOriginals(mesh, original, atlas, n.centre, li);
+                gl_->drawOriginals(mesh, original, atlas, n.centre, li, shown);
             } else {
-                gl_->drawAtlas(mesh, atlas, n.centre, li);
+                gl_->drawAtlas(mesh, atlas, n.centre, li, shown);
             }
         }
     };
     // Smooth refinement: what replaces a node fades in over the node fading
     // out (complementary screen-door masks), for options_.fade_s.
+    computed_missing_ = 0;
     const std::vector<Fade> fades = crossFades(sel);
     for (const Fade& f : fades) {
         if (!f.out) continue;
@@ -612,6 +631,7 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     rec.texture_binds = fs.texture_binds;
     rec.triangles = fs.triangles;
     rec.root_missing = sel.root_missing;
+    rec.computed_missing_draws = computed_missing_;
     const BudgetStats& b = manager_->stats();
     rec.resident_bytes = b.resident_bytes;
     rec.requested_bytes = b.requested_bytes;

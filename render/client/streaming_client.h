@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "render/core/block_manager.h"
+#include "render/core/computed_ramp.h"
 #include "format/feature_bounds.h"
 #include "render/core/lenses.h"
 #include "render/core/picking.h"
@@ -79,6 +80,12 @@ struct ClientOptions {
     /// geometry told where it samples each. Off: all of a leaf's blocks load
     /// with it (the behaviour before; for comparisons).
     bool textures_by_view = true;
+    /// A computed texture to show (issue 19; TilesetIndex::computed, -1:
+    /// none) and how. Only its blocks are requested (inactive ones never are,
+    /// selection.h), under the same budget; a node whose block is not
+    /// resident yet draws with the photo.
+    int computed = -1;
+    ComputedStyle computed_style{ComputedMode::Ramp};
 };
 
 /// What one frame did; the per-frame report of `cityatlas render`.
@@ -105,8 +112,11 @@ struct FrameRecord {
     uint64_t needed_bytes = 0;   ///< of those, the Needed blocks' (what this frame shows at full refinement)
     double speed_mps = 0;        ///< the camera speed the frame was planned with
     bool speed_limited = false;  ///< the speed policy held requests back
-    std::array<uint32_t, 3> requests{};  ///< requests made since the previous frame, by BlockKind
-    std::array<uint32_t, 3> ideal_blocks_by_kind{};  ///< this frame's ideal set, by BlockKind
+    std::array<uint32_t, kBlockKinds> requests{};  ///< requests made since the previous frame, by BlockKind
+    std::array<uint32_t, kBlockKinds> ideal_blocks_by_kind{};  ///< this frame's ideal set, by BlockKind
+    /// Node layers drawn in a computed mode without their computed block
+    /// (the photo stood in): 0 at rest when the budget holds the ideal set.
+    uint32_t computed_missing_draws = 0;
     uint32_t requests_in_flight = 0;
     uint32_t ideal_blocks = 0, ideal_missing = 0, needed_missing = 0;
     bool ideal_cut = false;
@@ -180,6 +190,11 @@ public:
         speed_mps_ = length(v);
     }
     void setMode(TextureMode mode) { options_.mode = mode; }
+    /// The computed texture shown from the next frame on (-1: none); see ClientOptions::computed.
+    void setComputed(int computed, const ComputedStyle& style) {
+        options_.computed = computed;
+        options_.computed_style = style;
+    }
     /// Every load error so far, one line each (uri: what), in order.
     const std::vector<std::string>& errors() const { return errors_; }
     const LoaderStats loaderStats() const;
@@ -245,7 +260,8 @@ private:
     std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
     LensStyle last_lens_;
     bool lens_uploaded_ = false;
-    std::array<uint32_t, 3> requests_{};  ///< by BlockKind, since the last frame record
+    std::array<uint32_t, kBlockKinds> requests_{};  ///< by BlockKind, since the last frame record
+    uint32_t computed_missing_ = 0;                  ///< this frame's (FrameRecord::computed_missing_draws)
 };
 
 }  // namespace cityatlas::render

@@ -39,7 +39,7 @@ struct MeshData {
 /// A BC1/BC3 texture with its mip chain, as stored in the DDS (no decoding).
 struct CompressedTexture {
     int width = 0, height = 0;
-    int channels = 3;  ///< 3: BC1 (DXT1), 4: BC3 (DXT5)
+    int channels = 3;  ///< 3: BC1 (DXT1), 4: BC3 (DXT5), 1: BC4 (a computed texture)
     struct Level {
         int width = 0, height = 0;
         uint64_t offset = 0, bytes = 0;  ///< into `data`
@@ -53,7 +53,7 @@ struct DecodedBlock {
     BlockId id = kNoBlock;
     BlockKind kind = BlockKind::Geometry;
     MeshData mesh;                 ///< Geometry
-    CompressedTexture atlas;       ///< Atlas
+    CompressedTexture atlas;       ///< Atlas, Computed (BC4)
     /// Textures: (tileset texture index, texture) for every texture of the block.
     std::vector<std::pair<int32_t, CompressedTexture>> textures;
     uint64_t bytes_read = 0;       ///< bytes fetched (the file size)

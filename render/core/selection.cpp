@@ -26,12 +26,16 @@ double priorityKey(const Box3d& bounds, double distance, const Camera& camera, P
     return distance * (1.0 - cosine);
 }
 
+// A node's geometry and atlas blocks, and those of computed texture `computed` (>= 0).
 template <typename Fn>
-void forEachNodeBlock(const TileNode& node, Fn&& fn) {
+void forEachNodeBlock(const TileNode& node, Fn&& fn, int computed = -1) {
     for (const NodeLayer& layer : node.layers) {
         if (!layer.present) continue;
         if (layer.geometry != kNoBlock) fn(layer.geometry);
         if (layer.atlas != kNoBlock) fn(layer.atlas);
+        if (computed >= 0 && static_cast<size_t>(computed) < layer.computed.size() &&
+            layer.computed[static_cast<size_t>(computed)] != kNoBlock)
+            fn(layer.computed[static_cast<size_t>(computed)]);
     }
 }
 
@@ -118,13 +122,13 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
     for (BlockPriority& p : c.priority) p = {Usage::Unused, 1e300, 1 << 20};
     for (size_t i = 0; i < index.nodes.size(); ++i) {
         const TileNode& n = index.nodes[i];
-        forEachNodeBlock(n, [&](BlockId b) { mark(b, Usage::Unused, key[i], n.level); });
+        forEachNodeBlock(n, [&](BlockId b) { mark(b, Usage::Unused, key[i], n.level); }, params.computed);
         for (const BlockId b : n.texture_blocks) mark(b, Usage::Unused, key[i], n.level + 1);
     }
 
     auto markNode = [&](int32_t id, Usage usage) {
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
-        forEachNodeBlock(n, [&](BlockId b) { mark(b, usage, key[static_cast<size_t>(id)], n.level); });
+        forEachNodeBlock(n, [&](BlockId b) { mark(b, usage, key[static_cast<size_t>(id)], n.level); }, params.computed);
     };
     // A leaf's originals: where it is known which blocks its triangles
     // sample where, each block by its own box (`prefetch_only`: the leaf is

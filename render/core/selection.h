@@ -62,6 +62,12 @@ struct SelectionParams {
     /// Where leaves sample their texture blocks (not owned; null: unknown, a
     /// leaf's blocks count over its whole box).
     const TextureUseMap* texture_use = nullptr;
+    /// The computed texture shown (TilesetIndex::computed), -1: none. Its
+    /// blocks share their node's usage and priority; every other computed
+    /// texture's blocks are Unused, so never requested (papers/000 §5.1.3).
+    /// Drawability does not wait for them: a node draws with the photo
+    /// until its computed block is resident.
+    int computed = -1;
 };
 
 /// min_distance_m multiplier for this viewport (see the file comment).
@@ -92,7 +98,8 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
 /// ends with it; a client with its own usage rule (a reference mode) calls it too.
 void orderCandidates(const TilesetIndex& index, Classification* c);
 
-/// All blocks of a node (both layers' geometry and atlases) are resident.
+/// All blocks of a node (both layers' geometry and atlases; not its computed
+/// textures, for which the photo stands in) are resident.
 bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident);
 
 /// Fig. 30's refinementPossible: an inner node's children are each drawable

@@ -15,6 +15,7 @@ using format::blockKindName;
 using format::BuildInfo;
 using format::FeatureTableInfo;
 using format::kLayerCount;
+using format::kBlockKinds;
 using format::kNoBlock;
 using format::layerName;
 using format::MaterialInfo;

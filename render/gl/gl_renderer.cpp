@@ -12,6 +12,7 @@
 
 #include "render/gl/gl_context.h"
 #include "format/dds.h"
+#include "render/core/computed_ramp.h"
 
 namespace cityatlas::render {
 namespace {
@@ -39,6 +40,7 @@ uniform samplerBuffer u_bases;   // per feature: base z, local frame
 uniform float u_flatten;         // flatten: z' = base + (z - base) * u_flatten
 uniform float u_camera_z;        // the camera's z, local frame (bases are local)
 out vec2 v_uv;
+out vec2 v_uv_computed;          // uv_atlas, for the computed texture
 out vec3 v_rel;                  // position relative to the camera (metres)
 flat out int v_material;
 flat out uint v_feature;
@@ -55,6 +57,7 @@ void main() {
     gl_Position = u_view_projection * vec4(p, 1.0);
     vec2 uv = u_uv_set == 1 ? a_uv_original : a_uv_atlas;
     v_uv = vec2(uv.x, 1.0 - uv.y);  // v = 0 at the image bottom; texture rows are stored top first
+    v_uv_computed = vec2(a_uv_atlas.x, 1.0 - a_uv_atlas.y);
     v_material = a_material;
     v_feature = a_feature;
 }
@@ -62,6 +65,11 @@ void main() {
 
 constexpr const char* kFragmentShader = R"(#version 330 core
 in vec2 v_uv;
+in vec2 v_uv_computed;
+uniform sampler2D u_computed;     // BC4: the node layer's computed texture
+uniform sampler2D u_ramp;         // 256 x 1 sRGB: the colour ramp
+uniform int u_computed_mode;      // 0 photo, 1 ramp, 2 modulate (ComputedMode)
+uniform vec2 u_computed_range;    // modulate: b_min, b_max
 flat in int v_material;
 flat in uint v_feature;
 flat in uint v_style;
@@ -93,6 +101,11 @@ void main() {
         c = v_material < u_material_count ? texelFetch(u_materials, v_material) : vec4(vec3(u_grey), 1.0);
     } else if (u_mode == 0) {
         c = texture(u_texture, v_uv);
+        if (u_computed_mode != 0) {
+            float v = texture(u_computed, v_uv_computed).r;
+            if (u_computed_mode == 1) c.rgb = texture(u_ramp, vec2((v * 255.0 + 0.5) / 256.0, 0.5)).rgb;
+            else c.rgb *= min(1.0, u_computed_range.x + v * (u_computed_range.y - u_computed_range.x));
+        }
     } else {
         c = vec4(vec3(u_grey), 1.0);
     }
@@ -201,8 +214,8 @@ std::array<float, 16> multiply(const std::array<float, 16>& a, const std::array<
 }
 
 Status checkTexture(const CompressedTexture& t, GLint max_size) {
-    if (t.channels != 3 && t.channels != 4)
-        return Status::Invalid(fmt::format("texture: {} channels (3: BC1 or 4: BC3 expected)", t.channels));
+    if (t.channels != 3 && t.channels != 4 && t.channels != 1)
+        return Status::Invalid(fmt::format("texture: {} channels (3: BC1, 4: BC3 or 1: BC4 expected)", t.channels));
     if (t.width < 1 || t.height < 1 || t.width > max_size || t.height > max_size)
         return Status::Invalid(fmt::format("texture: size {}x{} outside 1..{}", t.width, t.height, max_size));
     if (t.levels.empty()) return Status::Invalid("texture: no mip levels");
@@ -214,7 +227,7 @@ Status checkTexture(const CompressedTexture& t, GLint max_size) {
                                             level.height, w, h));
         if (level.bytes != format::bcBlockBytes(w, h, t.channels))
             return Status::Invalid(fmt::format("texture: level {} has {} bytes, {}x{} BC{} needs {}", i, level.bytes, w,
-                                            h, t.channels == 3 ? 1 : 3, format::bcBlockBytes(w, h, t.channels)));
+                                            h, t.channels == 3 ? 1 : t.channels == 1 ? 4 : 3, format::bcBlockBytes(w, h, t.channels)));
         if (level.offset > t.data.size() || level.bytes > t.data.size() - level.offset)
             return Status::Invalid(fmt::format("texture: level {} lies outside the {} data bytes", i, t.data.size()));
         if (w == 1 && h == 1 && i + 1 < t.levels.size())
@@ -433,6 +446,9 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
     glUniform1i(glGetUniformLocation(p, "u_styles"), 2);
     glUniform1i(glGetUniformLocation(p, "u_bases"), 3);
     glUniform1i(glGetUniformLocation(p, "u_tints"), 4);
+    glUniform1i(glGetUniformLocation(p, "u_computed"), 5);
+    glUniform1i(glGetUniformLocation(p, "u_ramp"), 6);
+    r->u_computed_mode_ = glGetUniformLocation(p, "u_computed_mode");
     glUniform1i(r->u_material_count_, static_cast<GLint>(materials.size()));
     glUniform1f(glGetUniformLocation(p, "u_grey"), kNeutralGrey);
     glUseProgram(0);
@@ -454,6 +470,17 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
     glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA32F, r->material_buffer_);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glBindBuffer(GL_TEXTURE_BUFFER, 0);
+
+    // The computed textures' colour ramp: 256 x 1 sRGB, filtered in linear light.
+    {
+        std::vector<uint8_t> ramp;
+        for (const RampColour& c : computedRamp()) ramp.insert(ramp.end(), {c[0], c[1], c[2], 255});
+        glGenTextures(1, &r->ramp_texture_);
+        glBindTexture(GL_TEXTURE_2D, r->ramp_texture_);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8_ALPHA8, 256, 1, 0, GL_RGBA, GL_UNSIGNED_BYTE, ramp.data());
+        setSampling(false, false, 1, 1);
+        glBindTexture(GL_TEXTURE_2D, 0);
+    }
 
     // The dummy: a 4x4 sRGB texture of one colour, one level.
     std::vector<uint8_t> dummy(4 * 4 * 4);
@@ -480,7 +507,7 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
 GlRenderer::~GlRenderer() {
     if (program_ != 0) glDeleteProgram(program_);
     if (material_texture_ != 0) glDeleteTextures(1, &material_texture_);
-    for (uint32_t* t : {&style_texture_, &base_texture_, &tint_texture_})
+    for (uint32_t* t : {&style_texture_, &base_texture_, &tint_texture_, &ramp_texture_})
         if (*t != 0) glDeleteTextures(1, t);
     for (uint32_t* b : {&style_buffer_, &base_buffer_, &tint_buffer_})
         if (*b != 0) glDeleteBuffers(1, b);
@@ -587,16 +614,19 @@ GpuTexture GlRenderer::upload(const CompressedTexture& t, bool wrap, Status* sta
     g.channels = t.channels;
     g.levels = static_cast<int>(t.levels.size());
     g.wrap = wrap;
-    g.decoded_on_cpu = cpu_decode_;
+    // BC4 (RGTC1, a linear scalar) is core since GL 3.0: always sampled compressed.
+    const bool cpu = cpu_decode_ && t.channels != 1;
+    g.decoded_on_cpu = cpu;
     glGenTextures(1, &g.id);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, g.id);
-    const GLenum format =
-        t.channels == 3 ? GL_COMPRESSED_SRGB_S3TC_DXT1_EXT : GL_COMPRESSED_SRGB_ALPHA_S3TC_DXT5_EXT;
+    const GLenum format = t.channels == 1   ? GL_COMPRESSED_RED_RGTC1
+                          : t.channels == 3 ? GL_COMPRESSED_SRGB_S3TC_DXT1_EXT
+                                            : GL_COMPRESSED_SRGB_ALPHA_S3TC_DXT5_EXT;
     for (size_t i = 0; i < t.levels.size(); ++i) {
         const CompressedTexture::Level& level = t.levels[i];
         const uint8_t* blocks = t.data.data() + level.offset;
-        if (!cpu_decode_) {
+        if (!cpu) {
             glCompressedTexImage2D(GL_TEXTURE_2D, static_cast<GLint>(i), format, level.width, level.height, 0,
                                    static_cast<GLsizei>(level.bytes), blocks);
             g.gpu_bytes += level.bytes;
@@ -617,8 +647,8 @@ GpuTexture GlRenderer::upload(const CompressedTexture& t, bool wrap, Status* sta
     glBindTexture(GL_TEXTURE_2D, 0);
     if (const GLenum e = glGetError(); e != GL_NO_ERROR) {
         glDeleteTextures(1, &g.id);
-        setStatus(status, Status::Unsupported(fmt::format("texture: {}x{} BC{} upload failed with GL error 0x{:x}", t.width,
-                                                   t.height, t.channels == 3 ? 1 : 3, e)));
+        setStatus(status, Status::Unsupported(fmt::format("texture: {}x{} {} upload failed with GL error 0x{:x}", t.width,
+                                                   t.height, format::bcFormatName(t.channels), e)));
         return GpuTexture{};
     }
     setStatus(status, Status::Ok());
@@ -676,13 +706,15 @@ int GlRenderer::beginNode(const Vec3d& node_centre, int layer) {
 }
 
 void GlRenderer::queue(const GpuMesh& mesh, const GpuTexture* texture, int mode, bool uv_original, uint32_t first,
-                       uint32_t count) {
+                       uint32_t count, const GpuTexture* computed) {
     if (count == 0) return;
     Draw d;
     d.mesh = &mesh;
     d.texture = texture != nullptr && texture->valid() ? texture : nullptr;
     d.mode = mode;
     if (d.texture == nullptr && mode == kModeTextured) d.mode = kModeColours;
+    // A computed texture is sampled with uv_atlas: only where the mesh has them.
+    if (d.mode == kModeTextured && computed != nullptr && computed->valid() && mesh.has_uv_atlas) d.computed = computed;
     d.uv_original = uv_original;
     d.first_index = first;
     d.index_count = count;
@@ -690,18 +722,20 @@ void GlRenderer::queue(const GpuMesh& mesh, const GpuTexture* texture, int mode,
     draws_.push_back(d);
 }
 
-void GlRenderer::drawAtlas(const GpuMesh& mesh, const GpuTexture* atlas, const Vec3d& node_centre, int layer) {
+void GlRenderer::drawAtlas(const GpuMesh& mesh, const GpuTexture* atlas, const Vec3d& node_centre, int layer,
+                           const GpuTexture* computed) {
     if (!mesh.valid()) return;
     beginNode(node_centre, layer);
-    queue(mesh, atlas, kModeTextured, false, 0, mesh.index_count);
+    queue(mesh, atlas, kModeTextured, false, 0, mesh.index_count, computed);
 }
 
 void GlRenderer::drawOriginals(const GpuMesh& mesh, const std::function<const GpuTexture*(int32_t)>& original,
-                               const GpuTexture* atlas_fallback, const Vec3d& node_centre, int layer) {
+                               const GpuTexture* atlas_fallback, const Vec3d& node_centre, int layer,
+                               const GpuTexture* computed) {
     if (!mesh.valid()) return;
     beginNode(node_centre, layer);
     if (mesh.texture_ranges.empty()) {
-        queue(mesh, atlas_fallback, kModeTextured, false, 0, mesh.index_count);
+        queue(mesh, atlas_fallback, kModeTextured, false, 0, mesh.index_count, computed);
         return;
     }
     for (const MeshData::TextureRange& range : mesh.texture_ranges) {
@@ -711,10 +745,10 @@ void GlRenderer::drawOriginals(const GpuMesh& mesh, const std::function<const Gp
         }
         const GpuTexture* texture = original ? original(range.texture) : nullptr;
         if (texture != nullptr && texture->valid() && mesh.has_uv_original) {
-            queue(mesh, texture, kModeTextured, true, range.first_index, range.index_count);
+            queue(mesh, texture, kModeTextured, true, range.first_index, range.index_count, computed);
         } else {
             // Not resident (or never written): the node's atlas stands in.
-            queue(mesh, atlas_fallback, kModeTextured, false, range.first_index, range.index_count);
+            queue(mesh, atlas_fallback, kModeTextured, false, range.first_index, range.index_count, computed);
         }
     }
 }
@@ -762,6 +796,15 @@ void GlRenderer::issue(const Draw& d, FrameStats* stats) {
     glUniform1f(u_fade_t_, node.fade_progress);
     glUniform1i(u_mode_, d.mode);
     glUniform1i(u_uv_set_, d.uv_original ? 1 : 0);
+    const bool computed = d.computed != nullptr && computed_style_.mode != ComputedMode::Photo;
+    glUniform1i(u_computed_mode_, computed ? static_cast<int>(computed_style_.mode) : 0);
+    if (computed && d.computed->id != bound_computed_) {
+        glActiveTexture(GL_TEXTURE5);
+        glBindTexture(GL_TEXTURE_2D, d.computed->id);
+        glActiveTexture(GL_TEXTURE0);
+        bound_computed_ = d.computed->id;
+        ++stats->texture_binds;
+    }
     if (d.mode != kModeColours && d.texture != nullptr && d.texture->id != bound_texture_) {
         glBindTexture(GL_TEXTURE_2D, d.texture->id);
         bound_texture_ = d.texture->id;
@@ -804,7 +847,11 @@ FrameStats GlRenderer::endFrame() {
         glActiveTexture(GL_TEXTURE4);
         glBindTexture(GL_TEXTURE_BUFFER, tint_texture_);
     }
+    glActiveTexture(GL_TEXTURE6);
+    glBindTexture(GL_TEXTURE_2D, ramp_texture_);
     glActiveTexture(GL_TEXTURE0);
+    glUniform2f(glGetUniformLocation(program_, "u_computed_range"), computed_style_.b_min, computed_style_.b_max);
+    bound_computed_ = 0;
     glUniform1i(glGetUniformLocation(program_, "u_styled"), styled ? 1 : 0);
     glUniform1i(glGetUniformLocation(program_, "u_tinted"), tinted ? 1 : 0);
     glUniform1f(glGetUniformLocation(program_, "u_flatten"), lens_.flatten);

@@ -42,6 +42,7 @@
 
 #include "core/geometry.h"
 #include "core/status.h"
+#include "render/core/computed_ramp.h"
 #include "render/core/decoded.h"
 #include "render/core/lenses.h"
 #include "render/core/tileset_index.h"
@@ -121,7 +122,7 @@ struct GpuMesh {
 struct GpuTexture {
     uint32_t id = 0;
     int width = 0, height = 0;
-    int channels = 3;                 ///< 3: BC1, 4: BC3 (the source's)
+    int channels = 3;                 ///< 3: BC1, 4: BC3, 1: BC4 (a computed texture; never decoded on the CPU)
     int levels = 0;
     bool wrap = false;                ///< GL_REPEAT (true) or GL_CLAMP_TO_EDGE
     bool decoded_on_cpu = false;      ///< uploaded as RGBA8 after tiles::decodeBc
@@ -194,7 +195,10 @@ public:
     /// Draws a node layer with its atlas (uv_atlas): textured vertices sample
     /// the atlas (nullptr: they get the neutral grey), vertices with a material
     /// id >= 0 get its colour. `layer` 0 is opaque, 1 is blended.
-    void drawAtlas(const GpuMesh& mesh, const GpuTexture* atlas, const Vec3d& node_centre, int layer);
+    /// `computed` (optional): the node layer's computed texture (BC4), shown
+    /// as setComputed says on its textured vertices (sampled with uv_atlas).
+    void drawAtlas(const GpuMesh& mesh, const GpuTexture* atlas, const Vec3d& node_centre, int layer,
+                   const GpuTexture* computed = nullptr);
     /// Draws a leaf with its original textures: one bind and one draw per
     /// texture range; `original(texture)` gives the resident texture or nullptr,
     /// in which case that range is drawn with `atlas_fallback` and uv_atlas
@@ -202,7 +206,10 @@ public:
     /// colours. A mesh without ranges (an inner node) draws as drawAtlas with
     /// atlas_fallback. `original` is called here, not at endFrame.
     void drawOriginals(const GpuMesh& mesh, const std::function<const GpuTexture*(int32_t texture)>& original,
-                       const GpuTexture* atlas_fallback, const Vec3d& node_centre, int layer);
+                       const GpuTexture* atlas_fallback, const Vec3d& node_centre, int layer,
+                       const GpuTexture* computed = nullptr);
+    /// How computed textures show from the next endFrame on.
+    void setComputed(const ComputedStyle& style) { computed_style_ = style; }
     /// Draws the whole mesh with one shared dummy texture (uv_atlas), materials
     /// ignored: the papers' upper bound with no texture switches.
     void drawDummy(const GpuMesh& mesh, const Vec3d& node_centre, int layer);
@@ -233,6 +240,7 @@ private:
     struct Draw {
         const GpuMesh* mesh = nullptr;
         const GpuTexture* texture = nullptr;  ///< nullptr: colours only
+        const GpuTexture* computed = nullptr; ///< the node layer's computed texture, if shown
         int mode = 0;                          ///< shader mode (gl_renderer.cpp)
         bool uv_original = false;
         uint32_t first_index = 0, index_count = 0;
@@ -246,7 +254,7 @@ private:
         float fade_progress = 0;
     };
     void queue(const GpuMesh& mesh, const GpuTexture* texture, int mode, bool uv_original, uint32_t first,
-               uint32_t count);
+               uint32_t count, const GpuTexture* computed = nullptr);
     int beginNode(const Vec3d& node_centre, int layer);
     void issue(const Draw& draw, FrameStats* stats);
 
@@ -266,6 +274,10 @@ private:
     uint32_t material_buffer_ = 0, material_texture_ = 0;
     int material_count_ = 0;
     GpuTexture dummy_;
+    ComputedStyle computed_style_;
+    uint32_t ramp_texture_ = 0;     ///< 256 x 1 sRGB, computedRamp()
+    uint32_t bound_computed_ = 0;   ///< on unit 5, as far as this frame knows
+    int u_computed_mode_ = -1;
 
     Camera camera_;
     std::vector<Draw> draws_;

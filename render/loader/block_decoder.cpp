@@ -118,6 +118,10 @@ Status decodeBlock(const TilesetIndex& index, BlockId id, const std::vector<uint
                 return Status::Invalid(info.uri + ": " + st.error);
             return Status::Ok();
         }
+        case BlockKind::Computed:  // a computed texture: BC4, delivered as an atlas is
+            if (Status st = decodeDds(bytes.data(), bytes.size(), 1, &out->atlas); !st.ok())
+                return Status::Invalid(info.uri + ": " + st.error);
+            return Status::Ok();
         case BlockKind::Textures: {
             out->textures.clear();
             for (size_t t = 0; t < index.textures.size(); ++t) {

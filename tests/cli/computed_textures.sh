@@ -88,3 +88,27 @@ grep -q "up to date" up.txt || fail "the same build is not up to date: $(cat up.
 check_eq "shards reused after changing --computed" 0 "$(json compw/build_report.json "j['shards']['reused']")"
 check_eq "computed textures after the rebuild" "sky_view" \
   "$(json compw/tileset.json "' '.join(c['name'] for c in j['extras']['cityatlas']['computed'])")"
+
+# 8. The client (M5): an inactive computed texture is never requested; the
+#    shown one loads under the same budget, and at rest (--wait) no node is
+#    drawn without it. A budget of a fifth of the folder keeps its invariant.
+R=(--frames 30 --every 30 --size 320x180 -q)
+"$CITYATLAS" render comp -o photo "${R[@]}" --wait > /dev/null || fail "render (photo) failed"
+"$CITYATLAS" render comp -o sky "${R[@]}" --wait --computed sky_view > /dev/null || fail "render --computed sky_view failed"
+total=$(json comp/tileset.json "sum(c['bytes'] for c in j['extras']['cityatlas']['computed'])")
+budget=$(( $(du -sb comp/geometry comp/atlas comp/textures comp/computed | awk '{s+=$1} END {print s}') / 5 ))
+"$CITYATLAS" render comp -o tight "${R[@]}" --computed sun_hours --computed-mode modulate --budget "$budget" > /dev/null ||
+  fail "render with a tight budget failed"
+for d in photo sky tight; do validate_json $d/report.json "$SRC/schemas/render_report.schema.json"; done
+check_eq "computed requests with none shown" 0 "$(json photo/report.json "sum(f['requests']['computed'] for f in j['frames'])")"
+shown=$(json sky/report.json "sum(f['requests']['computed'] for f in j['frames'])")
+[ "$shown" -gt 0 ] || fail "--computed sky_view requested no computed block"
+check_eq "draws without their computed block at rest" 0 "$(json sky/report.json "max(f['computed_missing_draws'] for f in j['frames'])")"
+check_eq "frames over the budget" 0 \
+  "$(json tight/report.json "sum(1 for f in j['frames'] if f['resident_bytes'] + f['requested_bytes'] > f['budget_bytes'])")"
+check_eq "the budget in the tight run" "$budget" "$(json tight/report.json "j['settings']['budget_bytes']")"
+echo "ok: M5, $shown computed blocks loaded for sky_view (of $total bytes in all), none without --computed"
+rc=0
+"$CITYATLAS" render comp -o never "${R[@]}" --computed visibility > out.txt 2> err.txt || rc=$?
+[ $rc -eq 2 ] && grep -q "only sky_view, sun_hours, shadow" err.txt || { cat err.txt >&2; fail "an unknown --computed: exit $rc"; }
+echo "ok: an unknown computed texture is a usage error: $(cat err.txt)"

@@ -373,3 +373,54 @@ TEST(Selection, TauAndViewportChangeWhereRefinementStops) {
 
 }  // namespace
 }  // namespace cityatlas::render
+
+namespace cityatlas::render {
+namespace {
+
+// Computed textures (issue 19, papers/000 §5.1.3, M5): two per node layer.
+// The shown one's blocks take their node's usage and priority; the other's,
+// and all of them with none shown, are Unused, so never candidates; nodes
+// stay drawable without them (the photo stands in).
+TEST(Selection, OnlyTheShownComputedTextureIsUsedAndDrawingNeverWaitsForIt) {
+    Fixture f;
+    for (TileNode& n : f.index.nodes)
+        for (int k = 0; k < 2; ++k) {
+            f.index.blocks.push_back({BlockKind::Computed, n.id, 0, k, "c", 250});
+            n.layers[0].computed.push_back(static_cast<BlockId>(f.index.blocks.size() - 1));
+        }
+    auto computedUse = [&](const Classification& c, int node, int k) {
+        return c.priority[f.index.nodes[static_cast<size_t>(node)].layers[0].computed[static_cast<size_t>(k)]];
+    };
+    const Classification none = classifyBlocks(f.index, f.camera, {});
+    for (const TileNode& n : f.index.nodes)
+        for (int k = 0; k < 2; ++k) EXPECT_EQ(computedUse(none, n.id, k).usage, Usage::Unused) << "node " << n.id;
+    for (const BlockId b : none.candidates) EXPECT_NE(f.index.blocks[b].kind, BlockKind::Computed);
+
+    SelectionParams shown;
+    shown.computed = 1;
+    const Classification c = classifyBlocks(f.index, f.camera, shown);
+    int used = 0;
+    for (const TileNode& n : f.index.nodes) {
+        const BlockPriority& atlas = c.priority[n.layers[0].atlas];
+        const BlockPriority& mine = computedUse(c, n.id, 1);
+        EXPECT_EQ(mine.usage, atlas.usage) << "node " << n.id;
+        EXPECT_EQ(mine.key, atlas.key) << "node " << n.id;
+        EXPECT_EQ(mine.level, atlas.level) << "node " << n.id;
+        EXPECT_EQ(computedUse(c, n.id, 0).usage, Usage::Unused) << "node " << n.id;
+        used += mine.usage != Usage::Unused;
+    }
+    EXPECT_EQ(used, 17);  // the nodes whose atlas is used: 21 minus the 4 Unused leaves of c0
+    // Same candidates as without, plus the shown computed texture's blocks.
+    EXPECT_EQ(c.candidates.size(), none.candidates.size() + 17);
+
+    // Drawable with geometry and atlas alone; the selection is the same.
+    const auto photo_only = [&](BlockId b) { return f.index.blocks[b].kind != BlockKind::Computed; };
+    const Selection with = selectDraws(f.index, f.camera, shown, photo_only);
+    const Selection without = selectDraws(f.index, f.camera, {}, photo_only);
+    EXPECT_FALSE(with.root_missing);
+    ASSERT_EQ(with.draws.size(), without.draws.size());
+    for (size_t i = 0; i < with.draws.size(); ++i) EXPECT_EQ(with.draws[i].node, without.draws[i].node);
+}
+
+}  // namespace
+}  // namespace cityatlas::render

@@ -1160,3 +1160,107 @@ TEST_F(GlTest, FlattenDrawsTheFootprintAtTheBasePlanesDepth) {
 
 }  // namespace
 }  // namespace cityatlas::render
+
+namespace cityatlas::render {
+namespace {
+
+// A BC4 computed texture as the loader hands it over: 16 x 16 (a quarter of
+// the 64 px photo per axis, as --computed scale=4 makes it), the top half
+// code 255, the bottom-left quarter 128, the bottom-right 0 (rows top-down;
+// constant 4 x 4 blocks, which BC4 holds exactly).
+CompressedTexture computedQuadrants() {
+    tiles::Image8 img{16, 16, 1, std::vector<uint8_t>(256)};
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x) img.pixels[static_cast<size_t>(y * 16 + x)] = y < 8 ? 255 : x < 8 ? 128 : 0;
+    const std::vector<uint8_t> dds = tiles::encodeDds(tiles::mipChain(img), tiles::BcQuality::Fast);
+    CompressedTexture t;
+    const Status st = decodeDds(dds.data(), dds.size(), 1, &t);
+    EXPECT_TRUE(st.ok()) << st.error;
+    return t;
+}
+
+// M3 and M4 (issue 19; papers/000 Fig. 20): the photo render against the same
+// quad with its computed texture, at pixels one computed texel (4 px) away
+// from the quadrants' edges, where bilinear filtering reads one value.
+TEST_F(GlTest, ComputedTextureRampAndModulateFollowTheirFormulas) {
+    constexpr int kSize = 64;
+    // The CPU-decode fallback decodes BC1 only: BC4 is core GL and stays compressed.
+    RendererOptions options = exactFiltering();
+    options.force_cpu_decode = true;
+    auto r = renderer({}, options);
+    auto t = target(kSize, kSize);
+    Status status;
+    GpuTexture photo = r->upload(compress(pattern(kSize, kSize, 3), true), false, &status);
+    ASSERT_TRUE(status.ok()) << status.error;
+    const CompressedTexture bc4 = computedQuadrants();
+    GpuTexture computed = r->upload(bc4, false, &status);
+    ASSERT_TRUE(status.ok()) << status.error;
+    EXPECT_FALSE(computed.decoded_on_cpu);
+    uint64_t bc4_bytes = 0;
+    for (const auto& level : bc4.levels) bc4_bytes += level.bytes;
+    EXPECT_EQ(computed.gpu_bytes, bc4_bytes);
+
+    MeshData m;
+    addQuad(&m, -1, 1, -1, 1, {}, {}, -1);
+    GpuMesh mesh = r->upload(m, &status);
+    ASSERT_TRUE(status.ok()) << status.error;
+    auto draw = [&](const ComputedStyle& style, const GpuTexture* c) {
+        r->setComputed(style);
+        t->bind();
+        r->beginFrame(frontCamera(kSize), {0, 0, 0, 1});
+        r->drawAtlas(mesh, &photo, Vec3d{0, 1, 0}, 0, c);
+        r->endFrame();
+        std::vector<uint8_t> pixels;
+        t->readPixels(&pixels);
+        return pixels;
+    };
+    const std::vector<uint8_t> plain = draw({}, nullptr);
+    // The computed value under pixel (x, y) (rows top-down), or -1 near a quadrant's edge.
+    auto value = [](int x, int y) -> int {
+        const bool near_edge = std::abs(y - 32) < 4 || (y >= 32 && std::abs(x - 32) < 4);
+        if (near_edge) return -1;
+        return y < 32 ? 255 : x < 32 ? 128 : 0;
+    };
+    const auto& ramp = computedRamp();
+    const std::vector<uint8_t> ramped = draw({ComputedMode::Ramp}, &computed);
+    const std::vector<uint8_t> modulated = draw({ComputedMode::Modulate, 0.0F, 1.0F}, &computed);
+    const std::vector<uint8_t> bright = draw({ComputedMode::Modulate, 0.3F, 1.2F}, &computed);
+    const std::vector<uint8_t> photo_mode = draw({ComputedMode::Photo}, &computed);
+    const std::vector<uint8_t> missing = draw({ComputedMode::Ramp}, nullptr);
+    int checked = 0, ramp_255_exact = 0, worst_ramp = 0, worst_modulate = 0, worst_bright = 0;
+    for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x) {
+            const Rgba p = pixelAt(plain, kSize, x, y);
+            // Photo mode and a computed texture not resident draw the photo exactly.
+            ASSERT_EQ(maxRgbDiff(pixelAt(photo_mode, kSize, x, y), p), 0) << x << "," << y;
+            ASSERT_EQ(maxRgbDiff(pixelAt(missing, kSize, x, y), p), 0) << x << "," << y;
+            const int v = value(x, y);
+            if (v < 0) continue;
+            ++checked;
+            const RampColour& c = ramp[static_cast<size_t>(v)];
+            const int d_ramp = maxRgbDiff(pixelAt(ramped, kSize, x, y), {c[0], c[1], c[2], 255});
+            worst_ramp = std::max(worst_ramp, d_ramp);
+            if (v == 255 && d_ramp == 0) ++ramp_255_exact;
+            // photo x v in linear light, then sRGB.
+            const double f = v / 255.0;
+            const Rgba want{linearToByte(byteToLinear(static_cast<uint8_t>(p.r)) * f),
+                            linearToByte(byteToLinear(static_cast<uint8_t>(p.g)) * f),
+                            linearToByte(byteToLinear(static_cast<uint8_t>(p.b)) * f), 255};
+            worst_modulate = std::max(worst_modulate, maxRgbDiff(pixelAt(modulated, kSize, x, y), want));
+            if (v == 255) worst_bright = std::max(worst_bright, maxRgbDiff(pixelAt(bright, kSize, x, y), p));
+        }
+    std::printf("computed: %d pixels checked; ramp within %d (value 1: %d pixels exactly LUT[255]), modulate within %d, "
+                "b_max >= 1 at value 1 within %d\n",
+                checked, worst_ramp, ramp_255_exact, worst_modulate, worst_bright);
+    EXPECT_GT(checked, 2000);
+    EXPECT_EQ(ramp_255_exact, 64 * 29);  // M4: every value-1 pixel is LUT[255] exactly (rows 0..28)
+    EXPECT_LE(worst_ramp, 1);
+    EXPECT_LE(worst_modulate, 1);        // M3, b_min 0 and b_max 1: photo x v
+    EXPECT_LE(worst_bright, 1);          // M3, b_max >= 1 where the value is 1: the photo
+    r->release(&mesh);
+    r->release(&photo);
+    r->release(&computed);
+}
+
+}  // namespace
+}  // namespace cityatlas::render
