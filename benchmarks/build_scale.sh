@@ -5,8 +5,10 @@
 # position bits 11/14/16 (with the per-node error target off, so the bits are
 # exactly those) and BC quality fast/best.
 # Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all] [TEXTURE_PX=512]
-#   RUNS: all, main, bits, bc, charts (default and unique-charts), or a comma
-#   list of run names (default, bits11, bits14, bits16, bc-best, unique-charts).
+#   RUNS: all, main, bits, bc, charts (default and unique-charts), computed
+#   (unique-charts, sky-view, sun-hours: --computed at its defaults), or a comma
+#   list of run names (default, bits11, bits14, bits16, bc-best, unique-charts,
+#   sky-view, sun-hours).
 #   The city-scale runs of issue 17: `10000 400 main` and `100000 2000 main 32`.
 # Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>[-<TEXTURE_PX>px].json (one record per run,
 # updated after each run; records of runs not repeated are kept) and prints a
@@ -33,8 +35,12 @@ all_variants = [("default", [])]
 all_variants += [(f"bits{b}", ["--position-bits", str(b), "--position-error-mm", "0"]) for b in (11, 14, 16)]
 all_variants.append(("bc-best", ["--bc-quality", "best"]))
 all_variants.append(("unique-charts", ["--unique-charts"]))  # what computed textures need (issue 19)
-groups = {"all": [n for n, _ in all_variants], "main": ["default"], "bits": ["bits11", "bits14", "bits16"], "bc": ["bc-best"],
-          "charts": ["default", "unique-charts"]}
+# Computed textures at their defaults (issue 19), over unique charts: their cost is the wall time over unique-charts'.
+all_variants.append(("sky-view", ["--unique-charts", "--computed", "sky_view"]))
+all_variants.append(("sun-hours", ["--unique-charts", "--computed", "sun_hours"]))
+groups = {"all": [n for n, _ in all_variants if n not in ("sky-view", "sun-hours")], "main": ["default"],
+          "bits": ["bits11", "bits14", "bits16"], "bc": ["bc-best"], "charts": ["default", "unique-charts"],
+          "computed": ["unique-charts", "sky-view", "sun-hours"]}
 wanted = groups.get(runs, runs.split(","))
 unknown = set(wanted) - {n for n, _ in all_variants}
 if unknown: sys.exit(f"unknown runs: {', '.join(sorted(unknown))}")
@@ -62,6 +68,16 @@ for name, extra in variants:
            "bytes": rep["bytes"], "counts": rep["counts"], "errors": rep["errors"], "encoding": rep["encoding"],
            "d_min": rep["d_min"], "root": {"features": rep["root"]["features"], "dropped": len(rep["root"]["features_dropped"])},
            "shards": {k: v for k, v in rep.get("shards", {}).items() if k not in ("keys", "shard_features")}}
+    tileset = json.load(open(os.path.join(out, "tileset.json")))
+    computed = tileset["extras"]["cityatlas"].get("computed", [])
+    if computed:
+        rec["computed"] = [{"name": c["name"], "parameters": c["parameters"], "bytes": c["bytes"],
+                            "leaf_texels": c["statistics"]["texels"], "mean": c["statistics"]["mean"]} for c in computed]
+        base = next((r for r in records + previous if r["run"] == "unique-charts"), None)
+        if base:
+            rec["computed_seconds"] = round(rec["wall_s"] - base["wall_s"], 1)
+            rec["computed_s_per_million_leaf_texels"] = round(rec["computed_seconds"] / (computed[0]["statistics"]["texels"] / 1e6), 2)
+        rec["computed_bytes_over_atlas_bytes"] = round(sum(c["bytes"] for c in computed) / rep["bytes"]["atlases"], 3)
     records.append(rec)
     kept = [r for r in previous if r["run"] not in {x["run"] for x in records}]
     json.dump({"benchmark": "build", "town": town, "d_min": dmin, "cores": os.cpu_count(), "machine": platform.machine(),
@@ -71,6 +87,9 @@ for name, extra in variants:
           f"shards {rep.get('shards', {}).get('count', 1)}  peak {rec['peak_rss_mb']:7.0f} MB  geometry {rep['bytes']['geometry']/1e6:7.2f} MB  "
           f"atlases {rep['bytes']['atlases']/1e6:8.1f} MB  textures {rep['bytes']['textures']/1e6:7.1f} MB  "
           f"pos err {rep['errors']['position_mm_max']:7.2f} mm  PSNR min/mean {rep['errors']['atlas_psnr_db_min']:.2f}/"
-          f"{rep['errors']['atlas_psnr_db_mean']:.2f} dB  BC {rep['encoding']['atlas_mpix_per_s']:.1f} MP/s", flush=True)
+          f"{rep['errors']['atlas_psnr_db_mean']:.2f} dB  BC {rep['encoding']['atlas_mpix_per_s']:.1f} MP/s"
+          + (f"  computed {rec['computed'][0]['name']}: {rec['computed'][0]['bytes']/1e6:.2f} MB "
+             f"({rec['computed_bytes_over_atlas_bytes']:.3f} of the atlases), {rec['computed'][0]['leaf_texels']/1e6:.2f} M leaf "
+             f"texels, +{rec.get('computed_seconds', float('nan'))} s" if computed else ""), flush=True)
 print(f"written {result}")
 PY

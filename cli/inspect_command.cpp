@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "cli/build_hash.h"
@@ -100,6 +101,9 @@ void printSummary(const std::string& folder, const tiles::InspectResult& r, doub
                humanBytes(r.bytes_originals_bc), r.texture_ratio);
     fmt::print("  features  {:>10} in {} tables: {} features\n", humanBytes(r.bytes_features), r.feature_tables,
                r.features);
+    if (!r.computed.empty())
+        fmt::print("  computed  {:>10} in {} files: {} (BC4; not in the total)\n", humanBytes(r.bytes_computed),
+                   r.computed_files, fmt::join(r.computed, ", "));
     fmt::print("  total     {:>10}\n",
                humanBytes(r.bytes_geometry + r.bytes_atlases + r.bytes_textures + r.bytes_features));
 }

@@ -10,6 +10,7 @@
 #include <string>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 
@@ -37,6 +38,8 @@ struct ViewCliOptions {
     std::string priority = "distance";
     bool no_vsync = false;
     int frames = 0;
+    std::string computed;               // shown from the start; empty: the photo
+    std::string computed_mode = "ramp";
 };
 
 // Fly: WASD along the view, Q/E down/up, right mouse drag looks around.
@@ -87,6 +90,17 @@ int runView(const ViewCliOptions& opt) {
     auto client = render::StreamingClient::open(opt.source, co, &st);
     if (!client) return fail(st);
     if (Status gs = client->initGl(); !gs.ok()) return fail(gs);
+    int computed_shown = -1, computed_mode = opt.computed_mode == "modulate" ? 2 : 1;
+    float computed_range[2] = {0.3F, 1.0F};
+    if (!opt.computed.empty()) {
+        const std::vector<std::string>& names = client->index().computed;
+        const auto it = std::find(names.begin(), names.end(), opt.computed);
+        if (it == names.end())
+            return fail(Status::Usage(fmt::format("--computed {}: {} has {}", opt.computed, opt.source,
+                                                  names.empty() ? std::string("no computed textures")
+                                                                : fmt::format("only {}", fmt::join(names, ", ")))));
+        computed_shown = static_cast<int>(it - names.begin());
+    }
 
     const Box3d& bounds = client->index().nodes[0].bounds;
     Navigation nav;
@@ -236,6 +250,27 @@ int runView(const ViewCliOptions& opt) {
         ImGui::SameLine();
         ImGui::RadioButton("dummy", &mode, 2);
         client->setMode(static_cast<render::TextureMode>(mode));
+        // Computed textures (issue 19): which one, and how; the photo stands in until its blocks arrive.
+        const std::vector<std::string>& computed_names = client->index().computed;
+        if (!computed_names.empty()) {
+            ImGui::Separator();
+            const char* current = computed_shown < 0 ? "photo" : computed_names[static_cast<size_t>(computed_shown)].c_str();
+            if (ImGui::BeginCombo("computed", current)) {
+                if (ImGui::Selectable("photo", computed_shown < 0)) computed_shown = -1;
+                for (size_t k = 0; k < computed_names.size(); ++k)
+                    if (ImGui::Selectable(computed_names[k].c_str(), computed_shown == static_cast<int>(k)))
+                        computed_shown = static_cast<int>(k);
+                ImGui::EndCombo();
+            }
+            ImGui::RadioButton("ramp", &computed_mode, 1);
+            ImGui::SameLine();
+            ImGui::RadioButton("modulate", &computed_mode, 2);
+            if (computed_mode == 2) ImGui::SliderFloat2("b_min, b_max", computed_range, 0.0F, 2.0F, "%.2f");
+            ImGui::Text("drawn with the photo meanwhile: %u node layers", rec.computed_missing_draws);
+            render::ComputedStyle style{static_cast<render::ComputedMode>(computed_mode), computed_range[0],
+                                        std::max(computed_range[0], computed_range[1])};
+            client->setComputed(computed_shown, style);
+        }
         ImGui::Text("height %.1f m, speed %.0f m/s (shift x4)", nav.camera.position.z - nav.floor_z, nav.speed());
         ImGui::TextWrapped("WASD move, Q/E down/up, right drag look, left drag orbit, click pick, wheel zoom, Esc quit");
         if (!picked.empty()) {
@@ -325,6 +360,10 @@ RunFn addViewCommand(CLI::App& app) {
         ->check(CLI::IsMember({"atlas", "original", "dummy"}));
     cmd->add_option("--priority", opt->priority, "distance or view")->default_val("distance")
         ->check(CLI::IsMember({"distance", "view"}));
+    cmd->add_option("--computed", opt->computed,
+                    "Show this computed texture from the start (build --computed; the window's 'computed' list switches)");
+    cmd->add_option("--computed-mode", opt->computed_mode, "ramp or modulate")->default_val("ramp")
+        ->check(CLI::IsMember({"ramp", "modulate"}));
     cmd->add_flag("--no-vsync", opt->no_vsync, "Draw as fast as possible (for measuring)");
     cmd->add_option("--frames", opt->frames, "Close after this many frames (0: when the window is closed)")
         ->default_val(0)

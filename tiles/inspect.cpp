@@ -785,6 +785,8 @@ void summarise(const std::vector<Node>& nodes, InspectResult& r) {
             L.bytes_atlases += l.has_atlas ? static_cast<uint64_t>(l.atlas_bytes) : 0;
             ++r.geometry_files;
             r.atlas_files += l.has_atlas ? 1 : 0;
+            for (const format::ComputedFileEntry& c : l.computed)
+                if (!c.file.uri.empty()) ++r.computed_files, r.bytes_computed += c.file.bytes;
         }
     }
     for (const InspectLevel& L : r.levels) {
@@ -870,6 +872,7 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
         if (!(ix.focal_px > 0 && ix.corner_factor > 0)) throw BadEntry("focal_px or corner_factor not positive");
         if (ca->contains("computed"))
             for (const json& c : arrayOf(*ca, "computed")) {
+                r.computed.push_back(text(c, "name"));
                 ix.computed_scale.push_back(std::max<int64_t>(1, count(c, "scale")));
                 ix.computed_bytes.push_back(static_cast<uint64_t>(count(c, "bytes")));
                 const json& st = member(c, "statistics");

@@ -53,6 +53,9 @@ struct InspectResult {
     uint64_t bytes_originals_bc = 0;   ///< every texture entry as BC with mips, from its width, height and format
     /// (atlases + texture blocks) / bytes_originals_bc, from the entries: what the folder's textures cost over the data's.
     double texture_ratio = 0;
+    /// Computed textures (issue 19): names in the index's order, their files and bytes.
+    std::vector<std::string> computed;
+    uint64_t computed_files = 0, bytes_computed = 0;
     bool ok() const { return defects.empty(); }
 };
 
