@@ -5,6 +5,9 @@
 #include <fstream>
 #include <memory>
 
+#include <tbb/task_arena.h>
+#include <tbb/task_group.h>
+
 #include <fmt/format.h>
 
 #include "atlas/sky_view.h"
@@ -77,8 +80,12 @@ Status computeTreeImages(const AtlasTree& tree, int scale, const SurfaceField& f
                          const ComputedImageSink& sink, const GivenComputed* given,
                          std::array<ScalarImage, kLayerCount>* root, ComputedStats* stats) {
     if (tree.nodes.empty()) return Status::Ok();
-    // Post-order: a node's images are made once its children's are, which are
-    // then dropped; at most the open path's siblings are held.
+    // Post-order, sibling subtrees side by side (a shard's leaves are many and
+    // small: parallel rays within one leaf alone left a core idle): a node's
+    // images are made once its children's are, which are then dropped. Leaf
+    // statistics are kept per node and summed in node order at the end, so
+    // they do not depend on the threads either.
+    std::vector<ComputedStats> leaf_stats(stats ? tree.nodes.size() : 0);
     std::function<Status(int32_t, std::array<ScalarImage, kLayerCount>*)> visit =
         [&](int32_t n, std::array<ScalarImage, kLayerCount>* images) -> Status {
         const AtlasNode& node = tree.nodes[static_cast<size_t>(n)];
@@ -94,31 +101,40 @@ Status computeTreeImages(const AtlasTree& tree, int scale, const SurfaceField& f
                 if (!node.layers[static_cast<size_t>(l)].present()) continue;
                 const LeafTexelMap map = leafTexelMap(tree, n, layer, scale);
                 ScalarImage& img = (*images)[static_cast<size_t>(l)];
-                img = evaluateComputed(map, field, threads, kNoValue);
-                if (stats) stats->add(img);
+                img = evaluateComputed(map, field, 0, kNoValue);  // in this arena, beside the other subtrees
+                if (stats) leaf_stats[static_cast<size_t>(n)].add(img);
                 if (Status s = sink(n, layer, img); !s.ok()) return s;
             }
             return Status::Ok();
         }
-        std::map<int32_t, std::array<ScalarImage, kLayerCount>> children;
-        for (int32_t c : node.children) {
-            if (c < 0) continue;
-            if (Status s = visit(c, &children[c]); !s.ok()) return s;
-        }
+        std::array<std::array<ScalarImage, kLayerCount>, 4> children;
+        std::array<Status, 4> results{Status::Ok(), Status::Ok(), Status::Ok(), Status::Ok()};
+        tbb::task_group group;
+        for (size_t q = 0; q < 4; ++q)
+            if (node.children[q] >= 0) group.run([&, q] { results[q] = visit(node.children[q], &children[q]); });
+        group.wait();
+        for (const Status& r : results)
+            if (!r.ok()) return r;
         for (int l = 0; l < kLayerCount; ++l) {
             const auto layer = static_cast<Layer>(l);
             if (!node.layers[static_cast<size_t>(l)].present()) continue;
             ScalarImage& img = (*images)[static_cast<size_t>(l)];
             img = innerComputed(tree, n, layer, scale, [&](int32_t c) -> const ScalarImage* {
-                const auto it = children.find(c);
-                return it == children.end() ? nullptr : &it->second[static_cast<size_t>(l)];
+                for (size_t q = 0; q < 4; ++q)
+                    if (node.children[q] == c) return &children[q][static_cast<size_t>(l)];
+                return nullptr;
             });
             if (Status s = sink(n, layer, img); !s.ok()) return s;
         }
         return Status::Ok();
     };
     std::array<ScalarImage, kLayerCount> top;
-    if (Status s = visit(0, &top); !s.ok()) return s;
+    Status result = Status::Ok();
+    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+    arena.execute([&] { result = visit(0, &top); });
+    if (!result.ok()) return result;
+    if (stats)
+        for (const ComputedStats& s : leaf_stats) stats->add(s);
     if (root) *root = std::move(top);
     return Status::Ok();
 }

@@ -37,11 +37,12 @@ struct ComputedStats {
     double mean() const { return texels ? sum / static_cast<double>(texels) : 0.0; }
 };
 
-/// Every node layer's image, bottom up, each handed to `sink` once made.
+/// Every node layer's image, bottom up, each handed to `sink` once made
+/// (from several threads at once: sibling subtrees run side by side).
 /// Nodes in `given` (a merge's shard roots) take those images instead of
 /// their subtree's; other leaves are evaluated with `field` (on `threads`
-/// threads; the images do not depend on it). `root` (optional) gets the
-/// root's images.
+/// threads, 0: all cores; the images and statistics do not depend on it).
+/// `root` (optional) gets the root's images.
 using ComputedImageSink = std::function<Status(int32_t node, Layer layer, const ScalarImage& image)>;
 using GivenComputed = std::map<int32_t, std::array<ScalarImage, kLayerCount>>;
 Status computeTreeImages(const AtlasTree& tree, int scale, const SurfaceField& field, int threads,

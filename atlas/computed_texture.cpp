@@ -136,12 +136,17 @@ ScalarImage evaluateComputed(const LeafTexelMap& map, const std::function<double
     ScalarImage image;
     image.width = map.width, image.height = map.height;
     std::vector<float> per_surface(map.surfaces.size());
-    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-    arena.execute([&] {
+    const auto evaluate = [&] {
         tbb::parallel_for(size_t{0}, map.surfaces.size(), [&](size_t k) {
             per_surface[k] = static_cast<float>(field(map.surfaces[k]));
         });
-    });
+    };
+    if (threads > 0) {
+        tbb::task_arena arena(threads);
+        arena.execute(evaluate);
+    } else {
+        evaluate();  // the caller's arena (all cores at the top level)
+    }
     image.value.resize(map.texel.size(), empty);
     for (size_t k = 0; k < map.texel.size(); ++k)
         if (map.texel[k] >= 0) image.value[k] = per_surface[static_cast<size_t>(map.texel[k])];

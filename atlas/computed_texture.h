@@ -60,8 +60,9 @@ struct ScalarImage {
 };
 
 /// Evaluates `field` at every texel that stands for a surface point, on
-/// `threads` threads (0: all cores). `field` must be safe to call from many
-/// threads; the image does not depend on the thread count.
+/// `threads` threads (0: the calling task arena's, all cores at the top
+/// level). `field` must be safe to call from many threads; the image does
+/// not depend on the thread count.
 ScalarImage evaluateComputed(const LeafTexelMap& map, const std::function<double(const TexelSurface&)>& field,
                              int threads = 0, float empty = 0.0f);
 

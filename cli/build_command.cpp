@@ -56,6 +56,7 @@ struct BuildCliOptions {
     bool slurm = false;
     std::vector<std::string> sbatch;
     bool wait = false;
+    bool procedural_facades = false;
     std::vector<std::string> computed;      // --computed, as given
     std::vector<atlas::ComputedSpec> computed_specs;
 };
@@ -84,6 +85,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
     if (t.split_originals) k.push_back("split_originals=on");
     for (const atlas::ComputedSpec& c : opt.computed_specs) k.push_back("computed=" + atlas::computedSpecJson(c).dump());
+    if (opt.procedural_facades) k.push_back(fmt::format("procedural_facades=on/{}", opt.input.storey_height_m));
     if (opt.format != "native")
         k.push_back(fmt::format("format={} web_textures={} quality={}", opt.format, opt.web_textures,
                                 opt.tiles3d.jpeg_quality));
@@ -139,6 +141,9 @@ bool upToDate(const nlohmann::json& report, const std::string& inputs_key, const
 }
 
 using Stages = std::vector<std::pair<std::string, StageCost>>;
+
+// Where procedural facades' cells are written during a build (removed at its end).
+constexpr const char* kProceduralDir = ".procedural-facades";
 
 // Stands for the report's list of texture digests, written as text (format/json_splice.h).
 constexpr const char* kFingerprintTextures = "cityatlas-fingerprint-textures";
@@ -339,6 +344,10 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
     for (const auto& s : ts.steps) stages.push_back({"tiles: " + s.name, {s.seconds, s.cpu_seconds, s.peak_rss_mb}});
     report["stages"] = stagesJson(stages);
     const fs::path tmp = rec.working, target = rec.target;
+    {
+        std::error_code ignored;
+        fs::remove_all(tmp / kProceduralDir, ignored);  // the facade cells were read into the atlases and blocks
+    }
     auto abandon = [&](const Status& s) {
         std::error_code ignored;
         fs::remove_all(tmp, ignored);
@@ -505,6 +514,18 @@ int runBuild(const BuildCliOptions& opt_in) {
     scene_stats.textures = scene.textures.size();
     attachGeoreference(state, scene_stats.bounds_local, scene.georef, read_files.front());
     if (sink.triangles == 0) return abandon(Status::Invalid("the inputs hold no triangles: nothing to build"));
+    if (opt.procedural_facades) {
+        // Walls without a photo get a facade from their building's attributes (ingest/procedural_facades.h).
+        ProceduralFacadeParams fp;
+        fp.storey_height_m = opt.input.storey_height_m;
+        uint64_t walls = 0;
+        if (Status s = addProceduralFacades(spill, sink.feature_spill, fp, tmp / kProceduralDir, &scene, &sink.bounds, &walls);
+            !s.ok())
+            return abandon(s);
+        scene_stats.textured_triangles += walls;
+        scene_stats.textures = scene.textures.size();
+        if (!opt.quiet) note("build", fmt::format("procedural facades on {} wall triangles", walls));
+    }
     const std::vector<TextureDigest> texture_digests = digestTextures(scene.textures);
     const std::string build_hash = buildHash(inputs_key, scene.textures, texture_digests);
     endStage("read");
@@ -815,6 +836,12 @@ RunFn addBuildCommand(CLI::App& app) {
                     "(repeatable; a shard uses SLURM_CPUS_PER_TASK threads when --cpus-per-task is given)")
         ->group(sh);
     cmd->add_flag("--wait", opt->wait, "With --slurm: wait until the merge job ends and exit with its status")->group(sh);
+    cmd->add_flag("--procedural-facades", opt->procedural_facades,
+                  "Walls without a photo (footprints, untextured LOD1/LOD2) get a facade drawn from their building's "
+                  "attributes: a row of windows per storey (storeys or storey-height attributes, else the wall height "
+                  "over --storey-height), a window every 3 m, a wall colour chosen by the building's id; walls with a "
+                  "photo keep it")
+        ->group("Computed textures");
     cmd->add_option("--computed", opt->computed,
                     "A computed texture over the atlas coordinates, NAME[:KEY=VALUE,...] (repeatable): sky_view "
                     "(the sky-view factor; directions=64), sun_hours (the fraction of a year's daylight sun positions "

@@ -15,6 +15,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <type_traits>
 
 #include <fmt/format.h>
@@ -30,6 +31,7 @@
 #include "atlas/computed_layers.h"
 #include "atlas/raycast.h"
 #include "tiles/computed_files.h"
+#include "ingest/synth/facade_texture.h"
 #include "tiles/texture_blocks.h"
 
 extern char** environ;
@@ -487,10 +489,14 @@ Status writeComputedTextures(const std::vector<atlas::ComputedSpec>& specs, cons
         if (caster)
             if (Status s = atlas::makeSurfaceField(specs[k], *caster, georef, &field); !s.ok()) return s;
         uint64_t done = 0;
+        std::mutex progress_mutex;
         const std::string step = fmt::format("computed: {}", specs[k].name());
         const auto sink = [&](int32_t node, atlas::Layer layer, const atlas::ScalarImage& image) {
             if (image.width <= 0) return Status::Ok();
-            if (progress) progress(step.c_str(), ++done, tree.nodes.size() * atlas::kLayerCount);
+            if (progress) {
+                const std::lock_guard<std::mutex> lock(progress_mutex);
+                progress(step.c_str(), ++done, tree.nodes.size() * atlas::kLayerCount);
+            }
             return tiles::writeComputedImage(image, quality, out_dir, tiles::computedUri(k, layer, node),
                                              &(*files)[static_cast<size_t>(node)][static_cast<size_t>(layer)][k]);
         };
@@ -614,6 +620,85 @@ Status PlanSink::finish() {
     if (Status s = feature_spill.finish(); !s.ok()) return s;
     file_.close();
     if (!file_) return Status::Io(fmt::format("{}: cannot write (disk full?)", spill_.string()));
+    return Status::Ok();
+}
+
+Status addProceduralFacades(const fs::path& spill, const FeatureSpill& features, const ProceduralFacadeParams& params,
+                            const fs::path& dir, Scene* tables, tiles::FeatureBoundsAccumulator* bounds, uint64_t* walls) {
+    // Each feature's walls: lowest and highest point, and the box corner u starts from.
+    struct Walls {
+        double z0 = 1e300, z1 = -1e300, x0 = 1e300, y0 = 1e300;
+    };
+    std::vector<Walls> extent(features.size());
+    if (Status s = forEachSpilled(spill, [&](const Triangle& t) {
+            if (t.feature >= extent.size() || !isBareWall(t)) return;
+            Walls& w = extent[t.feature];
+            for (const Vec3d& p : t.position_local)
+                w.z0 = std::min(w.z0, p.z), w.z1 = std::max(w.z1, p.z), w.x0 = std::min(w.x0, p.x), w.y0 = std::min(w.y0, p.y);
+        });
+        !s.ok())
+        return s;
+    // Attributes: a part takes its building's id (the palette) and, lacking its own, its storeys.
+    struct Attributes {
+        int32_t parent = -1;
+        std::string id;
+        std::optional<double> storeys, storey_height;
+    };
+    std::vector<Attributes> attributes(features.size());
+    if (Status s = features.forEach([&](uint32_t id, Feature&& f) {
+            if (id < attributes.size())
+                attributes[id] = {f.parent, std::move(f.gml_id), storeysAttribute(f), storeyHeightAttribute(f)};
+            return Status::Ok();
+        });
+        !s.ok())
+        return s;
+    std::vector<FacadeLayout> layout(features.size());
+    std::vector<int32_t> texture_of_palette(facadePalettes().size(), -1);
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
+    for (size_t f = 0; f < features.size(); ++f) {
+        if (extent[f].z1 < extent[f].z0) continue;
+        size_t root = f;
+        for (int guard = 0; attributes[root].parent >= 0 && static_cast<size_t>(attributes[root].parent) < attributes.size() &&
+                            guard < 64;
+             ++guard)
+            root = static_cast<size_t>(attributes[root].parent);
+        const Attributes& a = attributes[f];
+        const Attributes& r = attributes[root];
+        layout[f] = facadeLayout(r.id, extent[f].z0, extent[f].z1, a.storeys ? a.storeys : r.storeys,
+                                 a.storey_height ? a.storey_height : r.storey_height, params);
+        layout[f].origin = {extent[f].x0, extent[f].y0, 0};
+        int32_t& texture = texture_of_palette[layout[f].palette];
+        if (texture >= 0) continue;
+        const fs::path png = dir / fmt::format("facade-{}.png", layout[f].palette);
+        std::string error;
+        if (!synth::writePng(png.string(), facadeCell(facadePalettes()[layout[f].palette], params.cell_px), &error))
+            return Status::Io(error);
+        texture = static_cast<int32_t>(tables->textures.size());
+        tables->textures.push_back({png.string(), params.cell_px, params.cell_px, 3, WrapMode::Wrap});
+    }
+    // The spill again, bare walls textured.
+    const fs::path rewritten = spill.string() + ".facades";
+    std::ofstream out(rewritten, std::ios::binary);
+    if (!out) return Status::Io(fmt::format("{}: cannot create", rewritten.string()));
+    *walls = 0;
+    if (Status s = forEachSpilled(spill, [&](const Triangle& t) {
+            Triangle copy = t;
+            if (copy.feature < layout.size() && isBareWall(copy) && extent[copy.feature].z1 >= extent[copy.feature].z0) {
+                const FacadeLayout& l = layout[copy.feature];
+                applyFacade(l, params, texture_of_palette[l.palette], &copy);
+                ++*walls;
+                if (bounds) bounds->add(copy);
+            }
+            out.write(reinterpret_cast<const char*>(&copy), sizeof copy);
+        });
+        !s.ok())
+        return s;
+    out.close();
+    if (!out) return Status::Io(fmt::format("{}: cannot write (disk full?)", rewritten.string()));
+    fs::rename(rewritten, spill, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot rename to {}: {}", rewritten.string(), spill.string(), ec.message()));
     return Status::Ok();
 }
 

@@ -48,6 +48,7 @@
 #include "core/status.h"
 #include "ingest/diagnostics.h"
 #include "ingest/feature_spill.h"
+#include "ingest/procedural_facades.h"
 #include "ingest/scene.h"
 #include "ingest/scene_sink.h"
 #include "tiles/feature_bounds.h"
@@ -86,6 +87,15 @@ Status forEachSpilled(const std::filesystem::path& spill, const std::function<vo
                       const char* step = nullptr, const ShardProgressFn& progress = {});
 /// The whole spill file in memory (a build of one shard in this process).
 Status readSpill(const std::filesystem::path& spill, std::vector<Triangle>* out);
+/// Procedural facades (ingest/procedural_facades.h) over a spilled read:
+/// one pass for each feature's walls' extent, the attributes from
+/// `features`, the palettes' cells written as PNG into `dir` and added to
+/// `tables`' textures, and a second pass rewriting `spill` with every bare
+/// wall textured; `bounds` sees the rewritten triangles again (their
+/// features are textured now). `walls` counts the triangles textured.
+Status addProceduralFacades(const std::filesystem::path& spill, const FeatureSpill& features,
+                            const ProceduralFacadeParams& params, const std::filesystem::path& dir, Scene* tables,
+                            tiles::FeatureBoundsAccumulator* bounds, uint64_t* walls);
 /// decideGlobals over the spilled scene: two passes over the file, more when
 /// its texture models exceed their budget (atlas_tree.h).
 Status decideGlobalsFromSpill(const std::filesystem::path& spill, const Scene& tables, const atlas::AtlasParams& params,

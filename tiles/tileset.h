@@ -11,6 +11,8 @@
 ///   geometry/<layer>/<node>.glb  glTF 2.0 binary, one Draco primitive (tiles/glb_writer.h)
 ///   atlas/<layer>/<node>.dds     the node's atlas, BC1 (opaque) / BC3 (alpha), full mip chain; as large
 ///                                as its content (width_px x height_px in the index, at most A x A)
+///   computed/<k>/<layer>/<node>.dds  computed texture k of the node layer (issue 19; tiles/computed_files.h):
+///                                BC4, 1/scale of the atlas per axis, full mip chain; written by the shards
 ///   textures/<block>.bin         originals of the textures some leaf's atlas holds below their own
 ///                                resolution (all used textures with all_originals): DDS files back to back
 ///   features/<table>.json        feature attributes, `block_size` consecutive ids per table
