@@ -50,8 +50,14 @@ Status sunDirections(const ComputedSpec& spec, const Georeference& georef, std::
 
 }  // namespace
 
-Status makeSurfaceField(const ComputedSpec& spec, const RayCaster& caster, const Georeference& georef, SurfaceField* out) {
+Status makeSurfaceField(const ComputedSpec& spec, const RayCaster& caster, const Georeference& georef, SurfaceField* out,
+                        const VisibilityTarget* target) {
     const double far = spec.horizon_m;
+    if (spec.model == ComputedModel::Visibility) {
+        if (!target) return Status::Invalid(fmt::format("--computed visibility:{}: no target given", spec.building));
+        *out = [target](const TexelSurface& s) { return visibilityRatio(*target, s.point, s.normal); };
+        return Status::Ok();
+    }
     if (spec.model == ComputedModel::SkyView) {
         auto dirs = std::make_shared<const std::vector<Vec3d>>(hemisphereDirections(spec.directions));
         *out = [&caster, dirs, far](const TexelSurface& s) { return skyViewFactor(caster, s.point, s.normal, *dirs, far); };

@@ -17,15 +17,18 @@
 #include "atlas/computed_spec.h"
 #include "atlas/computed_texture.h"
 #include "atlas/raycast.h"
+#include "atlas/visibility.h"
 
 namespace cityatlas::atlas {
 
 /// The field a spec computes at a surface point, against `caster` (the
 /// local frame), with rays cut at the spec's horizon. Sun models need the
 /// scene's georeference (an error without one: a local engineering CRS has
-/// no sun).
+/// no sun). Visibility needs its target (visibility.h; `caster` unused):
+/// the caller sets its horizon.
 using SurfaceField = std::function<double(const TexelSurface&)>;
-Status makeSurfaceField(const ComputedSpec& spec, const RayCaster& caster, const Georeference& georef, SurfaceField* out);
+Status makeSurfaceField(const ComputedSpec& spec, const RayCaster& caster, const Georeference& georef, SurfaceField* out,
+                        const VisibilityTarget* target = nullptr);
 
 /// Values over the texels that hold one in leaf images (a texel the photo
 /// atlas packs), for tileset.json's statistics.

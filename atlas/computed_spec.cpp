@@ -46,6 +46,10 @@ Status check(const ComputedSpec& s, const std::string& where) {
             if (!(s.step_minutes >= 1 && s.step_minutes <= 720)) return bad("step must be 1..720 minutes");
             if (s.year < 1800 || s.year > 2200) return bad("year must be in 1800..2200");
             break;
+        case ComputedModel::Visibility:
+            if (s.building.empty()) return bad("visibility needs a building: visibility:GML_ID");
+            if (s.grid < 1 || s.grid > 256) return bad("grid must be in 1..256");
+            break;
         case ComputedModel::Shadow:
             if (s.time_utc.empty() && !(s.disc.elevation_deg > 0 && s.disc.elevation_deg <= 90))
                 return bad("shadow needs the sun above the horizon: elevation in (0, 90] degrees, or time=");
@@ -65,6 +69,7 @@ std::string ComputedSpec::name() const {
         case ComputedModel::SkyView: return "sky_view";
         case ComputedModel::SunHours: return "sun_hours";
         case ComputedModel::Shadow: return "shadow";
+        case ComputedModel::Visibility: return "visibility";
     }
     return "?";
 }
@@ -82,6 +87,9 @@ json ComputedSpec::parameters() const {
             else
                 p["time"] = time_utc;
             p["radius"] = disc.radius_deg, p["samples"] = disc.samples;
+            break;
+        case ComputedModel::Visibility:
+            p["building"] = building, p["grid"] = grid;
             break;
     }
     return p;
@@ -103,9 +111,11 @@ Status parseComputedSpec(const std::string& text, ComputedSpec* out) {
     if (name == "sky_view") s.model = ComputedModel::SkyView;
     else if (name == "sun_hours") s.model = ComputedModel::SunHours;
     else if (name == "shadow") s.model = ComputedModel::Shadow;
+    else if (name == "visibility") s.model = ComputedModel::Visibility;
     else
-        return Status::Usage(fmt::format("--computed {}: unknown computed texture '{}' (expected sky_view, sun_hours or shadow)",
-                                         text, name));
+        return Status::Usage(fmt::format(
+            "--computed {}: unknown computed texture '{}' (expected sky_view, sun_hours, shadow or visibility:BUILDING)", text,
+            name));
     std::map<std::string, std::string> given;
     if (colon != std::string::npos) {
         const std::string list = text.substr(colon + 1);
@@ -114,6 +124,13 @@ Status parseComputedSpec(const std::string& text, ComputedSpec* out) {
             const size_t comma = list.find(',', start);
             const std::string item = list.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
             const size_t eq = item.find('=');
+            // visibility:BUILDING: the first item is the target's id.
+            if (s.model == ComputedModel::Visibility && start == 0 && eq == std::string::npos && !item.empty()) {
+                given.emplace("building", item);
+                if (comma == std::string::npos) break;
+                start = comma + 1;
+                continue;
+            }
             if (eq == std::string::npos || eq == 0)
                 return Status::Usage(fmt::format("--computed {}: '{}' is not KEY=VALUE", text, item));
             if (!given.emplace(item.substr(0, eq), item.substr(eq + 1)).second)
@@ -131,6 +148,8 @@ Status parseComputedSpec(const std::string& text, ComputedSpec* out) {
     if (s.model == ComputedModel::SunHours) {
         numbers["year"] = &year, numbers["days"] = &days, numbers["step"] = &s.step_minutes;
     }
+    double grid = s.grid;
+    if (s.model == ComputedModel::Visibility) numbers["grid"] = &grid;
     bool has_sun = false;
     if (s.model == ComputedModel::Shadow) {
         numbers["azimuth"] = &s.disc.azimuth_deg, numbers["elevation"] = &s.disc.elevation_deg;
@@ -141,11 +160,16 @@ Status parseComputedSpec(const std::string& text, ComputedSpec* out) {
             s.time_utc = value;
             continue;
         }
+        if (s.model == ComputedModel::Visibility && key == "building") {
+            s.building = value;
+            continue;
+        }
         const auto it = numbers.find(key);
         if (it == numbers.end()) {
             std::vector<std::string> keys;
             for (const auto& [k, _] : numbers) keys.push_back(k);
             if (s.model == ComputedModel::Shadow) keys.push_back("time");
+            if (s.model == ComputedModel::Visibility) keys.push_back("building");
             return Status::Usage(
                 fmt::format("--computed {}: {} takes no '{}' (it takes {})", text, name, key, fmt::join(keys, ", ")));
         }
@@ -154,10 +178,11 @@ Status parseComputedSpec(const std::string& text, ComputedSpec* out) {
         if (key == "azimuth" || key == "elevation") has_sun = true;
     }
     for (auto [v, key] : {std::pair{scale, "scale"}, {directions, "directions"}, {year, "year"}, {days, "days"},
-                          {samples, "samples"}})
+                          {samples, "samples"}, {grid, "grid"}})
         if (v != std::floor(v)) return Status::Usage(fmt::format("--computed {}: {} must be a whole number", text, key));
     s.scale = static_cast<int>(scale), s.directions = static_cast<int>(directions);
     s.year = static_cast<int>(year), s.days = static_cast<int>(days), s.disc.samples = static_cast<int>(samples);
+    s.grid = static_cast<int>(grid);
     if (s.model == ComputedModel::Shadow) {
         if (!s.time_utc.empty() && has_sun)
             return Status::Usage(fmt::format("--computed {}: give the sun by time= or by azimuth= and elevation=, not both", text));

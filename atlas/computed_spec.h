@@ -9,6 +9,7 @@
 ///   sun_hours[:year=2025,days=12,step=60,scale=4,horizon=1000]
 ///   shadow:azimuth=DEG,elevation=DEG[,radius=0.2665,samples=64,scale=4,horizon=1000]
 ///   shadow:time=YYYY-MM-DDTHH:MM[...]    (UTC; the sun's position at the scene's origin)
+///   visibility:BUILDING[,grid=16,scale=4,horizon=1000]  (BUILDING: a gml:id; visibility.h)
 ///
 /// - scale: the computed image has 1/scale of the photo atlas's texels per
 ///   axis (1, 2 or 4).
@@ -21,6 +22,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -29,7 +31,7 @@
 
 namespace cityatlas::atlas {
 
-enum class ComputedModel : uint8_t { SkyView, SunHours, Shadow };
+enum class ComputedModel : uint8_t { SkyView, SunHours, Shadow, Visibility };
 
 struct ComputedSpec {
     ComputedModel model = ComputedModel::SkyView;
@@ -42,8 +44,14 @@ struct ComputedSpec {
     // shadow: the sun as a disc, placed by azimuth and elevation or by a time (UTC)
     SunDisc disc{180, 45, 0.2665, 64};
     std::string time_utc;        ///< "YYYY-MM-DDTHH:MM"; empty: disc.azimuth/elevation as given
+    // visibility
+    std::string building;        ///< the target's gml:id (its parts included)
+    int grid = 16;               ///< rays per side of the thesis' image
+    /// The target's features (the building and its parts), found in the
+    /// input by the build; not a parameter (the plan holds their triangles).
+    std::vector<uint32_t> target_features;
 
-    std::string name() const;    ///< "sky_view", "sun_hours", "shadow"
+    std::string name() const;    ///< "sky_view", "sun_hours", "shadow", "visibility"
     /// The parameters as written into the plan and tileset.json (every one, defaults included).
     nlohmann::json parameters() const;
 };

@@ -41,10 +41,12 @@ VisibilityCounts visibilityCounts(const VisibilityTarget& t, const Vec3d& point,
         for (int i = 0; i < t.grid; ++i) {
             const double x = ((i + 0.5) / t.grid * 2 - 1) * half, y = ((j + 0.5) / t.grid * 2 - 1) * half;
             const Vec3d dir = d + x * r + y * u;
-            if (!t.target->occluded(origin, dir)) continue;
+            const RayHit target = t.target->nearest(origin, dir);
+            if (!target.hit) continue;
             ++out.total;
-            const RayHit first = t.scene->nearest(origin, dir);
-            if (first.hit && first.triangle < t.is_target.size() && t.is_target[first.triangle]) ++out.unoccluded;
+            // Blocked by what lies before the target and within the horizon.
+            const RayHit first = t.scene->nearest(origin, dir, 0, std::min(target.distance, t.horizon_m));
+            if (!first.hit || (first.triangle < t.is_target.size() && t.is_target[first.triangle])) ++out.unoccluded;
         }
     return out;
 }

@@ -12,7 +12,8 @@
 /// smallest that holds all eight corners of the box. Here the image is a
 /// grid x grid set of rays through its pixel centres (16 x 16 in the thesis'
 /// Fig. 34). A_total counts the rays that hit the target alone; A_unoccluded
-/// those whose first hit in the whole scene is a target triangle. Rays start
+/// those whose first hit in the whole scene is a target triangle (or that
+/// meet nothing else within the horizon before the target). Rays start
 /// 1 cm off the surface along its normal, so a point facing away from the
 /// target sees its own building first.
 ///
@@ -21,6 +22,7 @@
 /// 85 degrees. 0 when no ray hits the target.
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "atlas/raycast.h"
@@ -34,6 +36,10 @@ struct VisibilityTarget {
     const RayCaster* target = nullptr;      ///< the target's triangles alone
     Box3d box;                              ///< the target's box
     int grid = 16;
+    /// Only what lies within this distance of the point can hide the
+    /// target (a computed texture's horizon: a shard holds its
+    /// surroundings, not the whole city); the target itself at any distance.
+    double horizon_m = std::numeric_limits<double>::infinity();
 };
 
 /// The grid's counts at a point: rays that hit the target alone (A_total)

@@ -572,6 +572,28 @@ int runBuild(const BuildCliOptions& opt_in) {
         if (Status s = writer.finish(&feature_tables); !s.ok()) return abandon(s);
     }
     sink.bounds.clear();
+    // A visibility target is a building by gml:id, with its parts.
+    for (atlas::ComputedSpec& c : opt.computed_specs) {
+        if (c.model != atlas::ComputedModel::Visibility) continue;
+        std::vector<int32_t> parent;
+        std::vector<uint8_t> named;
+        const Status listed = sink.feature_spill.forEach([&](uint32_t id, Feature&& f) {
+            if (parent.size() <= id) parent.resize(id + 1, -1), named.resize(id + 1, 0);
+            parent[id] = f.parent;
+            named[id] = f.gml_id == c.building;
+            return Status::Ok();
+        });
+        if (!listed.ok()) return abandon(listed);
+        for (size_t f = 0; f < parent.size(); ++f) {
+            bool in = false;
+            for (int64_t a = static_cast<int64_t>(f), guard = 0; a >= 0 && guard < 64; a = parent[static_cast<size_t>(a)], ++guard)
+                if (named[static_cast<size_t>(a)]) in = true;
+            if (in) c.target_features.push_back(static_cast<uint32_t>(f));
+        }
+        if (c.target_features.empty())
+            return abandon(Status::Usage(fmt::format("--computed visibility:{}: no building with that gml:id in the inputs",
+                                                     c.building)));
+    }
     if (sharded) {
         // --- Plan, shards, merge (cli/shards.h).
         fs::remove(sink.feature_spill.path(), ec);

@@ -14,6 +14,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <memory>
 #include <mutex>
 #include <type_traits>
@@ -475,6 +476,7 @@ std::string rootComputedFile(size_t k, int layer) { return fmt::format("root-com
 // in `given[k]` taken as they are. `roots[k]` (optional) gets the root's images.
 Status writeComputedTextures(const std::vector<atlas::ComputedSpec>& specs, const atlas::AtlasTree& tree,
                              const atlas::RayCaster* caster, const Georeference& georef,
+                             const std::vector<const atlas::VisibilityTarget*>& targets,
                              const std::vector<atlas::GivenComputed>* given, int threads, tiles::BcQuality quality,
                              const fs::path& out_dir, ComputedFiles* files,
                              std::vector<std::array<atlas::ScalarImage, atlas::kLayerCount>>* roots,
@@ -487,7 +489,9 @@ Status writeComputedTextures(const std::vector<atlas::ComputedSpec>& specs, cons
     for (size_t k = 0; k < specs.size(); ++k) {
         atlas::SurfaceField field;
         if (caster)
-            if (Status s = atlas::makeSurfaceField(specs[k], *caster, georef, &field); !s.ok()) return s;
+            if (Status s = atlas::makeSurfaceField(specs[k], *caster, georef, &field, k < targets.size() ? targets[k] : nullptr);
+                !s.ok())
+                return s;
         uint64_t done = 0;
         std::mutex progress_mutex;
         const std::string step = fmt::format("computed: {}", specs[k].name());
@@ -704,6 +708,22 @@ Status addProceduralFacades(const fs::path& spill, const FeatureSpill& features,
 
 namespace {
 
+std::string targetFile(size_t k) { return fmt::format("computed-{}.target", k); }
+
+// A visibility target's triangles (positions, in scene order).
+Status readTarget(const fs::path& spill, const atlas::ComputedSpec& spec, std::vector<std::array<Vec3d, 3>>* out) {
+    const std::set<uint32_t> features(spec.target_features.begin(), spec.target_features.end());
+    out->clear();
+    if (Status s = forEachSpilled(spill, [&](const Triangle& t) {
+            if (features.count(t.feature)) out->push_back(t.position_local);
+        });
+        !s.ok())
+        return s;
+    if (out->empty())
+        return Status::Usage(fmt::format("--computed visibility:{}: the building has no triangles in the inputs", spec.building));
+    return Status::Ok();
+}
+
 // Each shard's occluders (writePlan): the other shards' triangles whose box
 // meets the shard's box grown by the margin, in scene order, as positions;
 // they enter the shard's key.
@@ -812,6 +832,19 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     }
     if (!computed.empty())
         if (Status s = writeOccluders(dir, spill, plan, computed, shard_box, keys, progress); !s.ok()) return s;
+    // A visibility target's triangles go to every shard whatever its horizon.
+    std::string targets_key;
+    for (size_t k = 0; k < computed.size(); ++k) {
+        if (computed[k].model != atlas::ComputedModel::Visibility) continue;
+        std::vector<std::array<Vec3d, 3>> target;
+        if (Status s = readTarget(spill, computed[k], &target); !s.ok()) return s;
+        if (Status s = tiles::writeBytes(dir / targetFile(k), target.data(), target.size() * sizeof target[0]); !s.ok())
+            return s;
+        ShardKey tk;
+        for (const auto& t : target)
+            for (const Vec3d& p : t) tk.addValue(p.x), tk.addValue(p.y), tk.addValue(p.z);
+        targets_key += " " + tk.digest();
+    }
     json top = json::array();
     for (const atlas::PlanNode& n : plan.nodes)
         top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
@@ -837,9 +870,9 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     // Besides its triangles, a shard depends on the parameters, the distance
     // every node is built for, its level, and the textures and materials it
     // uses: their entries, tileset numbers, promotions and file contents.
-    const std::string common = fmt::format("{} {} {} {} writer {} computed {}", kPlanFormat, j.at("atlas").dump(),
+    const std::string common = fmt::format("{} {} {} {} writer {} computed {}{}", kPlanFormat, j.at("atlas").dump(),
                                            j.at("tiles").dump(), globals.d_min_used_m, tiles::kWriterRevision,
-                                           j.value("computed", json::array()).dump());
+                                           j.value("computed", json::array()).dump(), targets_key);
     std::vector<int> level(plan.shards(), 0);
     for (const atlas::PlanNode& n : plan.nodes)
         if (n.shard >= 0) level[static_cast<size_t>(n.shard)] = n.level;
@@ -978,9 +1011,36 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
         while (f.read(reinterpret_cast<char*>(t.data()), sizeof t)) triangles.push_back(t);
         if (!f.eof()) return Status::Io(fmt::format("{}: cannot read", occ.string()));
         const std::unique_ptr<atlas::RayCaster> caster = atlas::RayCaster::build(triangles, threads);
+        // Visibility targets: the target alone, and the scene with the target's
+        // triangles first (a copy of one among the occluders loses the tie).
+        std::vector<std::unique_ptr<atlas::RayCaster>> target_casters;
+        std::vector<std::unique_ptr<atlas::VisibilityTarget>> target_data;
+        std::vector<const atlas::VisibilityTarget*> targets(computed.size(), nullptr);
+        for (size_t k = 0; k < computed.size(); ++k) {
+            if (computed[k].model != atlas::ComputedModel::Visibility) continue;
+            std::vector<uint8_t> bytes;
+            if (Status s = tiles::readBytes(dir / targetFile(k), &bytes); !s.ok()) return s;
+            std::vector<std::array<Vec3d, 3>> target(bytes.size() / sizeof(std::array<Vec3d, 3>));
+            std::memcpy(target.data(), bytes.data(), target.size() * sizeof target[0]);
+            auto data = std::make_unique<atlas::VisibilityTarget>();
+            for (const auto& t : target)
+                for (const Vec3d& p : t) data->box.extend(p);
+            std::vector<std::array<Vec3d, 3>> all = target;
+            all.insert(all.end(), triangles.begin(), triangles.end());
+            data->is_target.assign(all.size(), 0);
+            std::fill(data->is_target.begin(), data->is_target.begin() + static_cast<std::ptrdiff_t>(target.size()), 1);
+            target_casters.push_back(atlas::RayCaster::build(target, threads));
+            data->target = target_casters.back().get();
+            target_casters.push_back(atlas::RayCaster::build(all, threads));
+            data->scene = target_casters.back().get();
+            data->grid = computed[k].grid;
+            data->horizon_m = computed[k].horizon_m;
+            targets[k] = data.get();
+            target_data.push_back(std::move(data));
+        }
         std::vector<std::array<Vec3d, 3>>().swap(triangles);
         std::vector<std::array<atlas::ScalarImage, atlas::kLayerCount>> roots;
-        if (Status s = writeComputedTextures(computed, tree, caster.get(), scene.georef, nullptr, threads, tp.bc_quality,
+        if (Status s = writeComputedTextures(computed, tree, caster.get(), scene.georef, targets, nullptr, threads, tp.bc_quality,
                                              part, &computed_files, &roots, &computed_stats, report);
             !s.ok())
             return s;
@@ -1493,7 +1553,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         const auto report = [&](const char* step, uint64_t d, uint64_t t) {
             if (progress) progress(fmt::format("merge: {}", step).c_str(), d, t);
         };
-        if (Status s = writeComputedTextures(computed, tree, nullptr, r.tables.georef, &given_computed, 0, tp.bc_quality,
+        if (Status s = writeComputedTextures(computed, tree, nullptr, r.tables.georef, {}, &given_computed, 0, tp.bc_quality,
                                              out_dir, &top, nullptr, &unused, report);
             !s.ok())
             return s;

@@ -4,7 +4,8 @@
 #     schema, every BC4 file's header against its entry, sizes, statistics);
 #  3. M1: its photo files (atlases, geometry, originals, features) are the same
 #     bytes as the build without computed textures;
-#  4. the computed values match an oracle (tests/tools/computed_oracle) that
+#  4. the computed values (sky view, sun hours, a shadow, the visibility of a
+#     building) match an oracle (tests/tools/computed_oracle) that
 #     casts again over the folder's decoded leaves (the whole scene, not a
 #     shard and its occluders) at texels well inside one triangle;
 #  5. T8: the same bytes with 1 and 2 threads, and in-process and in workers;
@@ -15,11 +16,12 @@ ORACLE="${COMPUTED_ORACLE:?}"
 
 "$CITYATLAS" synth -q --buildings 60 --seed 5 --texture-size 64 -o town > /dev/null
 COMMON=(--unique-charts --shard-triangles 1000)
-SPECS=(--computed sky_view:directions=128,scale=2 --computed sun_hours:step=120,scale=2 --computed shadow:azimuth=135,elevation=30,scale=2)
+SPECS=(--computed sky_view:directions=128,scale=2 --computed sun_hours:step=120,scale=2 --computed shadow:azimuth=135,elevation=30,scale=2
+       --computed visibility:bldg_000012,scale=2)
 
 # 1. Usage errors.
 for bad in "sky_vieww" "sky_view:scale=3" "sky_view:directions=0" "shadow" "shadow:azimuth=1,elevation=-5" \
-           "sun_hours:step=abc" "sky_view:foo=1" "shadow:time=2025-13-01T12:00"; do
+           "sun_hours:step=abc" "sky_view:foo=1" "shadow:time=2025-13-01T12:00" "visibility" "visibility:no_such_building"; do
   rc=0
   "$CITYATLAS" build -q town/town.gml -o never --computed "$bad" > out.txt 2> err.txt || rc=$?
   [ $rc -eq 2 ] || { cat err.txt >&2; fail "--computed $bad: exit $rc, expected 2"; }
@@ -27,7 +29,7 @@ for bad in "sky_vieww" "sky_view:scale=3" "sky_view:directions=0" "shadow" "shad
   grep -q -- "--computed" err.txt || fail "--computed $bad: the message does not name the option: $(cat err.txt)"
   [ ! -e never ] || fail "--computed $bad left a folder"
 done
-echo "ok: 8 bad --computed values are one-line usage errors: $(head -c 120 err.txt)"
+echo "ok: 10 bad --computed values are one-line usage errors: $(head -c 120 err.txt)"
 
 # 2. Built and inspected.
 "$CITYATLAS" build -q town/town.gml -o plain "${COMMON[@]}" --workers 0 > /dev/null || fail "plain build failed"
@@ -36,11 +38,11 @@ echo "ok: 8 bad --computed values are one-line usage errors: $(head -c 120 err.t
 shards=$(json comp/build_report.json "j['shards']['count']")
 [ "$shards" -ge 4 ] || fail "expected at least 4 shards, got $shards"
 "$CITYATLAS" inspect -q comp > inspect.txt 2>&1 || { cat inspect.txt >&2; fail "inspect finds defects"; }
-check_eq "computed textures listed" "sky_view sun_hours shadow" \
+check_eq "computed textures listed" "sky_view sun_hours shadow visibility" \
   "$(json comp/tileset.json "' '.join(c['name'] for c in j['extras']['cityatlas']['computed'])")"
 files=$(find comp/computed -name '*.dds' | wc -l)
 atlases=$(find comp/atlas -name '*.dds' | wc -l)
-check_eq "computed files (3 per atlas)" $((3 * atlases)) "$files"
+check_eq "computed files (4 per atlas)" $((4 * atlases)) "$files"
 
 # 3. M1: photo files unchanged.
 diff -r -q --exclude build_report.json --exclude tileset.json --exclude computed --exclude .cityatlas-cache plain comp > diff.txt ||
@@ -49,7 +51,7 @@ echo "ok: M1, $(find plain -type f | wc -l) photo files byte-identical with and 
 
 # 4. The oracle.
 "$ORACLE" comp > oracle.json || fail "the oracle failed"
-for k in 0 1 2; do
+for k in 0 1 2 3; do
   name=$(json oracle.json "j[$k]['name']")
   texels=$(json oracle.json "j[$k]['texels']")
   [ "$texels" -ge 1000 ] || fail "$name: only $texels texels compared"
@@ -109,6 +111,6 @@ check_eq "frames over the budget" 0 \
 check_eq "the budget in the tight run" "$budget" "$(json tight/report.json "j['settings']['budget_bytes']")"
 echo "ok: M5, $shown computed blocks loaded for sky_view (of $total bytes in all), none without --computed"
 rc=0
-"$CITYATLAS" render comp -o never "${R[@]}" --computed visibility > out.txt 2> err.txt || rc=$?
-[ $rc -eq 2 ] && grep -q "only sky_view, sun_hours, shadow" err.txt || { cat err.txt >&2; fail "an unknown --computed: exit $rc"; }
+"$CITYATLAS" render comp -o never "${R[@]}" --computed ambient > out.txt 2> err.txt || rc=$?
+[ $rc -eq 2 ] && grep -q "only sky_view, sun_hours, shadow, visibility" err.txt || { cat err.txt >&2; fail "an unknown --computed: exit $rc"; }
 echo "ok: an unknown computed texture is a usage error: $(cat err.txt)"

@@ -25,6 +25,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
@@ -72,6 +74,7 @@ int main(int argc, char** argv) {
     };
     std::vector<LeafMesh> leaves;
     std::vector<std::array<Vec3d, 3>> scene;
+    std::vector<uint32_t> scene_feature;  // per triangle of `scene`
     for (size_t t = 0; t < doc.tiles.size(); ++t) {
         const format::TileEntry& tile = doc.tiles[t];
         if (!tile.leaf()) continue;
@@ -83,9 +86,11 @@ int main(int argc, char** argv) {
                 std::fprintf(stderr, "computed_oracle: %s: %s\n", layer->geometry.uri.c_str(), s.error.c_str());
                 return 1;
             }
-            for (size_t i = 0; i + 2 < m.mesh.indices.size(); i += 3)
+            for (size_t i = 0; i + 2 < m.mesh.indices.size(); i += 3) {
                 scene.push_back({m.mesh.positions[m.mesh.indices[i]], m.mesh.positions[m.mesh.indices[i + 1]],
                                  m.mesh.positions[m.mesh.indices[i + 2]]});
+                scene_feature.push_back(m.mesh.feature_id.empty() ? 0xFFFFFFFFu : m.mesh.feature_id[m.mesh.indices[i]]);
+            }
             leaves.push_back(std::move(m));
         }
     }
@@ -102,8 +107,45 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "computed_oracle: %s\n", s.error.c_str());
             return 1;
         }
+        // A visibility target: its building and parts from the feature tables, its triangles from the leaves.
+        std::unique_ptr<atlas::RayCaster> target_caster, target_scene;
+        atlas::VisibilityTarget target;
+        if (spec.model == atlas::ComputedModel::Visibility) {
+            std::map<uint32_t, int64_t> parent;
+            std::set<uint32_t> named;
+            for (const format::FileEntry& table : doc.feature_tables) {
+                const std::vector<uint8_t> bytes = readAll(folder / table.uri);
+                const nlohmann::json doc_table = nlohmann::json::parse(bytes.begin(), bytes.end());
+                for (const nlohmann::json& f : doc_table.at("features")) {
+                    parent[f.at("id").get<uint32_t>()] = f.at("parent").get<int64_t>();
+                    if (f.at("gml_id") == spec.building) named.insert(f.at("id").get<uint32_t>());
+                }
+            }
+            auto inTarget = [&](uint32_t f) {
+                for (int64_t a = f, guard = 0; a >= 0 && guard < 64; ++guard) {
+                    if (named.count(static_cast<uint32_t>(a))) return true;
+                    const auto it = parent.find(static_cast<uint32_t>(a));
+                    a = it == parent.end() ? -1 : it->second;
+                }
+                return false;
+            };
+            std::vector<std::array<Vec3d, 3>> mine, all;
+            for (size_t i = 0; i < scene.size(); ++i)
+                if (inTarget(scene_feature[i])) mine.push_back(scene[i]);
+            all = mine;
+            all.insert(all.end(), scene.begin(), scene.end());
+            for (const auto& t : mine)
+                for (const Vec3d& p : t) target.box.extend(p);
+            target.is_target.assign(all.size(), 0);
+            std::fill(target.is_target.begin(), target.is_target.begin() + static_cast<std::ptrdiff_t>(mine.size()), 1);
+            if (std::getenv("ORACLE_DEBUG")) std::fprintf(stderr, "target %s: %zu features named, %zu triangles\n", spec.building.c_str(), named.size(), mine.size());
+            target_caster = atlas::RayCaster::build(mine);
+            target_scene = atlas::RayCaster::build(all);
+            target.target = target_caster.get(), target.scene = target_scene.get();
+            target.grid = spec.grid, target.horizon_m = spec.horizon_m;
+        }
         atlas::SurfaceField field;
-        if (Status s = atlas::makeSurfaceField(spec, *caster, georef, &field); !s.ok()) {
+        if (Status s = atlas::makeSurfaceField(spec, *caster, georef, &field, &target); !s.ok()) {
             std::fprintf(stderr, "computed_oracle: %s\n", s.error.c_str());
             return 1;
         }
@@ -111,6 +153,8 @@ int main(int argc, char** argv) {
         // other way at a point the decoded geometry moved by a millimetre.
         double rays = spec.directions;
         if (spec.model == atlas::ComputedModel::Shadow) rays = spec.disc.samples;
+        // Visibility: a ratio of the grid's rays that hit the target, at least a few dozen.
+        if (spec.model == atlas::ComputedModel::Visibility) rays = 32;
         if (spec.model == atlas::ComputedModel::SunHours) {
             const auto frame = atlas::sunFrame(georef);
             atlas::SunSchedule schedule;
