@@ -863,17 +863,18 @@ RunFn addBuildCommand(CLI::App& app) {
                   "attributes: a row of windows per storey (storeys or storey-height attributes, else the wall height "
                   "over --storey-height), a window every 3 m, a wall colour chosen by the building's id; walls with a "
                   "photo keep it")
-        ->group("Computed textures");
+        ->group("Computed and procedural textures");
     cmd->add_option("--computed", opt->computed,
                     "A computed texture over the atlas coordinates, NAME[:KEY=VALUE,...] (repeatable): sky_view "
                     "(the sky-view factor; directions=64), sun_hours (the fraction of a year's daylight sun positions "
                     "that reach each point; year=2025, days=12, step=60 minutes), shadow (a soft shadow of the sun "
-                    "disc: azimuth=DEG,elevation=DEG or time=YYYY-MM-DDTHH:MM UTC; radius=0.2665, samples=64). All "
+                    "disc: azimuth=DEG,elevation=DEG or time=YYYY-MM-DDTHH:MM UTC; radius=0.2665, samples=64), visibility:GML_ID (the "
+                    "share of that building each point sees, its parts included; grid=16). All "
                     "take scale=4 (atlas texels per computed texel, 1, 2 or 4) and horizon=1000 (metres; only "
                     "triangles that near a point shade it; inf for all). Written as BC4 files computed/<k>/; the photo "
                     "atlases are the same with or without; textured surfaces only. Sun models need a georeferenced "
                     "scene. Costs rays: README, computed textures")
-        ->group("Computed textures");
+        ->group("Computed and procedural textures");
     auto* g = "Tiles";
     cmd->add_option("--position-bits", opt->tiles.draco.position_bits,
                     "Draco quantization of positions: the fewest bits over each node's extent (more where --position-error-mm needs them; the error in mm is reported per node)")
