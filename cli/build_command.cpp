@@ -556,6 +556,11 @@ int runBuild(const BuildCliOptions& opt_in) {
         for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
         return rec;
     };
+    if (!opt.computed_specs.empty() && opt.format != "native")
+        return abandon(Status::Usage(fmt::format(
+            "--computed with --format {} is not supported yet: computed textures are made by shards, and the 3D Tiles "
+            "export needs a one-shard build; build --format native",
+            opt.format)));
     if (sharded && opt.format != "native")
         return abandon(Status::Usage(fmt::format(
             "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
