@@ -8,8 +8,11 @@
 #     buffer: the building's pixels one run with sky above and below), runs
 #     of window-coloured pixels are counted: as many as the shapefile's `levels`;
 #  3. the window colour is (52, 64, 80) snapped to RGB565 as BC1 decoders
-#     expand it, (49, 65, 82), within 1 LSB inside the windows (they are 4 x 4
-#     blocks of one colour, which BC1 stores exactly);
+#     expand it, (49, 65, 82), in every stored cell (the folder's BC1 decoded
+#     here), and within 1 LSB inside the windows (they are 4 x 4 blocks of
+#     one colour, which BC1 stores exactly); each building's slab colour is
+#     its cell's (the cell whose wall colour its pixels show), within 1 LSB
+#     inside the bands, with as many bands as storeys;
 #  4. a textured CityGML town keeps its photos: the flag textures no wall
 #     there and the folder is byte-identical to the one without it.
 source "$(dirname "$0")/lib.sh" "$@"
@@ -39,6 +42,28 @@ def five(v): c = min(31, max(0, (v * 31 + 127) // 255)); return (c << 3) | (c >>
 def six(v): c = min(63, max(0, (v * 63 + 127) // 255)); return (c << 2) | (c >> 4)
 window = (five(52), six(64), five(80))
 assert window == (49, 65, 82), window
+# The cells as the folder stores them: each texture's level 0 (BC1, 32 x 32)
+# decoded here, by BC1's definition, independently of the code that drew them.
+def rgb(c): return ((c >> 11 & 31) * 255 + 15) // 31, ((c >> 5 & 63) * 255 + 31) // 63, ((c & 31) * 255 + 15) // 31
+def expand(c): r, g, b = c >> 11 & 31, c >> 5 & 63, c & 31; return ((r << 3) | (r >> 2), (g << 2) | (g >> 4), (b << 3) | (b >> 2))
+def bc1(data, w, h):
+    img = [[None] * w for _ in range(h)]
+    for by in range(h // 4):
+        for bx in range(w // 4):
+            c0, c1, bits = struct.unpack_from("<HHI", data, 8 * (by * (w // 4) + bx))
+            a, b = expand(c0), expand(c1)
+            if c0 > c1: pal = [a, b, tuple((2 * a[k] + b[k]) // 3 for k in range(3)), tuple((a[k] + 2 * b[k]) // 3 for k in range(3))]
+            else: pal = [a, b, tuple((a[k] + b[k]) // 2 for k in range(3)), (0, 0, 0)]
+            for i in range(16): img[4 * by + i // 4][4 * bx + i % 4] = pal[bits >> (2 * i) & 3]
+    return img
+cells = []
+for e in t["extras"]["cityatlas"]["textures"]:
+    block = open(f"{tiles}/{t['extras']['cityatlas']['texture_blocks'][e['block']]['uri']}", "rb").read()
+    cell = bc1(block[e["offset"] + 128:], e["width"], e["height"])
+    n = e["height"]
+    # rows top-down: the slab in the bottom eighth, the window in the middle of the width
+    cells.append({"wall": cell[0][0], "slab": cell[n - 1][0], "window": cell[n // 2][n // 2]})
+assert all(c["window"] == window for c in cells), [c["window"] for c in cells]
 W, H = 480, 480
 checked = 0
 # The tallest buildings first: more rows to count.
@@ -65,6 +90,16 @@ for fid in order[:16]:
     px = img.load()
     NONE = 0xFFFFFFFF
     best, worst_window, columns = 0, 0, 0
+    slab_rows, worst_slab = 0, 0
+    # Which cell: the one whose wall colour the building's pixels show most.
+    votes = {}
+    for x in range(W // 2 - 60, W // 2 + 61, 4):
+        for y in range(0, H, 2):
+            if ids[y * W + x] != fid: continue
+            for k, c in enumerate(cells):
+                if max(abs(px[x, y][j] - c["wall"][j]) for j in range(3)) <= 1: votes[k] = votes.get(k, 0) + 1
+    cell = cells[max(votes, key=votes.get)] if votes else None
+    slab = cell["slab"] if cell else None
     for x in range(W // 2 - 60, W // 2 + 61, 4):
         # Only a column that sees the whole wall: the building's pixels one run, sky above and below.
         mine = [y for y in range(H) if ids[y * W + x] == fid]
@@ -83,6 +118,16 @@ for fid in order[:16]:
             if is_window: run.append((x, y))
             inside = is_window
         best = max(best, rows)
+        if slab:
+            # Slab bands: runs of slab-coloured pixels (within 3), and how far inside them the colour is.
+            bands, on = 0, False
+            for y in mine:
+                is_slab = max(abs(px[x, y][k] - slab[k]) for k in range(3)) <= 3
+                if is_slab and not on: bands += 1
+                if is_slab and 0 < y < H - 1 and all(max(abs(px[x, y + dy][k] - slab[k]) for k in range(3)) <= 3 for dy in (-1, 1)):
+                    worst_slab = max(worst_slab, max(abs(px[x, y][k] - slab[k]) for k in range(3)))
+                on = is_slab
+            slab_rows = max(slab_rows, bands)
         for (x0, y0) in run:
             # well inside a window: its neighbours 2 px away are window too
             if all(ids[(y0 + dy) * W + x0] == fid and max(abs(px[x0, y0 + dy][k] - window[k]) for k in range(3)) <= 3
@@ -92,13 +137,17 @@ for fid in order[:16]:
         print(f"building {f['gml_id']}: no column sees the whole wall (another building is in front); skipped")
         continue
     print(f"building {f['gml_id']}: levels {levels}, window rows counted {best} ({columns} whole columns), "
-          f"window colour within {worst_window}")
+          f"window colour within {worst_window}; slab bands {slab_rows}, slab colour within {worst_slab}")
     if best != levels: sys.exit(f"FAIL: {f['gml_id']}: {best} window rows, levels {levels}")
+    if slab is None: sys.exit(f"FAIL: {f['gml_id']}: its wall shows no cell's wall colour")
+    if slab_rows != levels: sys.exit(f"FAIL: {f['gml_id']}: {slab_rows} slab bands, levels {levels}")
+    if worst_slab > 1: sys.exit(f"FAIL: {f['gml_id']}: slab pixels {worst_slab} LSB off {slab}")
     if worst_window > 1: sys.exit(f"FAIL: {f['gml_id']}: window pixels {worst_window} LSB off (49, 65, 82)")
     checked += 1
     if checked == 5: break
 if checked < 3: sys.exit(f"FAIL: only {checked} buildings seen whole")
-print(f"ok: window rows equal storeys on {checked} buildings; window colour within 1 LSB")
+print(f"ok: window rows and slab bands equal storeys on {checked} buildings; window and slab colours within 1 LSB "
+      f"of the stored cells ({len(cells)} cells decoded)")
 PY
 
 # 4. Photos kept.
