@@ -303,8 +303,9 @@ int runRender(const RenderCliOptions& opt) {
     if (!opt.computed.empty()) {
         if (opt.computed_mode == "ramp") computed_style.mode = render::ComputedMode::Ramp;
         else if (opt.computed_mode == "modulate") computed_style.mode = render::ComputedMode::Modulate;
+        else if (opt.computed_mode == "emphasis") computed_style.mode = render::ComputedMode::Emphasis;
         else if (opt.computed_mode == "photo") computed_style.mode = render::ComputedMode::Photo;
-        else return usage(fmt::format("--computed-mode {}: expected ramp, modulate or photo", opt.computed_mode));
+        else return usage(fmt::format("--computed-mode {}: expected ramp, modulate, emphasis or photo", opt.computed_mode));
         char tail = 0;
         if (std::sscanf(opt.computed_range.c_str(), "%f,%f%c", &computed_style.b_min, &computed_style.b_max, &tail) != 2 ||
             !(computed_style.b_min >= 0 && computed_style.b_max >= computed_style.b_min && computed_style.b_max <= 16))
@@ -634,9 +635,11 @@ RunFn addRenderCommand(CLI::App& app) {
                     "until they arrive");
     cmd->add_option("--computed-mode", opt->computed_mode,
                     "ramp: the value as a blue-to-yellow colour ramp; modulate: the photo times min(1, BMIN + value "
-                    "(BMAX - BMIN)) (papers/000 Fig. 20); photo: the photo only (none of its blocks load)")
+                    "(BMAX - BMIN)) (papers/000 Fig. 20); emphasis: that, with the photo's saturation following the value "
+                    "and a touch of yellow where it is high (Fig. 34, for visibility:BUILDING); photo: the photo only (none "
+                    "of its blocks load)")
         ->default_val("ramp");
-    cmd->add_option("--computed-range", opt->computed_range, "modulate: BMIN,BMAX")->default_val("0.3,1");
+    cmd->add_option("--computed-range", opt->computed_range, "modulate, emphasis: BMIN,BMAX")->default_val("0.3,1");
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress and no summary line");
     return [opt]() { return runRender(*opt); };
 }

@@ -90,7 +90,7 @@ int runView(const ViewCliOptions& opt) {
     auto client = render::StreamingClient::open(opt.source, co, &st);
     if (!client) return fail(st);
     if (Status gs = client->initGl(); !gs.ok()) return fail(gs);
-    int computed_shown = -1, computed_mode = opt.computed_mode == "modulate" ? 2 : 1;
+    int computed_shown = -1, computed_mode = opt.computed_mode == "modulate" ? 2 : opt.computed_mode == "emphasis" ? 3 : 1;
     float computed_range[2] = {0.3F, 1.0F};
     if (!opt.computed.empty()) {
         const std::vector<std::string>& names = client->index().computed;
@@ -265,7 +265,9 @@ int runView(const ViewCliOptions& opt) {
             ImGui::RadioButton("ramp", &computed_mode, 1);
             ImGui::SameLine();
             ImGui::RadioButton("modulate", &computed_mode, 2);
-            if (computed_mode == 2) ImGui::SliderFloat2("b_min, b_max", computed_range, 0.0F, 2.0F, "%.2f");
+            ImGui::SameLine();
+            ImGui::RadioButton("emphasis", &computed_mode, 3);
+            if (computed_mode >= 2) ImGui::SliderFloat2("b_min, b_max", computed_range, 0.0F, 2.0F, "%.2f");
             ImGui::Text("drawn with the photo meanwhile: %u node layers", rec.computed_missing_draws);
             render::ComputedStyle style{static_cast<render::ComputedMode>(computed_mode), computed_range[0],
                                         std::max(computed_range[0], computed_range[1])};
@@ -362,8 +364,8 @@ RunFn addViewCommand(CLI::App& app) {
         ->check(CLI::IsMember({"distance", "view"}));
     cmd->add_option("--computed", opt->computed,
                     "Show this computed texture from the start (build --computed; the window's 'computed' list switches)");
-    cmd->add_option("--computed-mode", opt->computed_mode, "ramp or modulate")->default_val("ramp")
-        ->check(CLI::IsMember({"ramp", "modulate"}));
+    cmd->add_option("--computed-mode", opt->computed_mode, "ramp, modulate or emphasis")->default_val("ramp")
+        ->check(CLI::IsMember({"ramp", "modulate", "emphasis"}));
     cmd->add_flag("--no-vsync", opt->no_vsync, "Draw as fast as possible (for measuring)");
     cmd->add_option("--frames", opt->frames, "Close after this many frames (0: when the window is closed)")
         ->default_val(0)

@@ -10,6 +10,7 @@ const char* computedModeName(ComputedMode mode) {
         case ComputedMode::Photo: return "photo";
         case ComputedMode::Ramp: return "ramp";
         case ComputedMode::Modulate: return "modulate";
+        case ComputedMode::Emphasis: return "emphasis";
     }
     return "?";
 }

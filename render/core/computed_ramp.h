@@ -15,14 +15,22 @@ namespace cityatlas::render {
 /// How a computed texture (issue 19; papers/000 §5.1.3) shows on textured
 /// surfaces: not at all (the photo), as a colour ramp (render/core/
 /// computed_ramp.h, the value v picking entry round(255 v) between texels),
-/// or modulating the photo (papers/000 Fig. 20: colour * min(1, b_min + v
-/// (b_max - b_min)), in linear light). Material-coloured surfaces have no
+/// modulating the photo (papers/000 Fig. 20: colour * min(1, b_min + v
+/// (b_max - b_min)), in linear light), or emphasising where the value is
+/// high (Fig. 34, for a visibility texture: "from where is the tower
+/// visible?"): the photo's saturation follows v (grey at 0), its brightness
+/// as in modulate, and a blend of kEmphasisYellowWeight * v toward
+/// kEmphasisYellow, all in linear light. Material-coloured surfaces have no
 /// computed values and keep their colour.
-enum class ComputedMode : uint8_t { Photo = 0, Ramp = 1, Modulate = 2 };
-const char* computedModeName(ComputedMode mode);  ///< "photo", "ramp", "modulate"
+enum class ComputedMode : uint8_t { Photo = 0, Ramp = 1, Modulate = 2, Emphasis = 3 };
+const char* computedModeName(ComputedMode mode);  ///< "photo", "ramp", "modulate", "emphasis"
+/// Emphasis: the yellow (linear RGB) and its largest weight (at v = 1);
+/// grey is the Rec. 709 luminance of the linear colour.
+inline constexpr std::array<float, 3> kEmphasisYellow{1.0F, 0.8F, 0.1F};
+inline constexpr float kEmphasisYellowWeight = 0.15F;
 struct ComputedStyle {
     ComputedMode mode = ComputedMode::Photo;
-    float b_min = 0.3F, b_max = 1.0F;  ///< Modulate: the brightness range
+    float b_min = 0.3F, b_max = 1.0F;  ///< Modulate, Emphasis: the brightness range
 };
 
 using RampColour = std::array<uint8_t, 3>;

@@ -68,8 +68,9 @@ in vec2 v_uv;
 in vec2 v_uv_computed;
 uniform sampler2D u_computed;     // BC4: the node layer's computed texture
 uniform sampler2D u_ramp;         // 256 x 1 sRGB: the colour ramp
-uniform int u_computed_mode;      // 0 photo, 1 ramp, 2 modulate (ComputedMode)
-uniform vec2 u_computed_range;    // modulate: b_min, b_max
+uniform int u_computed_mode;      // 0 photo, 1 ramp, 2 modulate, 3 emphasis (ComputedMode)
+uniform vec2 u_computed_range;    // modulate, emphasis: b_min, b_max
+uniform vec4 u_emphasis;          // emphasis: the yellow (linear) and its weight at v = 1
 flat in int v_material;
 flat in uint v_feature;
 flat in uint v_style;
@@ -103,8 +104,13 @@ void main() {
         c = texture(u_texture, v_uv);
         if (u_computed_mode != 0) {
             float v = texture(u_computed, v_uv_computed).r;
-            if (u_computed_mode == 1) c.rgb = texture(u_ramp, vec2((v * 255.0 + 0.5) / 256.0, 0.5)).rgb;
-            else c.rgb *= min(1.0, u_computed_range.x + v * (u_computed_range.y - u_computed_range.x));
+            if (u_computed_mode == 1) {
+                c.rgb = texture(u_ramp, vec2((v * 255.0 + 0.5) / 256.0, 0.5)).rgb;
+            } else {
+                if (u_computed_mode == 3) c.rgb = mix(vec3(dot(c.rgb, vec3(0.2126, 0.7152, 0.0722))), c.rgb, v);
+                c.rgb *= min(1.0, u_computed_range.x + v * (u_computed_range.y - u_computed_range.x));
+                if (u_computed_mode == 3) c.rgb = mix(c.rgb, u_emphasis.rgb, u_emphasis.a * v);
+            }
         }
     } else {
         c = vec4(vec3(u_grey), 1.0);
@@ -851,6 +857,8 @@ FrameStats GlRenderer::endFrame() {
     glBindTexture(GL_TEXTURE_2D, ramp_texture_);
     glActiveTexture(GL_TEXTURE0);
     glUniform2f(glGetUniformLocation(program_, "u_computed_range"), computed_style_.b_min, computed_style_.b_max);
+    glUniform4f(glGetUniformLocation(program_, "u_emphasis"), kEmphasisYellow[0], kEmphasisYellow[1], kEmphasisYellow[2],
+                kEmphasisYellowWeight);
     bound_computed_ = 0;
     glUniform1i(glGetUniformLocation(program_, "u_styled"), styled ? 1 : 0);
     glUniform1i(glGetUniformLocation(program_, "u_tinted"), tinted ? 1 : 0);

@@ -103,7 +103,7 @@ R=(--frames 30 --every 30 --size 320x180 -q)
 "$CITYATLAS" render comp -o sky "${R[@]}" --wait --computed sky_view > /dev/null || fail "render --computed sky_view failed"
 total=$(json comp/tileset.json "sum(c['bytes'] for c in j['extras']['cityatlas']['computed'])")
 budget=$(( $(du -sb comp/geometry comp/atlas comp/textures comp/computed | awk '{s+=$1} END {print s}') / 5 ))
-"$CITYATLAS" render comp -o tight "${R[@]}" --computed sun_hours --computed-mode modulate --budget "$budget" > /dev/null ||
+"$CITYATLAS" render comp -o tight "${R[@]}" --computed visibility --computed-mode emphasis --budget "$budget" > /dev/null ||
   fail "render with a tight budget failed"
 for d in photo sky tight; do validate_json $d/report.json "$SRC/schemas/render_report.schema.json"; done
 check_eq "computed requests with none shown" 0 "$(json photo/report.json "sum(f['requests']['computed'] for f in j['frames'])")"

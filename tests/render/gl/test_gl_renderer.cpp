@@ -1179,7 +1179,7 @@ CompressedTexture computedQuadrants() {
     return t;
 }
 
-// M3 and M4 (issue 19; papers/000 Fig. 20): the photo render against the same
+// M3 and M4 (issue 19; papers/000 Fig. 20), and Fig. 34's emphasis: the photo render against the same
 // quad with its computed texture, at pixels one computed texel (4 px) away
 // from the quadrants' edges, where bilinear filtering reads one value.
 TEST_F(GlTest, ComputedTextureRampAndModulateFollowTheirFormulas) {
@@ -1225,9 +1225,10 @@ TEST_F(GlTest, ComputedTextureRampAndModulateFollowTheirFormulas) {
     const std::vector<uint8_t> ramped = draw({ComputedMode::Ramp}, &computed);
     const std::vector<uint8_t> modulated = draw({ComputedMode::Modulate, 0.0F, 1.0F}, &computed);
     const std::vector<uint8_t> bright = draw({ComputedMode::Modulate, 0.3F, 1.2F}, &computed);
+    const std::vector<uint8_t> emphasis = draw({ComputedMode::Emphasis, 0.3F, 1.0F}, &computed);
     const std::vector<uint8_t> photo_mode = draw({ComputedMode::Photo}, &computed);
     const std::vector<uint8_t> missing = draw({ComputedMode::Ramp}, nullptr);
-    int checked = 0, ramp_255_exact = 0, worst_ramp = 0, worst_modulate = 0, worst_bright = 0;
+    int checked = 0, ramp_255_exact = 0, worst_ramp = 0, worst_modulate = 0, worst_bright = 0, worst_emphasis = 0;
     for (int y = 0; y < kSize; ++y)
         for (int x = 0; x < kSize; ++x) {
             const Rgba p = pixelAt(plain, kSize, x, y);
@@ -1248,15 +1249,28 @@ TEST_F(GlTest, ComputedTextureRampAndModulateFollowTheirFormulas) {
                             linearToByte(byteToLinear(static_cast<uint8_t>(p.b)) * f), 255};
             worst_modulate = std::max(worst_modulate, maxRgbDiff(pixelAt(modulated, kSize, x, y), want));
             if (v == 255) worst_bright = std::max(worst_bright, maxRgbDiff(pixelAt(bright, kSize, x, y), p));
+            // Fig. 34's emphasis, by its definition: saturation by v, brightness min(1, 0.3 + 0.7 v), yellow 0.15 v.
+            const double lin[3] = {byteToLinear(static_cast<uint8_t>(p.r)), byteToLinear(static_cast<uint8_t>(p.g)),
+                                   byteToLinear(static_cast<uint8_t>(p.b))};
+            const double grey = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2];
+            const double yellow[3] = {1.0, 0.8, 0.1};
+            int e[3];
+            for (int k = 0; k < 3; ++k) {
+                const double saturated = grey + (lin[k] - grey) * f;
+                const double bright_k = saturated * std::min(1.0, 0.3 + 0.7 * f);
+                e[k] = linearToByte(bright_k + (yellow[k] - bright_k) * 0.15 * f);
+            }
+            worst_emphasis = std::max(worst_emphasis, maxRgbDiff(pixelAt(emphasis, kSize, x, y), {e[0], e[1], e[2], 255}));
         }
     std::printf("computed: %d pixels checked; ramp within %d (value 1: %d pixels exactly LUT[255]), modulate within %d, "
-                "b_max >= 1 at value 1 within %d\n",
-                checked, worst_ramp, ramp_255_exact, worst_modulate, worst_bright);
+                "b_max >= 1 at value 1 within %d, emphasis within %d\n",
+                checked, worst_ramp, ramp_255_exact, worst_modulate, worst_bright, worst_emphasis);
     EXPECT_GT(checked, 2000);
     EXPECT_EQ(ramp_255_exact, 64 * 29);  // M4: every value-1 pixel is LUT[255] exactly (rows 0..28)
     EXPECT_LE(worst_ramp, 1);
     EXPECT_LE(worst_modulate, 1);        // M3, b_min 0 and b_max 1: photo x v
     EXPECT_LE(worst_bright, 1);          // M3, b_max >= 1 where the value is 1: the photo
+    EXPECT_LE(worst_emphasis, 1);        // Fig. 34 at the values 0, 128/255 and 1
     r->release(&mesh);
     r->release(&photo);
     r->release(&computed);
