@@ -633,26 +633,36 @@ private:
 
 }  // namespace
 
-Status writeCanvas(const AtlasCanvas& c, const fs::path& path) {
+Status writeFloatImage(const fs::path& path, int w, int h, const std::vector<float>& values) {
     std::ofstream f(path, std::ios::binary);
-    const int32_t size[2] = {c.w, c.h};
+    const int32_t size[2] = {w, h};
     f.write(reinterpret_cast<const char*>(size), sizeof size);
-    f.write(reinterpret_cast<const char*>(c.px.data()), static_cast<std::streamsize>(c.px.size() * sizeof(float)));
+    f.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(values.size() * sizeof(float)));
     f.close();
     if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
     return Status::Ok();
 }
 
-Status readCanvas(const fs::path& path, AtlasCanvas* c) {
+Status readFloatImage(const fs::path& path, int channels, bool allow_empty, const char* what, int* w, int* h,
+                      std::vector<float>* values) {
     std::ifstream f(path, std::ios::binary);
     int32_t size[2] = {0, 0};
     f.read(reinterpret_cast<char*>(size), sizeof size);
-    if (!f || size[0] <= 0 || size[1] <= 0 || size[0] > 65536 || size[1] > 65536)
-        return Status::Io(fmt::format("{}: not an atlas canvas", path.string()));
-    *c = AtlasCanvas(size[0], size[1]);
-    f.read(reinterpret_cast<char*>(c->px.data()), static_cast<std::streamsize>(c->px.size() * sizeof(float)));
+    const int32_t least = allow_empty ? 0 : 1;
+    if (!f || size[0] < least || size[1] < least || size[0] > 65536 || size[1] > 65536)
+        return Status::Io(fmt::format("{}: not {}", path.string(), what));
+    *w = size[0], *h = size[1];
+    values->assign(static_cast<size_t>(size[0]) * static_cast<size_t>(size[1]) * static_cast<size_t>(channels), 0.0f);
+    f.read(reinterpret_cast<char*>(values->data()), static_cast<std::streamsize>(values->size() * sizeof(float)));
     if (!f || f.peek() != EOF) return Status::Io(fmt::format("{}: truncated or too long", path.string()));
     return Status::Ok();
+}
+
+Status writeCanvas(const AtlasCanvas& c, const fs::path& path) { return writeFloatImage(path, c.w, c.h, c.px); }
+
+Status readCanvas(const fs::path& path, AtlasCanvas* c) {
+    *c = AtlasCanvas{};
+    return readFloatImage(path, 4, false, "an atlas canvas", &c->w, &c->h, &c->px);
 }
 
 Status renderAtlases(const Scene& scene, const AtlasTree& tree, const fs::path& output_dir,

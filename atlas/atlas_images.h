@@ -38,7 +38,15 @@ Status renderAtlases(const Scene& scene, const AtlasTree& tree, const std::files
                      const AtlasProgressFn& progress, RenderResult* result, const AtlasImageSink& sink = {},
                      const GivenHalves* given = nullptr, bool keep_root_halves = false);
 
-/// A canvas as a file of its own (little-endian: int32 w, h, then the floats), exact.
+/// A w x h image of `channels` floats per texel as a file of its own
+/// (little-endian: int32 w, h, then the floats), exact: what a shard hands
+/// the merge (root canvases, computed images). Reading checks the size
+/// (0 allowed with `allow_empty`) and the length; errors name the file as `what`.
+Status writeFloatImage(const std::filesystem::path& path, int w, int h, const std::vector<float>& values);
+Status readFloatImage(const std::filesystem::path& path, int channels, bool allow_empty, const char* what, int* w,
+                      int* h, std::vector<float>* values);
+
+/// A canvas as a float image (above).
 Status writeCanvas(const AtlasCanvas& canvas, const std::filesystem::path& path);
 Status readCanvas(const std::filesystem::path& path, AtlasCanvas* canvas);
 

@@ -2,7 +2,6 @@
 #include "atlas/computed_layers.h"
 
 #include <cmath>
-#include <fstream>
 #include <memory>
 
 #include <tbb/task_arena.h>
@@ -10,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "atlas/atlas_images.h"
 #include "atlas/sky_view.h"
 #include "atlas/sun_hours.h"
 
@@ -146,26 +146,11 @@ Status computeTreeImages(const AtlasTree& tree, int scale, const SurfaceField& f
 }
 
 Status writeScalarImage(const ScalarImage& image, const fs::path& path) {
-    std::ofstream f(path, std::ios::binary);
-    const int32_t size[2] = {image.width, image.height};
-    f.write(reinterpret_cast<const char*>(size), sizeof size);
-    f.write(reinterpret_cast<const char*>(image.value.data()), static_cast<std::streamsize>(image.value.size() * sizeof(float)));
-    f.close();
-    if (!f) return Status::Io(fmt::format("{}: cannot write", path.string()));
-    return Status::Ok();
+    return writeFloatImage(path, image.width, image.height, image.value);
 }
 
 Status readScalarImage(const fs::path& path, ScalarImage* out) {
-    std::ifstream f(path, std::ios::binary);
-    int32_t size[2] = {0, 0};
-    f.read(reinterpret_cast<char*>(size), sizeof size);
-    if (!f || size[0] < 0 || size[1] < 0 || size[0] > 65536 || size[1] > 65536)
-        return Status::Io(fmt::format("{}: not a computed image", path.string()));
-    out->width = size[0], out->height = size[1];
-    out->value.resize(static_cast<size_t>(size[0]) * static_cast<size_t>(size[1]));
-    f.read(reinterpret_cast<char*>(out->value.data()), static_cast<std::streamsize>(out->value.size() * sizeof(float)));
-    if (!f || f.peek() != EOF) return Status::Io(fmt::format("{}: truncated or too long", path.string()));
-    return Status::Ok();
+    return readFloatImage(path, 1, true, "a computed image", &out->width, &out->height, &out->value);
 }
 
 }  // namespace cityatlas::atlas

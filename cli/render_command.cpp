@@ -630,7 +630,7 @@ RunFn addRenderCommand(CLI::App& app) {
                   "(little-endian, top row first), the building index drawn at each pixel, 0xFFFFFFFF for none; "
                   "with --picks, each pick also gives the id buffer's value at its pixel");
     cmd->add_option("--computed", opt->computed,
-                    "Show a computed texture of the folder (build --computed: sky_view, sun_hours, shadow) on its "
+                    "Show a computed texture of the folder (build --computed: sky_view, sun_hours, shadow, visibility) on its "
                     "textured surfaces; only its blocks are loaded, under the same budget, and a node shows the photo "
                     "until they arrive");
     cmd->add_option("--computed-mode", opt->computed_mode,

@@ -5,12 +5,15 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <vector>
 
 #include "core/geometry.h"
 #include "core/status.h"
 #include "ingest/citygml/citygml_reader.h"
 #include "ingest/scene_sink.h"
+#include "ingest/synth/town.h"
 
 namespace cityatlas::test {
 
@@ -31,6 +34,28 @@ inline void addBox(const Vec3d& lo, const Vec3d& hi, Triangles* out) {
 inline Vec3d normalOf(const std::array<Vec3d, 3>& p) {
     const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);
     return (1.0 / length(n)) * n;
+}
+
+/// A building's top: base + ridge.
+inline double topOf(const synth::SynthBuilding& b) { return b.base_height_m + b.ridge_height_m; }
+
+/// The first synthetic town of seeds 1..39 (`buildings`, `texture_px`) whose
+/// tallest building (the first of equals) `accept` takes, with that
+/// building's index; nullopt when none does.
+inline std::optional<std::pair<synth::Town, size_t>> townWithTallest(
+    uint32_t buildings, int texture_px, const std::function<bool(const synth::Town&, size_t tallest)>& accept) {
+    for (uint64_t seed = 1; seed < 40; ++seed) {
+        synth::TownSettings s;
+        s.buildings = buildings;
+        s.seed = seed;
+        s.texture_size_px = texture_px;
+        synth::Town town = synth::generateTown(s);
+        size_t tallest = 0;
+        for (size_t i = 1; i < town.buildings.size(); ++i)
+            if (topOf(town.buildings[i]) > topOf(town.buildings[tallest])) tallest = i;
+        if (accept(town, tallest)) return std::pair{std::move(town), tallest};
+    }
+    return std::nullopt;
 }
 
 /// A CityGML file read into a Scene with the default options.

@@ -16,6 +16,7 @@
 #include "atlas/sky_view.h"
 #include "ingest/synth/town.h"
 #include "ingest/synth/write_town.h"
+#include "tests/atlas/scenes.h"
 
 namespace cityatlas::atlas {
 namespace {
@@ -30,31 +31,27 @@ struct TownTree {
 // A town whose tallest building has a flat textured roof (T1 needs one), its atlas
 // tree with unique charts (structure only: no texture is read).
 TownTree flatTallestTown() {
-    for (uint64_t seed = 1; seed < 40; ++seed) {
-        synth::TownSettings s;
-        s.buildings = 30;
-        s.seed = seed;
-        s.texture_size_px = 64;
-        TownTree c;
-        c.town = synth::generateTown(s);
-        const auto& b = c.town.buildings;
-        auto top = [&](size_t i) { return b[i].base_height_m + b[i].ridge_height_m; };
-        for (size_t i = 1; i < b.size(); ++i)
-            if (top(i) > top(c.tallest)) c.tallest = i;
-        // Flat and paved: an untextured roof has no atlas texels, so no computed ones.
-        if (b[c.tallest].roof != synth::RoofType::Flat || b[c.tallest].roof_texture < 0) continue;
-        c.scene = synth::townToScene(c.town, "/nonexistent");
-        AtlasParams p;
-        p.render_images = false;
-        p.unique_charts = true;
-        p.d_min_m = 150;
-        Diagnostics diagnostics;
-        const Status st = buildAtlasTree(c.scene, p, {}, diagnostics, {}, &c.tree);
-        EXPECT_TRUE(st.ok()) << st.error;
-        return c;
+    // Flat and paved: an untextured roof has no atlas texels, so no computed ones.
+    auto found = test::townWithTallest(30, 64, [](const synth::Town& town, size_t tallest) {
+        const synth::SynthBuilding& b = town.buildings[tallest];
+        return b.roof == synth::RoofType::Flat && b.roof_texture >= 0;
+    });
+    if (!found) {
+        ADD_FAILURE() << "no seed in 1..39 gives a flat paved tallest building";
+        return {};
     }
-    ADD_FAILURE() << "no seed in 1..39 gives a flat paved tallest building";
-    return {};
+    TownTree c;
+    c.town = std::move(found->first);
+    c.tallest = found->second;
+    c.scene = synth::townToScene(c.town, "/nonexistent");
+    AtlasParams p;
+    p.render_images = false;
+    p.unique_charts = true;
+    p.d_min_m = 150;
+    Diagnostics diagnostics;
+    const Status st = buildAtlasTree(c.scene, p, {}, diagnostics, {}, &c.tree);
+    EXPECT_TRUE(st.ok()) << st.error;
+    return c;
 }
 
 const TownTree& town() {

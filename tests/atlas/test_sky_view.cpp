@@ -82,29 +82,30 @@ struct TownCase {
 
 // A town whose tallest building has a flat roof (T1 needs one), and its caster.
 TownCase flatTallestTown() {
-    for (uint64_t seed = 1; seed < 40; ++seed) {
-        synth::TownSettings s;
-        s.buildings = 80;
-        s.seed = seed;
-        s.texture_size_px = 16;
-        TownCase c;
-        c.town = synth::generateTown(s);
-        const auto& b = c.town.buildings;
-        auto top = [&](size_t i) { return b[i].base_height_m + b[i].ridge_height_m; };
-        for (size_t i = 1; i < b.size(); ++i)
-            if (top(i) > top(c.tallest)) c.tallest = i;
-        if (b[c.tallest].roof != synth::RoofType::Flat) continue;
-        for (size_t i = 0; i < b.size(); ++i)
-            if (i != c.tallest) c.others_top = std::max(c.others_top, top(i));
-        if (c.others_top >= top(c.tallest) - 1) continue;  // T2 needs a band of wall above the rest
-        c.scene = synth::townToScene(c.town, "/nonexistent");
-        std::vector<std::array<Vec3d, 3>> tris;
-        for (const Triangle& t : c.scene.triangles) tris.push_back(t.position_local);
-        c.caster = RayCaster::build(tris);
-        return c;
+    // T2 needs a band of the tallest building's wall above every other building.
+    auto othersTop = [](const synth::Town& town, size_t tallest) {
+        double top = -1e300;
+        for (size_t i = 0; i < town.buildings.size(); ++i)
+            if (i != tallest) top = std::max(top, test::topOf(town.buildings[i]));
+        return top;
+    };
+    auto found = test::townWithTallest(80, 16, [&](const synth::Town& town, size_t tallest) {
+        const synth::SynthBuilding& b = town.buildings[tallest];
+        return b.roof == synth::RoofType::Flat && othersTop(town, tallest) < test::topOf(b) - 1;
+    });
+    if (!found) {
+        ADD_FAILURE() << "no seed in 1..39 gives a flat tallest building";
+        return {};
     }
-    ADD_FAILURE() << "no seed in 1..39 gives a flat tallest building";
-    return {};
+    TownCase c;
+    c.town = std::move(found->first);
+    c.tallest = found->second;
+    c.others_top = othersTop(c.town, c.tallest);
+    c.scene = synth::townToScene(c.town, "/nonexistent");
+    std::vector<std::array<Vec3d, 3>> tris;
+    for (const Triangle& t : c.scene.triangles) tris.push_back(t.position_local);
+    c.caster = RayCaster::build(tris);
+    return c;
 }
 
 // Points strictly inside a triangle: a barycentric grid of k steps a side.

@@ -44,7 +44,6 @@ window = (five(52), six(64), five(80))
 assert window == (49, 65, 82), window
 # The cells as the folder stores them: each texture's level 0 (BC1, 32 x 32)
 # decoded here, by BC1's definition, independently of the code that drew them.
-def rgb(c): return ((c >> 11 & 31) * 255 + 15) // 31, ((c >> 5 & 63) * 255 + 31) // 63, ((c & 31) * 255 + 15) // 31
 def expand(c): r, g, b = c >> 11 & 31, c >> 5 & 63, c & 31; return ((r << 3) | (r >> 2), (g << 2) | (g >> 4), (b << 3) | (b >> 2))
 def bc1(data, w, h):
     img = [[None] * w for _ in range(h)]
