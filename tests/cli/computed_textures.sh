@@ -30,10 +30,6 @@ for bad in "sky_vieww" "sky_view:scale=3" "sky_view:directions=0" "shadow" "shad
   [ ! -e never ] || fail "--computed $bad left a folder"
 done
 echo "ok: 10 bad --computed values are one-line usage errors: $(head -c 120 err.txt)"
-rc=0
-"$CITYATLAS" build -q town/town.gml -o never --computed sky_view --format both > out.txt 2> err.txt || rc=$?
-[ $rc -eq 2 ] && grep -q "not supported yet" err.txt && [ ! -e never ] || { cat err.txt >&2; fail "--computed with --format both: exit $rc"; }
-echo "ok: --computed with --format both is refused before reading: $(cat err.txt)"
 
 # 2. Built and inspected.
 "$CITYATLAS" build -q town/town.gml -o plain "${COMMON[@]}" --workers 0 > /dev/null || fail "plain build failed"
