@@ -22,6 +22,7 @@
 #include <tbb/task_arena.h>
 
 #include "cityatlas_version.h"
+#include "format/dds.h"
 #include "format/glb_reader.h"
 #include "format/tileset_document.h"
 #include "ingest/gltf_debug.h"
@@ -35,7 +36,7 @@ using nlohmann::json;
 
 constexpr int kFloat = 5126, kUnsignedInt = 5125, kUnsignedShort = 5123;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-constexpr int kClampToEdge = 33071, kLinear = 9729, kLinearMipmapLinear = 9987;
+constexpr int kClampToEdge = 33071, kNearest = 9728, kLinear = 9729, kLinearMipmapLinear = 9987;
 constexpr float kNeutralGrey = 0.5F;  // a layer without an atlas (the native client's neutral grey)
 
 // glTF JSON and its binary chunk, built side by side.
@@ -120,7 +121,23 @@ AttributeColumns attributeColumns(const std::vector<Feature>& features) {
     return c;
 }
 
-json metadataSchema(const AttributeColumns& columns) {
+// The computed textures' property ids (EXT_structural_metadata: ^[a-zA-Z_][a-zA-Z0-9_]*$),
+// the model's name, numbered from the second of one model on.
+std::vector<std::string> computedPropertyIds(const std::vector<format::ComputedTextureEntry>& computed) {
+    std::set<std::string> taken;
+    std::vector<std::string> ids;
+    for (const format::ComputedTextureEntry& c : computed) {
+        std::string id;
+        for (const char ch : c.name) id.push_back(std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_');
+        std::string unique = id;
+        for (int k = 2; !taken.insert(unique).second; ++k) unique = fmt::format("{}_{}", id, k);
+        ids.push_back(unique);
+    }
+    return ids;
+}
+
+json metadataSchema(const AttributeColumns& columns, const std::vector<format::ComputedTextureEntry>& computed,
+                    const std::vector<std::string>& computed_ids) {
     json props = {
         {"gml_id", {{"type", "STRING"}, {"name", "gml:id"}}},
         {"name", {{"type", "STRING"}, {"name", "name"}}},
@@ -133,8 +150,24 @@ json metadataSchema(const AttributeColumns& columns) {
     for (const auto& [key, id] : columns.columns) props[id] = {{"type", "STRING"}, {"name", key}};
     if (columns.other)
         props["other_attributes"] = {{"type", "STRING"}, {"name", "other attributes (JSON)"}};
-    return {{"id", "cityatlas"},
-            {"classes", {{"building", {{"name", "Building"}, {"properties", props}}}}}};
+    json classes = {{"building", {{"name", "Building"}, {"properties", props}}}};
+    // Computed textures (issue 19): a value per surface point, stored as UINT8
+    // codes that offset and scale map to the computed texture's range.
+    if (!computed.empty()) {
+        json surface = json::object();
+        for (size_t c = 0; c < computed.size(); ++c)
+            surface[computed_ids[c]] = {
+                {"type", "SCALAR"},
+                {"componentType", "UINT8"},
+                {"normalized", true},
+                {"offset", computed[c].range[0]},
+                {"scale", computed[c].range[1] - computed[c].range[0]},
+                {"name", computed[c].name},
+                {"description", fmt::format("cityatlas computed texture {} {} (1/{} of the atlas's texels per axis)",
+                                            computed[c].name, computed[c].parameters_json, computed[c].scale)}};
+        classes["surface"] = {{"name", "Surface point"}, {"properties", surface}};
+    }
+    return {{"id", "cityatlas"}, {"classes", classes}};
 }
 
 // One STRING column: the UTF-8 values back to back and count + 1 UINT32 offsets.
@@ -192,6 +225,7 @@ json propertyTable(GltfBuilder& g, const std::vector<Feature>& all, const Attrib
 
 struct TileResult {
     uint64_t bytes = 0, image_bytes = 0, triangles = 0, primitives = 0, images = 0, originals = 0;
+    uint64_t computed_images = 0, computed_bytes = 0;  ///< property textures (also in images, image_bytes)
     double rounding_m = 0, native_error_m = 0, image_seconds = 0;
     bool content = false;
     std::string error;
@@ -223,6 +257,9 @@ struct ExportContext {
     /// textures they name (texture_blocks.h).
     const std::vector<std::vector<int32_t>>& leaf_textures;
     const std::vector<std::vector<int32_t>>& leaf_tiles;
+    /// The folder's computed textures (tileset.json), and their property ids.
+    const std::vector<format::ComputedTextureEntry>& computed;
+    std::vector<std::string> computed_ids;
 };
 
 WebImageParams imageParams(const Tiles3dParams& p) { return {p.textures, p.jpeg_quality, p.basisu}; }
@@ -239,23 +276,27 @@ struct Look {
 // and (close range) the original textures, each with the sampler its wrap needs.
 struct TextureTable {
     GltfBuilder& g;
-    std::map<int, int> samplers;             // glTF wrap -> sampler
+    std::map<std::pair<int, bool>, int> samplers;  // (glTF wrap, nearest) -> sampler
     std::map<std::pair<int, int32_t>, int> textures;  // (layer, Look::image) -> glTF texture; originals use layer -1
     const char* image_extension = nullptr;   // EXT_texture_webp / KHR_texture_basisu when used
 
-    int add(const WebImage& image, int wrap) {
+    int add(const WebImage& image, int wrap, bool nearest = false) {
         g.doc["images"].push_back({{"bufferView", g.viewOf(image.bytes)}, {"mimeType", image.mime}});
-        return texture(image.mime, wrap);
+        return texture(image.mime, wrap, nearest);
     }
     int addShared(const SharedImage& image, int wrap) {
         g.doc["images"].push_back({{"uri", image.uri}, {"mimeType", image.mime}});
         return texture(image.mime, wrap);
     }
     // A texture of the image just added.
-    int texture(const std::string& mime, int wrap) {
-        const auto [it, added] = samplers.emplace(wrap, static_cast<int>(samplers.size()));
+    // `nearest`: a property texture's (EXT_structural_metadata: filtering NEAREST or undefined).
+    int texture(const std::string& mime, int wrap, bool nearest = false) {
+        const auto [it, added] = samplers.emplace(std::pair{wrap, nearest}, static_cast<int>(samplers.size()));
         if (added)
-            g.doc["samplers"].push_back({{"magFilter", kLinear}, {"minFilter", kLinearMipmapLinear}, {"wrapS", wrap}, {"wrapT", wrap}});
+            g.doc["samplers"].push_back({{"magFilter", nearest ? kNearest : kLinear},
+                                         {"minFilter", nearest ? kNearest : kLinearMipmapLinear},
+                                         {"wrapS", wrap},
+                                         {"wrapT", wrap}});
         const size_t source = g.doc["images"].size() - 1;
         // WebP and KTX2 are not core glTF image types: through their extensions, without fallback.
         if (mime == "image/webp") {
@@ -289,6 +330,21 @@ Status webImage(const fs::path& source, int channels, const Tiles3dParams& param
     r.image_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (st.ok()) r.image_bytes += out->bytes.size(), ++r.images;
     return st;
+}
+
+// Level 0 of a computed texture file (BC4, tiles/computed_files.h), decoded.
+Status readComputedLevel0(const fs::path& path, format::Image8* out) {
+    std::vector<uint8_t> bytes;
+    if (Status st = readBytes(path, &bytes); !st.ok()) return st;
+    format::DdsInfo info;
+    if (Status st = format::parseDdsHeader(bytes.data(), bytes.size(), &info); !st.ok())
+        return Status::Io(fmt::format("{}: {}", path.string(), st.error));
+    if (info.channels != 1 || bytes.size() < info.expected_bytes)
+        return Status::Io(fmt::format("{}: not a BC4 computed texture of {} bytes", path.string(), info.expected_bytes));
+    const auto first = bytes.begin() + static_cast<std::ptrdiff_t>(info.header_bytes);
+    const std::vector<uint8_t> blocks(first, first + static_cast<std::ptrdiff_t>(format::bcBlockBytes(info.width, info.height, 1)));
+    *out = format::decodeBc(blocks, info.width, info.height, 1);
+    return Status::Ok();
 }
 
 // One tile's GLB: node `entry`'s layers with their atlases, or with
@@ -343,6 +399,36 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             ++r.originals;
         }
         if (original_texture.empty()) return r;  // nothing the leaf itself does not draw: no close-range tile
+    }
+    // Computed textures (issue 19): one property texture per layer
+    // (EXT_structural_metadata) over the atlas's coordinates, each computed
+    // file's level 0 as a grey PNG (lossless: the codes the native client samples).
+    std::array<int, format::kTileLayers> property_texture{-1, -1};
+    json property_textures = json::array();
+    for (int li = 0; li < format::kTileLayers && !originals; ++li) {
+        const auto& layer = entry.layers[static_cast<size_t>(li)];
+        if (!meshes[static_cast<size_t>(li)] || !layer || !layer->atlas) continue;
+        json props = json::object();
+        for (size_t c = 0; c < x.computed.size() && c < layer->computed.size(); ++c) {
+            const std::string& uri = layer->computed[c].file.uri;
+            if (uri.empty()) continue;
+            format::Image8 values;
+            WebImage png;
+            Status st = readComputedLevel0(x.native_dir / uri, &values);
+            if (st.ok())
+                st = encodeWebImage(values, {WebTextures::Png, 100, {}},
+                                    out_path.parent_path() / fmt::format(".{}-{}-c{}", entry.id, li, c), &png);
+            if (!st.ok()) {
+                r.error = st.error;
+                return r;
+            }
+            ++r.images, ++r.computed_images;
+            r.image_bytes += png.bytes.size(), r.computed_bytes += png.bytes.size();
+            props[x.computed_ids[c]] = {{"index", table.add(png, kClampToEdge, true)}, {"texCoord", 0}, {"channels", {0}}};
+        }
+        if (props.empty()) continue;
+        property_texture[static_cast<size_t>(li)] = static_cast<int>(property_textures.size());
+        property_textures.push_back({{"class", "surface"}, {"properties", props}});
     }
 
     json primitives = json::array();
@@ -451,6 +537,8 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             }
             p["extensions"]["EXT_mesh_features"] = {
                 {"featureIds", json::array({{{"featureCount", 0}, {"attribute", 0}, {"propertyTable", 0}}})}};
+            if (look.image == Look::kAtlas && property_texture[static_cast<size_t>(li)] >= 0)
+                p["extensions"]["EXT_structural_metadata"] = {{"propertyTextures", {property_texture[static_cast<size_t>(li)]}}};
             primitives.push_back(p);
             r.triangles += indices.size() / 3;
             ++r.primitives;
@@ -463,8 +551,9 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
     g.doc["scenes"] = json::array({{{"nodes", {0}}}});
     g.doc["scene"] = 0;
     g.doc["extensions"]["EXT_structural_metadata"] = {
-        {"schema", metadataSchema(x.columns)},
+        {"schema", metadataSchema(x.columns, x.computed, x.computed_ids)},
         {"propertyTables", json::array({propertyTable(g, x.features, x.columns, features)})}};
+    if (!property_textures.empty()) g.doc["extensions"]["EXT_structural_metadata"]["propertyTextures"] = property_textures;
     json used = {"KHR_materials_unlit", "EXT_mesh_features", "EXT_structural_metadata"};
     if (table.image_extension) {
         used.push_back(table.image_extension);
@@ -604,7 +693,9 @@ Status writeTiles3d(const Tiles3dInputs& in, const fs::path& atlas_dir, const fs
                                             in.texture_index, in.leaf_textures, in.leaf_tiles),
                           {},
                           in.leaf_textures,
-                          in.leaf_tiles};
+                          in.leaf_tiles,
+                          doc.computed,
+                          computedPropertyIds(doc.computed)};
     if (context.plan.textures.size() != doc.textures.size())
         return Status::Internal(fmt::format("3dtiles: the native index has {} textures, the plan {}", doc.textures.size(),
                                             context.plan.textures.size()));
@@ -647,6 +738,8 @@ Status writeTiles3d(const Tiles3dInputs& in, const fs::path& atlas_dir, const fs
             stats.max_float_rounding_m = std::max(stats.max_float_rounding_m, r.rounding_m);
             stats.max_position_error_m = std::max(stats.max_position_error_m, r.native_error_m + r.rounding_m);
             stats.image_encode_seconds += r.image_seconds;
+            stats.computed_images += r.computed_images;
+            stats.bytes_computed_images += r.computed_bytes;
         }
     for (const TileResult& r : close)
         if (r.content) ++stats.tiles, ++stats.originals_tiles, stats.bytes_originals_glb += r.bytes, stats.original_images += r.originals;

@@ -32,6 +32,10 @@
 /// Picking: EXT_mesh_features (per-vertex feature ids into the tile's own
 /// property table) and EXT_structural_metadata (gml:id, name, height, roof
 /// type, function, source file and the dataset's generic attributes).
+/// Computed textures (`build --computed`) are EXT_structural_metadata
+/// property textures of class "surface" on the atlas-textured primitives:
+/// each file's level 0 as a grey PNG over TEXCOORD_0 (the atlas's
+/// coordinates), UINT8 normalized with offset and scale giving the range.
 ///
 /// Geometry comes from the native GLBs just written (decoded with the format
 /// library), so both formats hold the same triangles.
@@ -68,6 +72,8 @@ struct Tiles3dStats {
     uint64_t original_images = 0;      ///< original textures embedded, summed over those tiles
     uint64_t shared_images = 0;        ///< originals several of them use, written once under textures/
     uint64_t bytes_shared_images = 0;  ///< those files
+    uint64_t computed_images = 0;      ///< computed textures as property textures (grey PNG), all tiles
+    uint64_t bytes_computed_images = 0;  ///< their bytes (also in bytes_images)
     double max_float_rounding_m = 0;  ///< float32(position - centre) against the double value, all vertices
     double max_position_error_m = 0;  ///< the native files' measured error plus the float32 rounding
     double seconds = 0, image_encode_seconds = 0;

@@ -5,7 +5,7 @@
 #     folder, byte for byte (build_report.json aside), as the local build with
 #     worker processes; the report says 4+ shards and lists their costs;
 #     one shard (the default for a small town) through the jobs gives the
-#     single-process build's folder;
+#     single-process build's folder, with --format both its 3D Tiles export too;
 #  2. without --wait the build returns at once with the job ids, and the folder
 #     appears when the merge job ends;
 #  3. a failing shard job: the merge job is cancelled (afterok never holds),
@@ -48,12 +48,14 @@ diff -r -q --exclude build_report.json local elsewhere > diff.txt || { head diff
   fail "jobs started in / warn more than the local build (textures not found?)"
 echo "ok: jobs started in / (sbatch --chdir=/) give the local build's folder"
 
-# One shard through the plan, a shard job and the merge is the single-process build.
-"$CITYATLAS" build -q town/town.gml -o single > /dev/null || fail "the single-shard build failed"
-"$CITYATLAS" build -q town/town.gml -o one_job --slurm --wait > /dev/null || fail "build --slurm --wait with one shard failed"
+# One shard through the plan, a shard job and the merge is the single-process
+# build, its 3D Tiles export included (the merge job exports after the merge).
+"$CITYATLAS" build -q town/town.gml -o single --format both > /dev/null || fail "the single-shard build failed"
+"$CITYATLAS" build -q town/town.gml -o one_job --format both --slurm --wait > /dev/null || fail "build --slurm --wait with one shard failed"
 check_eq "shards of the default build" 1 "$(json one_job/build_report.json "j['shards']['count']")"
+[ -f one_job/3dtiles/tileset.json ] || fail "the Slurm merge job wrote no 3D Tiles export"
 diff -r -q --exclude build_report.json --exclude .cityatlas-cache single one_job > /dev/null || fail "one shard on Slurm differs from the single-process build"
-echo "ok: one shard on Slurm (plan, shard job, merge) equals the single-process build"
+echo "ok: one shard on Slurm (plan, shard job, merge) equals the single-process build, 3dtiles/ included ($(find one_job/3dtiles -type f | wc -l) files)"
 
 # 2. Submitted without waiting: returns with the job ids; the folder comes later.
 "$CITYATLAS" build -q town/town.gml -o later --shard-triangles 1000 --slurm > later.out || fail "build --slurm failed"

@@ -10,10 +10,15 @@
 #     against the native DDS of the same node decoded by Pillow (an
 #     independent BC1/BC3 decoder), its PSNR is the one the native tileset
 #     records for that DDS (within 0.5 dB); another node's atlas fails that;
-#  3. a one-shard build through plan, shard and merge (forced by --computed)
-#     exports the same 3dtiles/ as the in-process build, byte for byte
-#     (tileset.json aside from its tilesetVersion: the build hash);
-#  4. --format 3dtiles through shards leaves no native file and no PNG.
+#  3. (cli.build_slurm: one shard through plan, shard job and merge exports
+#     the in-process build's 3dtiles/ byte for byte);
+#  4. with --computed (a plan, shards and a merge even at one shard) the
+#     export validates, and computed textures (issue 19) are
+#     EXT_structural_metadata property textures: per node layer a NEAREST
+#     grey PNG on the atlas primitives only,
+#     equal to the native BC4 file's level 0 as an independent BC4 decoder
+#     (here, by its definition) reads it, offset and scale giving the range;
+#  5. --format 3dtiles through shards leaves no native file and no PNG.
 source "$(dirname "$0")/lib.sh" "$@"
 ensure_gltf_validator
 "$CITYATLAS" synth -q --buildings 60 --seed 5 --texture-size 64 -o town > /dev/null
@@ -105,21 +110,85 @@ assert wrong < 20, f"node {other[0]}'s atlas against the root's DDS: {wrong:.2f}
 print(f"ok: {checked} embedded atlases each match their own node's DDS (PSNR within {worst:.2f} dB of the recorded one); another node's: {wrong:.1f} dB")
 PY
 
-# 3.
-"$CITYATLAS" build -q town/town.gml -o single --d-min 30 --format both > /dev/null || fail "the in-process build failed"
-"$CITYATLAS" build -q town/town.gml -o planned --d-min 30 --format both --computed sky_view:directions=8 > /dev/null \
-  || fail "the one-shard plan/shard/merge build failed"
-check_eq "the planned build's shards" 1 "$(json planned/build_report.json "j['shards']['count']")"
-diff -r -q --exclude tileset.json single/3dtiles planned/3dtiles > diff.txt || { head diff.txt >&2; fail "plan/shard/merge exports other files than the in-process build"; }
-"$PY" - single/3dtiles/tileset.json planned/3dtiles/tileset.json <<'PY' || fail "the two tileset.json differ beyond tilesetVersion"
-import json, sys
-a, b = (json.load(open(p)) for p in sys.argv[1:])
-for j in (a, b): j["asset"].pop("tilesetVersion")
-assert a == b
-PY
-echo "ok: one shard through plan, shard and merge exports the in-process build's 3dtiles/ byte for byte ($(find planned/3dtiles -type f | wc -l) files)"
-
 # 4.
+"$CITYATLAS" build -q town/town.gml -o planned --d-min 30 --format both --computed sky_view:directions=8 > /dev/null \
+  || fail "a --computed --format both build failed"
+validate_export planned "one shard with computed textures"
+
+"$PY" - planned <<'PY' || fail "the property textures do not carry the native computed textures"
+import io, json, struct, sys
+from PIL import Image
+folder = sys.argv[1]
+native = json.load(open(f"{folder}/tileset.json"))
+computed = native["extras"]["cityatlas"]["computed"]
+assert [c["name"] for c in computed] == ["sky_view"], computed
+def walk(t, out):
+    e = t["extras"]["cityatlas"]; out[e["id"]] = e
+    for k in t.get("children", []): walk(k, out)
+    return out
+tiles = walk(native["root"], {})
+def bc4(data, w, h):  # BC4 (RGTC1) level 0 by its definition, independent of the writer's decoder
+    out = [[0] * w for _ in range(h)]
+    bw = (w + 3) // 4
+    for b in range(bw * ((h + 3) // 4)):
+        blk = data[8 * b:8 * b + 8]
+        r0, r1 = blk[0], blk[1]
+        pal = [r0, r1] + ([((7 - i) * r0 + i * r1) / 7 for i in range(1, 7)] if r0 > r1
+                          else [((5 - i) * r0 + i * r1) / 5 for i in range(1, 5)] + [0, 255])
+        bits = int.from_bytes(blk[2:8], "little")
+        for k in range(16):
+            x, y = (b % bw) * 4 + k % 4, (b // bw) * 4 + k // 4
+            if x < w and y < h: out[y][x] = pal[(bits >> (3 * k)) & 7]
+    return out
+checked = exact = texels = 0
+worst = 0.0
+for node, e in sorted(tiles.items()):
+    b = open(f"{folder}/3dtiles/tiles/{node}.glb", "rb").read()
+    n = struct.unpack_from("<I", b, 12)[0]
+    doc, bin_ = json.loads(b[20:20 + n]), b[20 + n + 8:]
+    meta = doc["extensions"]["EXT_structural_metadata"]
+    prop = meta["schema"]["classes"]["surface"]["properties"]["sky_view"]
+    assert prop["componentType"] == "UINT8" and prop["normalized"] and prop["offset"] == computed[0]["range"][0] \
+        and abs(prop["offset"] + prop["scale"] - computed[0]["range"][1]) < 1e-12, prop
+    textures = meta.get("propertyTextures", [])
+    for layer in ("opaque", "alpha"):
+        files = (e["layers"].get(layer) or {}).get("computed", [])
+        uri = (files[0] or {}).get("uri") if files else None
+        prims = [p for p in doc["meshes"][0]["primitives"] if doc["materials"][p["material"]]["name"] == f"{layer} atlas"]
+        refs = {tuple(p.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTextures", [])) for p in prims}
+        if not uri:
+            assert refs <= {()}, f"node {node} {layer}: property texture without a computed file"
+            continue
+        assert len(refs) == 1 and len(next(iter(refs))) == 1, f"node {node} {layer}: atlas primitives reference {refs}"
+        pt = textures[next(iter(refs))[0]]
+        assert pt["class"] == "surface" and pt["properties"]["sky_view"].get("texCoord", 0) == 0, pt
+        tex = doc["textures"][pt["properties"]["sky_view"]["index"]]
+        sampler = doc["samplers"][tex["sampler"]]
+        assert sampler["magFilter"] == sampler["minFilter"] == 9728, f"node {node}: property texture not NEAREST: {sampler}"
+        v = doc["bufferViews"][doc["images"][tex["source"]]["bufferView"]]
+        png = Image.open(io.BytesIO(bin_[v.get("byteOffset", 0):v.get("byteOffset", 0) + v["byteLength"]]))
+        assert png.mode == "L", png.mode
+        dds = open(f"{folder}/{uri}", "rb").read()
+        h, w = struct.unpack_from("<II", dds, 12)
+        want = bc4(dds[148:], w, h)
+        assert png.size == (w, h), f"node {node} {layer}: {png.size} against {w}x{h}"
+        got = png.load()
+        for y in range(h):
+            for x in range(w):
+                d = abs(got[x, y] - want[y][x])
+                worst = max(worst, d)
+                exact += d < 0.5 + 1e-9
+                texels += 1
+        checked += 1
+    others = [p for p in doc["meshes"][0]["primitives"] if not doc["materials"][p["material"]]["name"].endswith(" atlas")]
+    assert all("EXT_structural_metadata" not in p.get("extensions", {}) for p in others), f"node {node}: a non-atlas primitive has a property texture"
+assert checked >= 20, f"only {checked} property textures"
+assert worst <= 1.0, f"a property texel is {worst} codes off the BC4 decode"
+print(f"ok: {checked} property textures (sky_view, NEAREST, on the atlas primitives only) equal their node's BC4 level 0: "
+      f"every texel within {worst:.2f} of a code ({exact} of {texels} round to it; BC4 interpolates in fractions of a code)")
+PY
+
+# 5.
 for native in tileset.json geometry atlas textures features computed; do
   [ ! -e "png/$native" ] || fail "a sharded --format 3dtiles left the native $native"
 done
