@@ -400,12 +400,17 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
         }
         if (original_texture.empty()) return r;  // nothing the leaf itself does not draw: no close-range tile
     }
-    // Computed textures (issue 19): one property texture per layer
-    // (EXT_structural_metadata) over the atlas's coordinates, each computed
-    // file's level 0 as a grey PNG (lossless: the codes the native client samples).
+    // Computed textures (issue 19): a property texture (EXT_structural_metadata)
+    // over the opaque atlas's coordinates, each computed file's level 0 as a
+    // grey PNG (lossless: the codes the native client samples). Only the
+    // opaque layer's: CesiumJS (1.145) declares every property texture of a
+    // glTF in every primitive's shader, so a second one of the same class
+    // (the alpha layer's) fails to compile there. A close-range tile's
+    // TEXCOORD_0 are original uvs: there the atlas's come as TEXCOORD_1.
+    const int property_uv = originals ? 1 : 0;
     std::array<int, format::kTileLayers> property_texture{-1, -1};
     json property_textures = json::array();
-    for (int li = 0; li < format::kTileLayers && !originals; ++li) {
+    for (int li = 0; li < 1; ++li) {
         const auto& layer = entry.layers[static_cast<size_t>(li)];
         if (!meshes[static_cast<size_t>(li)] || !layer || !layer->atlas) continue;
         json props = json::object();
@@ -424,7 +429,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             }
             ++r.images, ++r.computed_images;
             r.image_bytes += png.bytes.size(), r.computed_bytes += png.bytes.size();
-            props[x.computed_ids[c]] = {{"index", table.add(png, kClampToEdge, true)}, {"texCoord", 0}, {"channels", {0}}};
+            props[x.computed_ids[c]] = {{"index", table.add(png, kClampToEdge, true)}, {"texCoord", property_uv}, {"channels", {0}}};
         }
         if (props.empty()) continue;
         property_texture[static_cast<size_t>(li)] = static_cast<int>(property_textures.size());
@@ -446,6 +451,8 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
         const size_t n = m.positions.size();
         // Vertices in the y-up frame relative to the centre: (x, y, z)_local -> (x, z, -y)_glTF.
         std::vector<float> pos(3 * n), uv(2 * n), fid(n);
+        const bool atlas_uv_too = has_atlas && property_uv == 1 && property_texture[static_cast<size_t>(li)] >= 0;
+        std::vector<float> uv_atlas(atlas_uv_too ? 2 * n : 0);  // TEXCOORD_1: a close-range tile's property texture
         std::array<float, 3> lo{1e30F, 1e30F, 1e30F}, hi{-1e30F, -1e30F, -1e30F};
         for (size_t v = 0; v < n; ++v) {
             const Vec3d d = m.positions[v] - c;
@@ -466,6 +473,10 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
                 uv[2 * v] = static_cast<float>(m.uv_atlas[v].x);
                 uv[2 * v + 1] = static_cast<float>(1.0 - m.uv_atlas[v].y);
             }
+            if (atlas_uv_too) {
+                uv_atlas[2 * v] = static_cast<float>(m.uv_atlas[v].x);
+                uv_atlas[2 * v + 1] = static_cast<float>(1.0 - m.uv_atlas[v].y);
+            }
             const uint32_t f = m.feature_id.empty() ? 0 : m.feature_id[v];
             if (f >= x.features.size()) {
                 r.error = fmt::format("{}: feature id {} beyond the folder's {} features",
@@ -481,6 +492,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             {"_FEATURE_ID_0", g.accessor(g.viewOf(fid, kArrayBuffer), kFloat, n, "SCALAR")}};
         if (has_atlas || !original_texture.empty())
             attributes["TEXCOORD_0"] = g.accessor(g.viewOf(uv, kArrayBuffer), kFloat, n, "VEC2");
+        if (atlas_uv_too) attributes["TEXCOORD_1"] = g.accessor(g.viewOf(uv_atlas, kArrayBuffer), kFloat, n, "VEC2");
         // Triangles by what colours them: a material's colour, the atlas or an original.
         std::map<Look, std::vector<uint32_t>> groups;
         for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
@@ -537,7 +549,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             }
             p["extensions"]["EXT_mesh_features"] = {
                 {"featureIds", json::array({{{"featureCount", 0}, {"attribute", 0}, {"propertyTable", 0}}})}};
-            if (look.image == Look::kAtlas && property_texture[static_cast<size_t>(li)] >= 0)
+            if (property_texture[static_cast<size_t>(li)] >= 0 && (look.image == Look::kAtlas || (atlas_uv_too && look.image >= 0)))
                 p["extensions"]["EXT_structural_metadata"] = {{"propertyTextures", {property_texture[static_cast<size_t>(li)]}}};
             primitives.push_back(p);
             r.triangles += indices.size() / 3;

@@ -33,9 +33,12 @@
 /// property table) and EXT_structural_metadata (gml:id, name, height, roof
 /// type, function, source file and the dataset's generic attributes).
 /// Computed textures (`build --computed`) are EXT_structural_metadata
-/// property textures of class "surface" on the atlas-textured primitives:
-/// each file's level 0 as a grey PNG over TEXCOORD_0 (the atlas's
-/// coordinates), UINT8 normalized with offset and scale giving the range.
+/// property textures of class "surface" on the opaque layer's
+/// atlas-textured primitives: each file's level 0 as a grey PNG over
+/// TEXCOORD_0 (the atlas's coordinates), UINT8 normalized with offset and
+/// scale giving the range. The alpha layer's are left out (CesiumJS compiles
+/// every property texture of a glTF into every primitive: two of one class
+/// fail).
 ///
 /// Geometry comes from the native GLBs just written (decoded with the format
 /// library), so both formats hold the same triangles.

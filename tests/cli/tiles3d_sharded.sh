@@ -14,8 +14,9 @@
 #     the in-process build's 3dtiles/ byte for byte);
 #  4. with --computed (a plan, shards and a merge even at one shard) the
 #     export validates, and computed textures (issue 19) are
-#     EXT_structural_metadata property textures: per node layer a NEAREST
-#     grey PNG on the atlas primitives only,
+#     EXT_structural_metadata property textures: per node a NEAREST grey PNG
+#     on the opaque layer's photo-textured primitives only (a close-range
+#     tile's over TEXCOORD_1, the atlas's coordinates),
 #     equal to the native BC4 file's level 0 as an independent BC4 decoder
 #     (here, by its definition) reads it, offset and scale giving the range;
 #  5. --format 3dtiles through shards leaves no native file and no PNG.
@@ -116,7 +117,7 @@ PY
 validate_export planned "one shard with computed textures"
 
 "$PY" - planned <<'PY' || fail "the property textures do not carry the native computed textures"
-import io, json, struct, sys
+import io, json, os, struct, sys
 from PIL import Image
 folder = sys.argv[1]
 native = json.load(open(f"{folder}/tileset.json"))
@@ -142,36 +143,48 @@ def bc4(data, w, h):  # BC4 (RGTC1) level 0 by its definition, independent of th
     return out
 checked = exact = texels = 0
 worst = 0.0
+close_checked = 0
 for node, e in sorted(tiles.items()):
-    b = open(f"{folder}/3dtiles/tiles/{node}.glb", "rb").read()
-    n = struct.unpack_from("<I", b, 12)[0]
-    doc, bin_ = json.loads(b[20:20 + n]), b[20 + n + 8:]
-    meta = doc["extensions"]["EXT_structural_metadata"]
-    prop = meta["schema"]["classes"]["surface"]["properties"]["sky_view"]
-    assert prop["componentType"] == "UINT8" and prop["normalized"] and prop["offset"] == computed[0]["range"][0] \
-        and abs(prop["offset"] + prop["scale"] - computed[0]["range"][1]) < 1e-12, prop
-    textures = meta.get("propertyTextures", [])
-    for layer in ("opaque", "alpha"):
-        files = (e["layers"].get(layer) or {}).get("computed", [])
-        uri = (files[0] or {}).get("uri") if files else None
-        prims = [p for p in doc["meshes"][0]["primitives"] if doc["materials"][p["material"]]["name"] == f"{layer} atlas"]
-        refs = {tuple(p.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTextures", [])) for p in prims}
+    files = (e["layers"].get("opaque") or {}).get("computed", [])
+    uri = (files[0] or {}).get("uri") if files else None
+    for glb in (f"{node}.glb", f"{node}_originals.glb"):
+        close = glb.endswith("_originals.glb")
+        if close and not os.path.exists(f"{folder}/3dtiles/tiles/{glb}"): continue
+        b = open(f"{folder}/3dtiles/tiles/{glb}", "rb").read()
+        n = struct.unpack_from("<I", b, 12)[0]
+        doc, bin_ = json.loads(b[20:20 + n]), b[20 + n + 8:]
+        meta = doc["extensions"]["EXT_structural_metadata"]
+        prop = meta["schema"]["classes"]["surface"]["properties"]["sky_view"]
+        assert prop["componentType"] == "UINT8" and prop["normalized"] and prop["offset"] == computed[0]["range"][0] \
+            and abs(prop["offset"] + prop["scale"] - computed[0]["range"][1]) < 1e-12, prop
+        textures = meta.get("propertyTextures", [])
+        # The opaque layer's photo-textured primitives carry the property texture (the atlas's; a
+        # close-range tile's originals too, over TEXCOORD_1); alpha and material-coloured ones do not.
+        prims = doc["meshes"][0]["primitives"]
+        def carries(p):
+            name = doc["materials"][p["material"]]["name"]
+            return name == "opaque atlas" or (close and name.startswith("opaque original texture"))
+        refs = {tuple(p.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTextures", [])) for p in prims if carries(p)}
+        assert all("EXT_structural_metadata" not in p.get("extensions", {}) for p in prims if not carries(p)), \
+            f"{glb}: an alpha or material-coloured primitive has a property texture"
         if not uri:
-            assert refs <= {()}, f"node {node} {layer}: property texture without a computed file"
+            assert refs <= {()} and not textures, f"{glb}: property texture without a computed file"
             continue
-        assert len(refs) == 1 and len(next(iter(refs))) == 1, f"node {node} {layer}: atlas primitives reference {refs}"
+        assert len(refs) == 1 and len(next(iter(refs))) == 1 and len(textures) == 1, f"{glb}: photo primitives reference {refs}"
         pt = textures[next(iter(refs))[0]]
-        assert pt["class"] == "surface" and pt["properties"]["sky_view"].get("texCoord", 0) == 0, pt
+        uv = pt["properties"]["sky_view"].get("texCoord", 0)
+        assert pt["class"] == "surface" and uv == (1 if close else 0), pt
+        assert all(f"TEXCOORD_{uv}" in p["attributes"] for p in prims if carries(p)), f"{glb}: no TEXCOORD_{uv}"
         tex = doc["textures"][pt["properties"]["sky_view"]["index"]]
         sampler = doc["samplers"][tex["sampler"]]
-        assert sampler["magFilter"] == sampler["minFilter"] == 9728, f"node {node}: property texture not NEAREST: {sampler}"
+        assert sampler["magFilter"] == sampler["minFilter"] == 9728, f"{glb}: property texture not NEAREST: {sampler}"
         v = doc["bufferViews"][doc["images"][tex["source"]]["bufferView"]]
         png = Image.open(io.BytesIO(bin_[v.get("byteOffset", 0):v.get("byteOffset", 0) + v["byteLength"]]))
         assert png.mode == "L", png.mode
         dds = open(f"{folder}/{uri}", "rb").read()
         h, w = struct.unpack_from("<II", dds, 12)
         want = bc4(dds[148:], w, h)
-        assert png.size == (w, h), f"node {node} {layer}: {png.size} against {w}x{h}"
+        assert png.size == (w, h), f"{glb}: {png.size} against {w}x{h}"
         got = png.load()
         for y in range(h):
             for x in range(w):
@@ -180,11 +193,12 @@ for node, e in sorted(tiles.items()):
                 exact += d < 0.5 + 1e-9
                 texels += 1
         checked += 1
-    others = [p for p in doc["meshes"][0]["primitives"] if not doc["materials"][p["material"]]["name"].endswith(" atlas")]
-    assert all("EXT_structural_metadata" not in p.get("extensions", {}) for p in others), f"node {node}: a non-atlas primitive has a property texture"
+        close_checked += close
 assert checked >= 20, f"only {checked} property textures"
 assert worst <= 1.0, f"a property texel is {worst} codes off the BC4 decode"
-print(f"ok: {checked} property textures (sky_view, NEAREST, on the atlas primitives only) equal their node's BC4 level 0: "
+assert close_checked >= 5, f"only {close_checked} close-range tiles carry property textures"
+print(f"ok: {checked} property textures ({close_checked} of close-range tiles, over TEXCOORD_1; sky_view, NEAREST, on the "
+      f"opaque photo primitives only) equal their node's BC4 level 0: "
       f"every texel within {worst:.2f} of a code ({exact} of {texels} round to it; BC4 interpolates in fractions of a code)")
 PY
 

@@ -8,7 +8,7 @@
 //   node drive.mjs --client three|cesium --folder DIR --out RESULT.json
 //                  [--camera CAMERA.json] [--size 640x360] [--screenshot SHOT.png]
 //                  [--picks PICKS.json] [--sse 1] [--timeout 120] [--url URL]
-//                  [--click X,Y] [--bare 0|1]
+//                  [--click X,Y] [--bare 0|1] [--metadata ID]
 //
 // three:  the cityatlas viewer (web/, three.js + 3DTilesRendererJS);
 // cesium: CesiumJS (node_modules/cesium) on pages/cesium.html.
@@ -20,6 +20,9 @@
 // frame (ECEF when georeferenced), "fov_deg": vertical}. PICKS.json: [[x, y], ...].
 // --click X,Y clicks there once ready and reports the viewer's attribute panel
 // text (#picked); --bare 0 keeps the viewer's overlays (status, panel).
+// --metadata ID (cesium): colour the tileset by the property texture ID (a
+// computed texture) through a CustomShader, with cityatlas' ramp
+// (render/core/computed_ramp.h) instead of the photo.
 // Exit 0 when the client became ready with no error, 1 otherwise, 2 on usage.
 import { createServer } from 'node:http';
 import { createReadStream, existsSync, readFileSync, realpathSync, statSync, writeFileSync } from 'node:fs';
@@ -93,6 +96,7 @@ async function main() {
   }
   const q = new URLSearchParams({ bare: opt.bare, sse: opt.sse });
   if (camera) q.set('camera', JSON.stringify(camera));
+  if (opt.metadata) q.set('metadata', opt.metadata);
   const page_url = opt.client === 'three'
     ? new URL(`?${q}`, base).href
     : new URL(`pages/cesium.html?${q}&tileset=${encodeURIComponent('/3dtiles/tileset.json')}`, base).href;
