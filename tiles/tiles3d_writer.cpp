@@ -799,6 +799,20 @@ Status writeTiles3d(const Tiles3dInputs& in, const fs::path& atlas_dir, const fs
                        {"max_position_error_mm", stats.max_position_error_m * 1000.0}}}}}}},
         {"geometricError", tilesetError(doc)},
         {"root", root}};
+    if (!context.computed.empty()) {  // which property of the glTFs' class "surface" each computed texture is
+        json list = json::array();
+        for (size_t c = 0; c < context.computed.size(); ++c) {
+            const format::ComputedTextureEntry& e = context.computed[c];
+            list.push_back({{"name", e.name},
+                            {"property", context.computed_ids[c]},
+                            {"parameters", json::parse(e.parameters_json, nullptr, false)},
+                            {"range", e.range},
+                            {"min", e.min},
+                            {"mean", e.mean},
+                            {"max", e.max}});
+        }
+        tileset["asset"]["extras"]["cityatlas"]["computed"] = list;
+    }
     const std::string out = tileset.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
     if (Status st = writeBytes(out_dir / "tileset.json", out.data(), out.size()); !st.ok()) return st;
     stats.bytes_tileset = out.size();

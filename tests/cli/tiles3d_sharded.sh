@@ -196,6 +196,8 @@ for node, e in sorted(tiles.items()):
         close_checked += close
 assert checked >= 20, f"only {checked} property textures"
 assert worst <= 1.0, f"a property texel is {worst} codes off the BC4 decode"
+listed = json.load(open(f"{folder}/3dtiles/tileset.json"))["asset"]["extras"]["cityatlas"]["computed"]
+assert [(c["name"], c["property"], c["range"]) for c in listed] == [("sky_view", "sky_view", computed[0]["range"])], listed
 assert close_checked >= 5, f"only {close_checked} close-range tiles carry property textures"
 print(f"ok: {checked} property textures ({close_checked} of close-range tiles, over TEXCOORD_1; sky_view, NEAREST, on the "
       f"opaque photo primitives only) equal their node's BC4 level 0: "
