@@ -4,8 +4,9 @@
 # the README's pictures of it. The demo town (out/demo-town, ./scripts/demo)
 # is built with --unique-charts and the sky view and sun hours at their
 # defaults; one oblique camera over it with its ideal set loaded (--wait):
-# the photo against each computed mode, median frame time over FRAMES frames,
-# and the bytes each loads.
+# the photo against each computed mode and against the photo with edge
+# enhancement (--edges), median frame time over FRAMES frames, and the bytes
+# each loads.
 # Usage: benchmarks/computed_view.sh [SIZE=1280x720] [FRAMES=30] [PICTURES=out/benchmarks/computed]
 # Writes out/benchmarks/computed_view.json and PICTURES/computed-<name>.png
 # (the README's are docs/computed-*.png, made with PICTURES=docs SIZE=640x360).
@@ -29,7 +30,8 @@ keys = [{"time_s": 0, "position": cam, "look_at": look}, {"time_s": frames - 1, 
 path = f"{work}/path.json"
 json.dump({"interpolation": "linear", "frame_rate": 1, "keyframes": keys}, open(path, "w"))
 views = {"photo": [], "sky-view": ["--computed", "sky_view"], "sun-hours": ["--computed", "sun_hours"],
-         "sky-view-modulate": ["--computed", "sky_view", "--computed-mode", "modulate"]}
+         "sky-view-modulate": ["--computed", "sky_view", "--computed-mode", "modulate"],
+         "photo-edges": ["--edges"]}  # edge enhancement (render/gl/edge_pass.h): its pass inside the frame time
 runs = []
 for name, extra in views.items():
     out = f"{work}/{name}"

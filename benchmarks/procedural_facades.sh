@@ -4,7 +4,7 @@
 # comes), and the README's picture of it: build time and bytes with and
 # without, and one oblique view of each.
 # Usage: benchmarks/procedural_facades.sh [BUILDINGS=200] [SIZE=1280x720] [PICTURES=out/benchmarks/procedural]
-# Writes out/benchmarks/procedural_facades.json and PICTURES/procedural-{plain,facades}.png
+# Writes out/benchmarks/procedural_facades.json and PICTURES/procedural-{plain,plain-edges,facades}.png
 # (the README's: docs/, made with SIZE=640x360 PICTURES=docs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -34,6 +34,10 @@ for name, extra in [("plain", []), ("facades", ["--procedural-facades"])]:
     subprocess.run([cityatlas, "render", out, "--path", f"{work}/path.json", "--size", size, "--wait", "--frames", "1",
                     "-o", f"{out}-frames", "-q"], check=True)
     shutil.copy(f"{out}-frames/frame_00000.png", f"{pictures}/procedural-{name}.png")
+    if name == "plain":  # the same boxes with edge enhancement (render --edges), the other way to read them apart
+        subprocess.run([cityatlas, "render", out, "--path", f"{work}/path.json", "--size", size, "--wait", "--frames", "1",
+                        "-o", f"{out}-edges", "-q", "--edges"], check=True)
+        shutil.copy(f"{out}-edges/frame_00000.png", f"{pictures}/procedural-plain-edges.png")
     runs.append({"run": name, "wall_s": round(wall, 2), "bytes": rep["bytes"], "textured_triangles": rep["counts"]["textured_triangles"],
                  "d_min_m": rep["d_min"]["used_m"]})
 json.dump({"benchmark": "procedural_facades", "runs": runs}, open("out/benchmarks/procedural_facades.json", "w"), indent=1)

@@ -64,6 +64,8 @@ struct RenderCliOptions {
     int threads = 2;
     std::string picks_file;  // JSON [[x, y], ...]: picked after the last frame
     bool ids = false;        // write the id buffer next to each frame written
+    bool edges = false;      // edge enhancement (render/gl/edge_pass.h)
+    float edge_strength = 0.5F;
     bool quiet = false;
     std::string computed;                 // a computed texture's name; empty: none
     std::string computed_mode = "ramp";
@@ -312,6 +314,9 @@ int runRender(const RenderCliOptions& opt) {
             return usage(fmt::format("--computed-range {}: expected BMIN,BMAX with 0 <= BMIN <= BMAX", opt.computed_range));
     }
     co.loader.decode_threads = opt.threads;
+    render::EdgeStyle edges;
+    edges.enabled = opt.edges;
+    edges.strength = opt.edge_strength;
 
     // The GL context first: it must outlive the client and the target, which free GL objects.
     Status st;
@@ -351,9 +356,10 @@ int runRender(const RenderCliOptions& opt) {
 
     const render::GlInfo gl = render::queryGlInfo();
     if (opt.ids && opt.out_dir.empty()) return usage("--ids needs -o/--output (the id buffers are written next to the frames)");
-    auto target = render::OffscreenTarget::create(width, height, &st, opt.ids);
+    auto target = render::OffscreenTarget::create(width, height, &st, opt.ids || opt.edges);  // edges read the id buffer
     if (!target) return fail(st);
     if (Status gs = client->initGl(); !gs.ok()) return fail(gs);
+    client->setEdges(edges, target.get());
     if (!opt.quiet && client->usesCpuDecode())
         note("render", fmt::format("{} has no sRGB S3TC: textures are decoded on the CPU (4 bytes per texel)", gl.renderer));
 
@@ -640,6 +646,12 @@ RunFn addRenderCommand(CLI::App& app) {
                     "of its blocks load)")
         ->default_val("ramp");
     cmd->add_option("--computed-range", opt->computed_range, "modulate, emphasis: BMIN,BMAX")->default_val("0.3,1");
+    cmd->add_flag("--edges", opt->edges,
+                  "Edge enhancement (papers/000 §5.2): darken buildings' outlines (the id buffer) and creases and depth "
+                  "steps (the depth buffer) so volumes without photos read apart");
+    cmd->add_option("--edge-strength", opt->edge_strength, "With --edges: the darkening at an edge, in linear light")
+        ->default_val(0.5)
+        ->check(CLI::Range(0.0, 1.0));
     cmd->add_flag("-q,--quiet", opt->quiet, "No progress and no summary line");
     return [opt]() { return runRender(*opt); };
 }

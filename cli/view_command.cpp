@@ -92,6 +92,7 @@ int runView(const ViewCliOptions& opt) {
     if (Status gs = client->initGl(); !gs.ok()) return fail(gs);
     int computed_shown = -1, computed_mode = opt.computed_mode == "modulate" ? 2 : opt.computed_mode == "emphasis" ? 3 : 1;
     float computed_range[2] = {0.3F, 1.0F};
+    render::EdgeStyle edges;  // edge enhancement, off until its checkbox
     if (!opt.computed.empty()) {
         const std::vector<std::string>& names = client->index().computed;
         const auto it = std::find(names.begin(), names.end(), opt.computed);
@@ -221,6 +222,7 @@ int runView(const ViewCliOptions& opt) {
         // The camera's speed over the last frame, for the speed policies.
         client->setCameraVelocity(dt > 0 ? (1.0 / dt) * (nav.camera.position - last_position) : Vec3d{0, 0, 0});
         last_position = nav.camera.position;
+        client->setEdges(edges, target.get());  // this frame's target (recreated on a resize)
         rec = client->frame(nav.camera);
         loaded_total += rec.bytes_loaded;
         target->blitToDefault(fw, fh);
@@ -250,6 +252,11 @@ int runView(const ViewCliOptions& opt) {
         ImGui::SameLine();
         ImGui::RadioButton("dummy", &mode, 2);
         client->setMode(static_cast<render::TextureMode>(mode));
+        ImGui::Checkbox("edges", &edges.enabled);
+        if (edges.enabled) {
+            ImGui::SameLine();
+            ImGui::SliderFloat("strength", &edges.strength, 0.0F, 1.0F, "%.2f");
+        }
         // Computed textures (issue 19): which one, and how; the photo stands in until its blocks arrive.
         const std::vector<std::string>& computed_names = client->index().computed;
         if (!computed_names.empty()) {

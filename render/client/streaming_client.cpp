@@ -625,6 +625,11 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     last_drawn_.clear();
     for (const DrawItem& d : sel.draws) last_drawn_.push_back(d.node);
     const FrameStats fs = gl_->endFrame();
+    if (edges_.enabled && edge_target_ != nullptr)
+        if (Status es = gl_->applyEdges(*edge_target_, edges_); !es.ok()) {
+            errors_.push_back(es.error);
+            edges_.enabled = false;
+        }
     gl_->finish();
     rec.frame_ms = msSince(t0);
     rec.draw_calls = fs.draw_calls;

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "render/gl/edge_pass.h"
 #include "render/core/block_manager.h"
 #include "render/core/computed_ramp.h"
 #include "format/feature_bounds.h"
@@ -195,6 +196,14 @@ public:
         options_.computed = computed;
         options_.computed_style = style;
     }
+    /// Edge enhancement (render/gl/edge_pass.h) from the next frame on, over
+    /// `target` (made with an id buffer; the frames must be drawn into it),
+    /// inside the frame's time; off with style.enabled false. A failure is
+    /// one line in errors() and turns it off.
+    void setEdges(const EdgeStyle& style, const OffscreenTarget* target) {
+        edges_ = style;
+        edge_target_ = target;
+    }
     /// Every load error so far, one line each (uri: what), in order.
     const std::vector<std::string>& errors() const { return errors_; }
     const LoaderStats loaderStats() const;
@@ -236,6 +245,8 @@ private:
     std::unique_ptr<Loader> loader_;
     std::unique_ptr<BlockManager> manager_;
     std::unique_ptr<GlRenderer> gl_;
+    EdgeStyle edges_;
+    const OffscreenTarget* edge_target_ = nullptr;
     std::unique_ptr<Resident> resident_;
     std::vector<LoadResult> arrived_;  ///< finished loads waiting for their upload
     std::vector<std::string> errors_;

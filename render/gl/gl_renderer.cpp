@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "render/gl/gl_context.h"
+#include "render/gl/gl_program.h"
 #include "format/dds.h"
 #include "render/core/computed_ramp.h"
 
@@ -146,57 +147,6 @@ void main() {
 }
 )";
 
-std::string firstLine(const std::string& log) {
-    std::string line = log.substr(0, log.find('\n'));
-    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
-    return line.empty() ? "(no message)" : line;
-}
-
-GLuint compileShader(GLenum type, const char* source, const char* name, std::string* error) {
-    const GLuint shader = glCreateShader(type);
-    glShaderSource(shader, 1, &source, nullptr);
-    glCompileShader(shader);
-    GLint ok = GL_FALSE;
-    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-    if (ok != GL_TRUE) {
-        GLint length = 0;
-        glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
-        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-        glGetShaderInfoLog(shader, length, nullptr, log.data());
-        *error = fmt::format("GL renderer: {} shader does not compile: {}", name, firstLine(log.c_str()));
-        glDeleteShader(shader);
-        return 0;
-    }
-    return shader;
-}
-
-GLuint linkProgram(std::string* error) {
-    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertexShader, "vertex", error);
-    if (vs == 0) return 0;
-    const GLuint fs = compileShader(GL_FRAGMENT_SHADER, kFragmentShader, "fragment", error);
-    if (fs == 0) {
-        glDeleteShader(vs);
-        return 0;
-    }
-    const GLuint program = glCreateProgram();
-    glAttachShader(program, vs);
-    glAttachShader(program, fs);
-    glLinkProgram(program);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = GL_FALSE;
-    glGetProgramiv(program, GL_LINK_STATUS, &ok);
-    if (ok != GL_TRUE) {
-        GLint length = 0;
-        glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-        glGetProgramInfoLog(program, length, nullptr, log.data());
-        *error = fmt::format("GL renderer: shader program does not link: {}", firstLine(log.c_str()));
-        glDeleteProgram(program);
-        return 0;
-    }
-    return program;
-}
 
 void setStatus(Status* status, Status value) {
     if (status != nullptr) *status = std::move(value);
@@ -429,7 +379,7 @@ std::unique_ptr<GlRenderer> GlRenderer::create(const std::vector<MaterialInfo>& 
     r->anisotropy_ = std::clamp(options.max_anisotropy, 1.0F, info.max_anisotropy);
 
     std::string error;
-    r->program_ = linkProgram(&error);
+    r->program_ = linkProgram(kVertexShader, kFragmentShader, &error);
     if (r->program_ == 0) {
         *status = Status::Unsupported(error);
         return nullptr;
@@ -929,6 +879,16 @@ FrameStats GlRenderer::endFrame() {
     draws_.clear();
     nodes_.clear();
     return stats;
+}
+
+Status GlRenderer::applyEdges(const OffscreenTarget& target, const EdgeStyle& style) {
+    if (!style.enabled) return Status::Ok();
+    if (!edges_) {
+        Status st;
+        edges_ = EdgePass::create(&st);
+        if (!edges_) return st;
+    }
+    return edges_->apply(target, camera_, style);
 }
 
 void GlRenderer::finish() { glFinish(); }

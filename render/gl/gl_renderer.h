@@ -47,6 +47,7 @@
 #include "render/core/lenses.h"
 #include "render/core/tileset_index.h"
 #include "render/core/view.h"
+#include "render/gl/edge_pass.h"
 
 namespace cityatlas::render {
 
@@ -231,6 +232,10 @@ public:
     /// GL_FRAMEBUFFER_SRGB and blending off. The meshes and textures passed to
     /// the draw calls must stay alive until here.
     FrameStats endFrame();
+    /// Edge enhancement (render/gl/edge_pass.h) over the frame just ended in
+    /// `target` (which needs an id buffer), with that frame's camera; nothing
+    /// when `style` is off.
+    Status applyEdges(const OffscreenTarget& target, const EdgeStyle& style);
     /// Waits until the GL has executed every command issued (glFinish): frame
     /// times then include the GPU's (llvmpipe's) work, not just the CPU's.
     void finish();
@@ -280,6 +285,7 @@ private:
     int u_computed_mode_ = -1;
 
     Camera camera_;
+    std::unique_ptr<EdgePass> edges_;  ///< made on the first applyEdges
     std::vector<Draw> draws_;
     std::vector<NodeDraw> nodes_;
     uint32_t bound_texture_ = 0;  ///< on unit 0, as far as this frame knows

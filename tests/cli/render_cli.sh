@@ -182,6 +182,23 @@ expect 1 "no such folder" -- render no_such_folder --frames 1 -q
 expect 1 "not a cityatlas tile folder" -- render town --frames 1 -q
 expect 2 "--size" -- render tiles --size 12x9000000
 expect 2 "--budget" -- render tiles --budget lots
+expect 2 "--edge-strength" -- render tiles --edges --edge-strength 1.5
+
+# --edges: the same frames, only darker, on the buildings' outlines and creases (GlTest checks the rule per pixel).
+"$CITYATLAS" render tiles --path path.json --size 320x240 --wait --anisotropy 1 -o edges -q --edges
+"$PY" - atlas edges <<'PY' || fail "render --edges does more than darken edge pixels"
+import glob, os, sys
+from PIL import Image
+darker = total = 0
+for f in sorted(glob.glob(f"{sys.argv[1]}/frame_*.png")):
+    a = Image.open(f).convert("RGB").tobytes()
+    b = Image.open(os.path.join(sys.argv[2], os.path.basename(f))).convert("RGB").tobytes()
+    assert all(y <= x + 1 for x, y in zip(a, b)), f"{f}: a pixel got brighter with --edges"
+    darker += sum(1 for k in range(0, len(a), 3) if b[k] + b[k + 1] + b[k + 2] + 30 < a[k] + a[k + 1] + a[k + 2])
+    total += len(a) // 3
+assert 0.002 * total < darker < 0.3 * total, f"{darker} of {total} pixels darkened"
+print(f"ok: render --edges darkens {darker} of {total} pixels ({100 * darker / total:.1f} %), brightens none")
+PY
 
 # `cityatlas view`: without a display one clear line; under Xvfb a few frames and a clean exit.
 set +e; env -u DISPLAY -u WAYLAND_DISPLAY "$CITYATLAS" view tiles --frames 2 > /dev/null 2> view.err; rc=$?; set -e

@@ -1276,5 +1276,110 @@ TEST_F(GlTest, ComputedTextureRampAndModulateFollowTheirFormulas) {
     r->release(&computed);
 }
 
+// ---------------------------------------------------------------- edge enhancement (render/gl/edge_pass.h)
+
+// A frame of four surfaces: a far wall (feature 7) filling the view, a near
+// quad of feature 9 (outline against 7), a quad of feature 7 in front of the
+// wall (the same id: only its depth step marks it) and a quad of feature 11
+// slanted away from the camera (a plane: 1 / depth affine on screen, so no
+// crease inside it). With edges on, every pixel is checked against the rule
+// of edge_pass.h evaluated here in double from the id and depth buffers read
+// back: edge pixels darkened by (1 - strength) in linear light within 1 LSB,
+// all others byte-identical. Pixels within 20 % of the crease threshold are
+// left out (float against double).
+TEST_F(GlTest, EdgeEnhancementDarkensOutlinesAndDepthStepsOnlyByItsFactor) {
+    constexpr int kSize = 64;
+    const std::vector<MaterialInfo> materials{{{0.6F, 0.6F, 0.6F}, 0}, {{0.3F, 0.5F, 0.7F}, 0}};
+    auto r = renderer(materials);
+    Status status;
+    auto t = OffscreenTarget::create(kSize, kSize, &status, /*with_ids=*/true);
+    ASSERT_TRUE(status.ok()) << status.error;
+    auto quad = [&](float x0, float x1, float z0, float z1, int32_t material, uint32_t feature, float slant = 0) {
+        MeshData m;
+        addQuad(&m, x0, x1, z0, z1, {}, {}, material);
+        std::fill(m.feature_id.begin(), m.feature_id.end(), feature);
+        for (size_t v = 0; v < 4; ++v)
+            if (m.positions[3 * v] == x1) m.positions[3 * v + 1] += slant;  // the right side farther away
+        return r->upload(m);
+    };
+    GpuMesh wall = quad(-9, 9, -9, 9, 0, 7), near9 = quad(-2, -0.5F, -1, 1, 1, 9), near7 = quad(1, 3, -1, 1, 0, 7),
+            slanted = quad(-1, 1.5F, -3, -2, 1, 11, 2.5F);
+    const Camera camera = frontCamera(kSize);
+    auto draw = [&] {
+        t->bind();
+        r->beginFrame(camera, {0, 0, 0, 1});
+        r->drawAtlas(wall, nullptr, {0, 8, 0}, 0);
+        r->drawAtlas(near9, nullptr, {0, 2, 0}, 0);
+        r->drawAtlas(near7, nullptr, {0, 4, 0}, 0);
+        r->drawAtlas(slanted, nullptr, {0, 3, 0}, 0);
+        r->endFrame();
+    };
+    draw();
+    std::vector<uint8_t> plain, edged;
+    std::vector<uint32_t> ids;
+    std::vector<float> depth;
+    t->readPixels(&plain);
+    ASSERT_TRUE(t->readIds(&ids));
+    t->readDepth(&depth);
+    EdgeStyle style;
+    style.enabled = true;
+    draw();
+    ASSERT_TRUE(r->applyEdges(*t, style).ok());
+    t->readPixels(&edged);
+    std::vector<uint32_t> ids_after;
+    ASSERT_TRUE(t->readIds(&ids_after));
+    EXPECT_EQ(ids_after, ids) << "the pass leaves the id buffer as it was";
+
+    // The rule, in double. Read-backs are top-down; neighbours are symmetric, so the flip does not matter.
+    const double n = camera.near_m, f = camera.far_m;
+    auto inv = [&](int x, int y) {
+        const double z = 2.0 * depth[static_cast<size_t>(y) * kSize + x] - 1.0;
+        return (f + n - z * (f - n)) / (2 * n * f);
+    };
+    auto id = [&](int x, int y) { return ids[static_cast<size_t>(y) * kSize + x]; };
+    int outline = 0, crease_only = 0, slanted_inside = 0, plain_pixels = 0, worst = 0;
+    for (int y = 1; y < kSize - 1; ++y)
+        for (int x = 1; x < kSize - 1; ++x) {
+            const Rgba a = pixelAt(plain, kSize, x, y), b = pixelAt(edged, kSize, x, y);
+            const uint32_t c = id(x, y);
+            ASSERT_NE(c, OffscreenTarget::kNoFeature);
+            const bool other = id(x + 1, y) != c || id(x - 1, y) != c || id(x, y + 1) != c || id(x, y - 1) != c;
+            const double ic = inv(x, y);
+            const double second = std::max(std::abs(inv(x + 1, y) + inv(x - 1, y) - 2 * ic),
+                                           std::abs(inv(x, y + 1) + inv(x, y - 1) - 2 * ic)) / (style.crease * ic);
+            if (!other && second > 0.8 && second < 1.25) continue;  // at the threshold: float vs double
+            const bool edge = other || second >= 1.25;
+            if (edge) {
+                const auto dark = [&](int v) { return linearToByte(byteToLinear(static_cast<uint8_t>(v)) * (1.0 - style.strength)); };
+                const int d = std::max({std::abs(b.r - dark(a.r)), std::abs(b.g - dark(a.g)), std::abs(b.b - dark(a.b))});
+                worst = std::max(worst, d);
+                EXPECT_LE(d, 1) << "edge pixel (" << x << ", " << y << ")";
+                (other ? outline : crease_only) += 1;
+            } else {
+                EXPECT_EQ(maxRgbDiff(a, b), 0) << "pixel (" << x << ", " << y << ") is no edge";
+                ++plain_pixels;
+                slanted_inside += c == 11;
+            }
+        }
+    std::printf("edges: %d outline and %d depth-step pixels darkened (worst %d LSB off the factor), %d untouched, "
+                "%d of them inside the slanted quad\n",
+                outline, crease_only, worst, plain_pixels, slanted_inside);
+    EXPECT_GE(outline, 100);
+    EXPECT_GE(crease_only, 40) << "the same-id quad in front of the wall is marked by its depth step";
+    EXPECT_GE(slanted_inside, 50) << "a slanted plane has no creases inside";
+    EXPECT_GE(plain_pixels, 2000);
+    // Off: nothing changes.
+    draw();
+    ASSERT_TRUE(r->applyEdges(*t, {}).ok());
+    t->readPixels(&edged);
+    EXPECT_EQ(edged, plain);
+    // Without an id buffer: a clear refusal.
+    auto bare = OffscreenTarget::create(kSize, kSize, &status);
+    const Status refused = r->applyEdges(*bare, style);
+    EXPECT_FALSE(refused.ok());
+    EXPECT_NE(refused.error.find("id buffer"), std::string::npos) << refused.error;
+    for (GpuMesh* g : {&wall, &near9, &near7, &slanted}) r->release(g);
+}
+
 }  // namespace
 }  // namespace cityatlas::render

@@ -1,0 +1,67 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Shader programs from GLSL source (render/gl/gl_program.h).
+#include "render/gl/gl_program.h"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+namespace cityatlas::render {
+
+namespace {
+
+std::string firstLine(const std::string& log) {
+    std::string line = log.substr(0, log.find('\n'));
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    return line.empty() ? "(no message)" : line;
+}
+
+}  // namespace
+
+GLuint compileShader(GLenum type, const char* source, const char* name, std::string* error) {
+    const GLuint shader = glCreateShader(type);
+    glShaderSource(shader, 1, &source, nullptr);
+    glCompileShader(shader);
+    GLint ok = GL_FALSE;
+    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    if (ok != GL_TRUE) {
+        GLint length = 0;
+        glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
+        glGetShaderInfoLog(shader, length, nullptr, log.data());
+        *error = fmt::format("GL renderer: {} shader does not compile: {}", name, firstLine(log.c_str()));
+        glDeleteShader(shader);
+        return 0;
+    }
+    return shader;
+}
+
+GLuint linkProgram(const char* vertex_source, const char* fragment_source, std::string* error) {
+    const GLuint vs = compileShader(GL_VERTEX_SHADER, vertex_source, "vertex", error);
+    if (vs == 0) return 0;
+    const GLuint fs = compileShader(GL_FRAGMENT_SHADER, fragment_source, "fragment", error);
+    if (fs == 0) {
+        glDeleteShader(vs);
+        return 0;
+    }
+    const GLuint program = glCreateProgram();
+    glAttachShader(program, vs);
+    glAttachShader(program, fs);
+    glLinkProgram(program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = GL_FALSE;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (ok != GL_TRUE) {
+        GLint length = 0;
+        glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
+        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
+        glGetProgramInfoLog(program, length, nullptr, log.data());
+        *error = fmt::format("GL renderer: shader program does not link: {}", firstLine(log.c_str()));
+        glDeleteProgram(program);
+        return 0;
+    }
+    return program;
+}
+
+}  // namespace cityatlas::render
