@@ -959,8 +959,9 @@ RunFn addBuildCommand(CLI::App& app) {
     cmd->add_option("--format", opt->format,
                     "native: the folder above, for cityatlas' own client; 3dtiles: a 3D Tiles 1.1 tileset in "
                     "OUT/3dtiles/ (one GLB per atlas-tree node with the atlas embedded, y-up, KHR_materials_unlit, "
-                    "EXT_mesh_features + EXT_structural_metadata for picking) for CesiumJS, three.js and other "
-                    "3D Tiles clients; both: the two")
+                    "EXT_mesh_features + EXT_structural_metadata for picking, computed textures as property "
+                    "textures) for CesiumJS, three.js and other 3D Tiles clients; both: the two. Sharded builds "
+                    "export too (after the merge)")
         ->default_val("native")
         ->check(CLI::IsMember({"native", "3dtiles", "both"}))
         ->group(w);
