@@ -347,6 +347,29 @@ Status readComputedLevel0(const fs::path& path, format::Image8* out) {
     return Status::Ok();
 }
 
+// Computed textures (issue 19) as the properties of one property texture
+// (EXT_structural_metadata) over `layer`'s atlas coordinates (TEXCOORD_`tex_coord`):
+// each computed file's level 0 as a grey PNG (lossless: the codes the native
+// client samples), NEAREST. Only the opaque layer gets one: CesiumJS (1.145)
+// declares every property texture of a glTF in every primitive's shader, so a
+// second one of the same class (the alpha layer's) fails to compile there.
+Status computedProperties(const ExportContext& x, const format::LayerEntry& layer, int tex_coord, const fs::path& scratch,
+                          TextureTable& table, TileResult& r, json* props) {
+    for (size_t c = 0; c < x.computed.size() && c < layer.computed.size(); ++c) {
+        const std::string& uri = layer.computed[c].file.uri;
+        if (uri.empty()) continue;
+        format::Image8 values;
+        WebImage png;
+        Status st = readComputedLevel0(x.native_dir / uri, &values);
+        if (st.ok()) st = encodeWebImage(values, {WebTextures::Png, 100, {}}, fmt::format("{}-c{}", scratch.string(), c), &png);
+        if (!st.ok()) return st;
+        ++r.images, ++r.computed_images;
+        r.image_bytes += png.bytes.size(), r.computed_bytes += png.bytes.size();
+        (*props)[x.computed_ids[c]] = {{"index", table.add(png, kClampToEdge, true)}, {"texCoord", tex_coord}, {"channels", {0}}};
+    }
+    return Status::Ok();
+}
+
 // One tile's GLB: node `entry`'s layers with their atlases, or with
 // `originals` (a leaf's close range) its textured triangles drawn from their
 // original textures, an original that cannot be read falling back to the atlas.
@@ -400,41 +423,19 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
         }
         if (original_texture.empty()) return r;  // nothing the leaf itself does not draw: no close-range tile
     }
-    // Computed textures (issue 19): a property texture (EXT_structural_metadata)
-    // over the opaque atlas's coordinates, each computed file's level 0 as a
-    // grey PNG (lossless: the codes the native client samples). Only the
-    // opaque layer's: CesiumJS (1.145) declares every property texture of a
-    // glTF in every primitive's shader, so a second one of the same class
-    // (the alpha layer's) fails to compile there. A close-range tile's
-    // TEXCOORD_0 are original uvs: there the atlas's come as TEXCOORD_1.
-    const int property_uv = originals ? 1 : 0;
-    std::array<int, format::kTileLayers> property_texture{-1, -1};
+    // Computed textures: the opaque layer's property texture (computedProperties).
     json property_textures = json::array();
-    for (int li = 0; li < 1; ++li) {
-        const auto& layer = entry.layers[static_cast<size_t>(li)];
-        if (!meshes[static_cast<size_t>(li)] || !layer || !layer->atlas) continue;
+    if (const auto& opaque = entry.layers[0]; meshes[0] && opaque && opaque->atlas) {
         json props = json::object();
-        for (size_t c = 0; c < x.computed.size() && c < layer->computed.size(); ++c) {
-            const std::string& uri = layer->computed[c].file.uri;
-            if (uri.empty()) continue;
-            format::Image8 values;
-            WebImage png;
-            Status st = readComputedLevel0(x.native_dir / uri, &values);
-            if (st.ok())
-                st = encodeWebImage(values, {WebTextures::Png, 100, {}},
-                                    out_path.parent_path() / fmt::format(".{}-{}-c{}", entry.id, li, c), &png);
-            if (!st.ok()) {
-                r.error = st.error;
-                return r;
-            }
-            ++r.images, ++r.computed_images;
-            r.image_bytes += png.bytes.size(), r.computed_bytes += png.bytes.size();
-            props[x.computed_ids[c]] = {{"index", table.add(png, kClampToEdge, true)}, {"texCoord", property_uv}, {"channels", {0}}};
+        if (Status st = computedProperties(x, *opaque, originals ? 1 : 0, out_path.parent_path() / fmt::format(".{}", entry.id),
+                                           table, r, &props);
+            !st.ok()) {
+            r.error = st.error;
+            return r;
         }
-        if (props.empty()) continue;
-        property_texture[static_cast<size_t>(li)] = static_cast<int>(property_textures.size());
-        property_textures.push_back({{"class", "surface"}, {"properties", props}});
+        if (!props.empty()) property_textures.push_back({{"class", "surface"}, {"properties", props}});
     }
+    const bool property_texture = !property_textures.empty();
 
     json primitives = json::array();
     std::map<uint32_t, uint32_t> local_feature;  // scene feature -> row of the property table
@@ -451,7 +452,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
         const size_t n = m.positions.size();
         // Vertices in the y-up frame relative to the centre: (x, y, z)_local -> (x, z, -y)_glTF.
         std::vector<float> pos(3 * n), uv(2 * n), fid(n);
-        const bool atlas_uv_too = has_atlas && property_uv == 1 && property_texture[static_cast<size_t>(li)] >= 0;
+        const bool atlas_uv_too = has_atlas && originals && li == 0 && property_texture;
         std::vector<float> uv_atlas(atlas_uv_too ? 2 * n : 0);  // TEXCOORD_1: a close-range tile's property texture
         std::array<float, 3> lo{1e30F, 1e30F, 1e30F}, hi{-1e30F, -1e30F, -1e30F};
         for (size_t v = 0; v < n; ++v) {
@@ -549,8 +550,8 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             }
             p["extensions"]["EXT_mesh_features"] = {
                 {"featureIds", json::array({{{"featureCount", 0}, {"attribute", 0}, {"propertyTable", 0}}})}};
-            if (property_texture[static_cast<size_t>(li)] >= 0 && (look.image == Look::kAtlas || (atlas_uv_too && look.image >= 0)))
-                p["extensions"]["EXT_structural_metadata"] = {{"propertyTextures", {property_texture[static_cast<size_t>(li)]}}};
+            if (li == 0 && property_texture && (look.image == Look::kAtlas || (atlas_uv_too && look.image >= 0)))
+                p["extensions"]["EXT_structural_metadata"] = {{"propertyTextures", {0}}};
             primitives.push_back(p);
             r.triangles += indices.size() / 3;
             ++r.primitives;
