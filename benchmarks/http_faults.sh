@@ -24,11 +24,14 @@ cd "$WORK"
 "$BIN" synth -q --buildings 60 --seed 4 --texture-size 64 -o town > /dev/null
 "$BIN" build -q town/town.gml -o out --d-min 30 > /dev/null
 "$BIN" serve -q out --port 0 > serve.txt 2>&1 & PIDS+=($!)
-for _ in $(seq 100); do grep -q serving serve.txt 2>/dev/null && break; sleep 0.05; done
+# Up to 30 s for each to start: on two busy cores (the full test suite) 5 s was not always enough.
+for _ in $(seq 600); do grep -q serving serve.txt 2>/dev/null && break; sleep 0.05; done
 SPORT=$(sed -n 's|.*127.0.0.1:\([0-9]*\)/.*|\1|p' serve.txt)
+[ -n "$SPORT" ] || { echo "http_faults: the server did not start in 30 s: $(cat serve.txt)" >&2; exit 1; }
 python3 "$ROOT/tests/tools/fault_proxy.py" "$SPORT" --port-file proxy.port --log proxy.json --p "$P" \
   --fault-seconds "$FAULT_S" > proxy.txt 2>&1 & PIDS+=($!)
-for _ in $(seq 100); do [ -s proxy.port ] && break; sleep 0.05; done
+for _ in $(seq 600); do [ -s proxy.port ] && break; sleep 0.05; done
+[ -s proxy.port ] || { echo "http_faults: the fault proxy did not start in 30 s: $(cat proxy.txt)" >&2; exit 1; }
 PPORT=$(cat proxy.port)
 python3 - "$FAULT_S" "$CALM_S" <<'PY'
 import json, sys
