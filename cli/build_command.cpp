@@ -255,17 +255,11 @@ ordered_json shardsJson(const atlas::ShardPlan& plan, const BuildCliOptions& opt
             {"shard_features", features}};
 }
 
-// --- 3D Tiles, from the native folder `folder` just written
-// (tiles/tiles3d_writer.h), by `write`; with --format 3dtiles the native
-// files go.
-Status exportTiles3d(const std::function<Status(const tiles::Tiles3dProgressFn&)>& write, const fs::path& folder,
-                     const std::string& format, Progress& progress) {
-    if (Status s = write([&](uint64_t done, uint64_t total) { progress.update("3dtiles", done, total); }); !s.ok()) return s;
+// --format 3dtiles: once the 3D Tiles export is written, the native files it was made from go.
+void removeNativeFiles(const fs::path& folder) {
     std::error_code ec;
-    if (format == "3dtiles")
-        for (const char* native : {"geometry", "atlas", "textures", "features", "computed", "tileset.json"})
-            fs::remove_all(folder / native, ec);
-    return Status::Ok();
+    for (const char* native : {"geometry", "atlas", "textures", "features", "computed", "tileset.json"})
+        fs::remove_all(folder / native, ec);
 }
 
 // The report, the folder moved into place, the summary on stdout.
@@ -699,12 +693,12 @@ int runBuild(const BuildCliOptions& opt_in) {
         tiles::Tiles3dParams p3 = opt.tiles3d;
         p3.threads = opt.tiles.threads;
         p3.split_originals = opt.tiles.split_originals;
-        const Status exported = exportTiles3d(
-            [&](const tiles::Tiles3dProgressFn& report) {
-                return tiles::writeTiles3d(scene, tree, work, tmp, p3, tmp / "3dtiles", report, &t3);
-            },
-            tmp, opt.format, progress);
+        // From the native folder just written (tiles/tiles3d_writer.h).
+        const Status exported = tiles::writeTiles3d(
+            scene, tree, work, tmp, p3, tmp / "3dtiles",
+            [&](uint64_t done, uint64_t total) { progress.update("3dtiles", done, total); }, &t3);
         if (!exported.ok()) return abandon(exported);
+        if (opt.format == "3dtiles") removeNativeFiles(tmp);
         endStage("3dtiles");
     }
     fs::remove_all(work, ec);
@@ -828,13 +822,11 @@ RunFn addMergeCommand(CLI::App& app) {
             p3.split_originals = merged.tiles_params.split_originals;
             const tiles::Tiles3dInputs inputs{merged.tables, merged.tree, merged.texture_index, merged.leaf_textures,
                                               merged.leaf_tiles};  // features: from the folder's tables
-            const Status exported = exportTiles3d(
-                [&](const tiles::Tiles3dProgressFn& report) {
-                    return tiles::writeTiles3d(inputs, merged.atlas_png_dir, rec.working, p3, fs::path(rec.working) / "3dtiles",
-                                               report, &t3);
-                },
-                rec.working, rec.format, progress);
+            const Status exported = tiles::writeTiles3d(
+                inputs, merged.atlas_png_dir, rec.working, p3, fs::path(rec.working) / "3dtiles",
+                [&](uint64_t done, uint64_t total) { progress.update("3dtiles", done, total); }, &t3);
             if (!exported.ok()) return failed(exported);
+            if (rec.format == "3dtiles") removeNativeFiles(rec.working);
             stages.push_back({"3dtiles", clock.lap()});
         }
         std::error_code ec;

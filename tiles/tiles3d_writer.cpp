@@ -85,9 +85,10 @@ struct GltfBuilder {
     }
 };
 
-// Property ids must match ^[a-zA-Z_][a-zA-Z0-9_]*$; the attribute's own name goes into "name".
-std::string propertyId(const std::string& key, std::set<std::string>& taken) {
-    std::string id = "attr_";
+// Property ids must match ^[a-zA-Z_][a-zA-Z0-9_]*$ (`prefix` starts them); the
+// attribute's own name goes into "name". Repeats are numbered from _2 on.
+std::string propertyId(const char* prefix, const std::string& key, std::set<std::string>& taken) {
+    std::string id = prefix;
     for (const char c : key) id.push_back(std::isalnum(static_cast<unsigned char>(c)) ? c : '_');
     std::string unique = id;
     for (int k = 2; !taken.insert(unique).second; ++k) unique = fmt::format("{}_{}", id, k);
@@ -115,24 +116,18 @@ AttributeColumns attributeColumns(const std::vector<Feature>& features) {
             c.other = true;
             break;
         }
-        c.columns.emplace_back(order[i].second, propertyId(order[i].second, taken));
+        c.columns.emplace_back(order[i].second, propertyId("attr_", order[i].second, taken));
     }
     std::sort(c.columns.begin(), c.columns.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     return c;
 }
 
-// The computed textures' property ids (EXT_structural_metadata: ^[a-zA-Z_][a-zA-Z0-9_]*$),
-// the model's name, numbered from the second of one model on.
+// The computed textures' property ids: the model's name (sky_view), numbered
+// from the second of one model on (two shadows: shadow, shadow_2).
 std::vector<std::string> computedPropertyIds(const std::vector<format::ComputedTextureEntry>& computed) {
     std::set<std::string> taken;
     std::vector<std::string> ids;
-    for (const format::ComputedTextureEntry& c : computed) {
-        std::string id;
-        for (const char ch : c.name) id.push_back(std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_');
-        std::string unique = id;
-        for (int k = 2; !taken.insert(unique).second; ++k) unique = fmt::format("{}_{}", id, k);
-        ids.push_back(unique);
-    }
+    for (const format::ComputedTextureEntry& c : computed) ids.push_back(propertyId("", c.name, taken));
     return ids;
 }
 

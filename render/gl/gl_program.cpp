@@ -10,8 +10,16 @@ namespace cityatlas::render {
 
 namespace {
 
-std::string firstLine(const std::string& log) {
-    std::string line = log.substr(0, log.find('\n'));
+// The first line of a shader's or a program's info log (get_iv, get_log:
+// glGetShaderiv and glGetShaderInfoLog, or the program ones).
+template <class GetIv, class GetLog>
+std::string firstLogLine(GLuint object, GetIv get_iv, GetLog get_log) {
+    GLint length = 0;
+    get_iv(object, GL_INFO_LOG_LENGTH, &length);
+    std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
+    get_log(object, length, nullptr, log.data());
+    std::string line = log.c_str();  // up to the log's terminating NUL
+    line = line.substr(0, line.find('\n'));
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
     return line.empty() ? "(no message)" : line;
 }
@@ -25,11 +33,8 @@ GLuint compileShader(GLenum type, const char* source, const char* name, std::str
     GLint ok = GL_FALSE;
     glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
     if (ok != GL_TRUE) {
-        GLint length = 0;
-        glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
-        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-        glGetShaderInfoLog(shader, length, nullptr, log.data());
-        *error = fmt::format("GL renderer: {} shader does not compile: {}", name, firstLine(log.c_str()));
+        *error = fmt::format("GL renderer: {} shader does not compile: {}", name,
+                             firstLogLine(shader, glGetShaderiv, glGetShaderInfoLog));
         glDeleteShader(shader);
         return 0;
     }
@@ -53,11 +58,8 @@ GLuint linkProgram(const char* vertex_source, const char* fragment_source, std::
     GLint ok = GL_FALSE;
     glGetProgramiv(program, GL_LINK_STATUS, &ok);
     if (ok != GL_TRUE) {
-        GLint length = 0;
-        glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-        std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-        glGetProgramInfoLog(program, length, nullptr, log.data());
-        *error = fmt::format("GL renderer: shader program does not link: {}", firstLine(log.c_str()));
+        *error = fmt::format("GL renderer: shader program does not link: {}",
+                             firstLogLine(program, glGetProgramiv, glGetProgramInfoLog));
         glDeleteProgram(program);
         return 0;
     }
