@@ -115,12 +115,16 @@ constexpr Rgba kPavingPalette[] = {
 
 class Canvas {
 public:
-    explicit Canvas(Image8& image) : img_(image) {}
+    explicit Canvas(Image8& image, FacadeTruth* truth = nullptr) : img_(image), truth_(truth) {}
+
+    // What the following fills draw (only recorded when a truth is kept).
+    void part(FacadePart p) { part_ = p; }
 
     // Fills [x0,x1) x [y0,y1), clipped to the image. Alpha is written only for RGBA.
     void fill(int x0, int y0, int x1, int y1, Rgba c) {
         if (!clip(x0, y0, x1, y1)) return;
         const int ch = img_.channels;
+        label(x0, y0, x1, y1);
         for (int y = y0; y < y1; ++y) {
             uint8_t* p = row(y) + static_cast<size_t>(x0) * ch;
             if (ch == 4) {
@@ -139,6 +143,7 @@ public:
     void brighten(int x0, int y0, int x1, int y1, int delta) {
         if (!clip(x0, y0, x1, y1)) return;
         const int ch = img_.channels;
+        label(x0, y0, x1, y1);
         for (int y = y0; y < y1; ++y) {
             uint8_t* p = row(y) + static_cast<size_t>(x0) * ch;
             for (int x = x0; x < x1; ++x, p += ch)
@@ -149,6 +154,11 @@ public:
     uint8_t* row(int y) { return img_.pixels.data() + static_cast<size_t>(y) * img_.width * img_.channels; }
 
 private:
+    void label(int x0, int y0, int x1, int y1) {
+        if (!truth_) return;
+        for (int y = y0; y < y1; ++y)
+            std::fill_n(truth_->part.begin() + static_cast<ptrdiff_t>(y) * img_.width + x0, x1 - x0, part_);
+    }
     bool clip(int& x0, int& y0, int& x1, int& y1) const {
         x0 = std::max(x0, 0);
         y0 = std::max(y0, 0);
@@ -157,6 +167,8 @@ private:
         return x0 < x1 && y0 < y1;
     }
     Image8& img_;
+    FacadeTruth* truth_;
+    FacadePart part_ = FacadePart::Wall;
 };
 
 Image8 makeImage(int width, int height, int channels) {
@@ -321,7 +333,9 @@ std::array<uint8_t, 7> digitGlyph(char digit) {
     return kFont[static_cast<size_t>(digit - '0')];
 }
 
-Image8 drawFacade(const FacadeStyle& style, int width, int height) {
+Image8 drawFacade(const FacadeStyle& style, int width, int height) { return drawFacade(style, width, height, nullptr); }
+
+Image8 drawFacade(const FacadeStyle& style, int width, int height, FacadeTruth* truth) {
     checkSize(width, "facade width");
     checkSize(height, "facade height");
     if (style.storeys < 1) throw std::invalid_argument("facade storeys must be >= 1");
@@ -329,7 +343,8 @@ Image8 drawFacade(const FacadeStyle& style, int width, int height) {
 
     const int w = width, h = height;
     Image8 img = makeImage(w, h, style.transparent_glass ? 4 : 3);
-    Canvas cv(img);
+    if (truth) *truth = {w, h, std::vector<FacadePart>(static_cast<size_t>(w) * h, FacadePart::Wall), 0, 0};
+    Canvas cv(img, truth);
 
     // Per-building look from the seed only (the number is drawn, not used for colours),
     // drawn in a fixed order so each choice is stable.
@@ -354,6 +369,7 @@ Image8 drawFacade(const FacadeStyle& style, int width, int height) {
     const PlateLayout plate = plateLayout(static_cast<int>(text.size()), w, h);
 
     // Cornice on top and plinth at the bottom.
+    cv.part(FacadePart::Trim);
     const int cornice = std::max(2, h / 32);
     cv.fill(0, 0, w, cornice, trim);
     cv.brighten(0, cornice, w, cornice + std::max(1, h / 128), -30);  // its shadow
@@ -362,7 +378,7 @@ Image8 drawFacade(const FacadeStyle& style, int width, int height) {
     // Storeys below the sign band, top to bottom; the last one is the ground floor, which
     // gets 1.5 times the height of the others (2 units each, 3 for the ground floor) so
     // the door stays door-sized on tall buildings.
-    const int bandBottom = plate.y0 + plate.h + plate.border + std::max(1, h / 32);
+    const int bandBottom = !style.number_plate ? cornice + std::max(1, h / 32) : plate.y0 + plate.h + plate.border + std::max(1, h / 32);
     const int64_t avail = h - bandBottom;
     const int64_t units = 2 * static_cast<int64_t>(style.storeys) + 1;
     const int cols = style.window_columns;
@@ -377,7 +393,9 @@ Image8 drawFacade(const FacadeStyle& style, int width, int height) {
         const int y1 = ground ? h : bandBottom + static_cast<int>(avail * 2 * (i + 1) / units);
         const int rh = y1 - y0;
         if (rh < 6) continue;  // too small to draw anything meaningful: plain wall
+        cv.part(FacadePart::Trim);
         cv.fill(0, y0, w, y0 + std::max(1, rh / 16), trim);  // string course (floor line)
+        if (truth && !slotsTooSmall) ++truth->window_rows;
 
         const int wh = rh * winHeightPct / 100;
         const int wy0 = ground ? y0 + rh / 5 : y0 + (rh - wh) * 2 / 5;
@@ -389,18 +407,23 @@ Image8 drawFacade(const FacadeStyle& style, int width, int height) {
             if (ground && c == doorCol) {
                 const int dw = std::min(sw * 11 / 20, std::max(3, rh * 2 / 5));
                 const int dx0 = sx0 + (sw - dw) / 2;
+                cv.part(FacadePart::Door);
                 drawDoor(cv, dx0, y0 + rh / 5, dx0 + dw, h, look.frame, doorLeaf);
                 continue;
             }
             const int ww = sw * winWidthPct / 100;
             const int wx0 = sx0 + (sw - ww) / 2;
+            cv.part(FacadePart::Window);
             drawWindow(cv, wx0, wy0, wx0 + ww, wy1, look,
                        hash(detailSeed, static_cast<uint64_t>(i), static_cast<uint64_t>(c)));
         }
     }
 
+    if (truth && !slotsTooSmall) truth->window_columns = cols;
+
     // The plate last, so nothing can cover the number.
-    drawPlate(cv, plate, text);
+    cv.part(FacadePart::Plate);
+    if (style.number_plate) drawPlate(cv, plate, text);
     return img;
 }
 

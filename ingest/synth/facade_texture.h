@@ -48,6 +48,7 @@ struct FacadeStyle {
     int window_columns = 3;         // windows per row, >= 1
     bool transparent_glass = false; // RGBA output with translucent panes
     uint64_t seed = 0;              // varies wall/window colours and small details
+    bool number_plate = true;       // false: no sign band plate (stylised-facade truth tests)
 };
 
 // Image in memory, row 0 = TOP of the image (as PNG stores it), interleaved 8-bit channels.
@@ -61,6 +62,20 @@ struct Image8 {
 // a size is out of range or storeys / window_columns < 1. Storeys too small to hold a
 // window (on a tiny texture) are drawn as plain wall. About 0.4 ms for 512x512 on one core.
 Image8 drawFacade(const FacadeStyle& style, int width, int height);
+
+// What each pixel of a drawn facade shows (the ground truth of stylised facades,
+// ingest/stylised_facades.h): the wall pattern (blocks and joints), trim (cornice,
+// plinth, string courses), a window (frame, glass, bars and sill), the door (with its
+// frame) or the number plate (with its border).
+enum class FacadePart : uint8_t { Wall, Trim, Window, Door, Plate };
+struct FacadeTruth {
+    int width = 0, height = 0;
+    std::vector<FacadePart> part;  // width*height, row 0 = top
+    int window_rows = 0;           // storeys drawn with openings (windows, or the door alone)
+    int window_columns = 0;        // windows per row as drawn (0 when the slots are too small)
+};
+// drawFacade, also labelling every pixel.
+Image8 drawFacade(const FacadeStyle& style, int width, int height, FacadeTruth* truth);
 
 // Tileable paving, RGB, size x size (size 16..16384, else std::invalid_argument):
 // a 4x4 grid of square slabs with mortar joints, deterministic for (size, seed).
