@@ -57,11 +57,19 @@ struct BuildCliOptions {
     std::vector<std::string> sbatch;
     bool wait = false;
     bool procedural_facades = false;
+    std::string facades = "photo";          // --facades photo|stylised
     std::vector<std::string> computed;      // --computed, as given
     std::vector<atlas::ComputedSpec> computed_specs;
 };
 
 int fail(Progress& progress, const Status& s) { return cli::fail("build", s, &progress); }
+
+// A texture the build made (procedural cells, stylised facades) in its
+// working folder, whose name follows the output's.
+bool isGenerated(const std::string& path, const std::string& working) {
+    return path.size() > working.size() && path.compare(0, working.size(), working) == 0 &&
+           (path[working.size()] == '/' || path[working.size()] == '\\');
+}
 
 // Everything that changes the output, as text (threads and cache size do not).
 std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::AtlasParams& a) {
@@ -86,6 +94,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
     if (t.split_originals) k.push_back("split_originals=on");
     for (const atlas::ComputedSpec& c : opt.computed_specs) k.push_back("computed=" + atlas::computedSpecJson(c).dump());
     if (opt.procedural_facades) k.push_back(fmt::format("procedural_facades=on/{}", opt.input.storey_height_m));
+    if (opt.facades != "photo") k.push_back("facades=" + opt.facades);
     if (opt.format != "native")
         k.push_back(fmt::format("format={} web_textures={} quality={}", opt.format, opt.web_textures,
                                 opt.tiles3d.jpeg_quality));
@@ -144,6 +153,8 @@ using Stages = std::vector<std::pair<std::string, StageCost>>;
 
 // Where procedural facades' cells are written during a build (removed at its end).
 constexpr const char* kProceduralDir = ".procedural-facades";
+// Where stylised facades are written during a build (removed at its end).
+constexpr const char* kStylisedDir = ".stylised-facades";
 
 // Stands for the report's list of texture digests, written as text (format/json_splice.h).
 constexpr const char* kFingerprintTextures = "cityatlas-fingerprint-textures";
@@ -164,6 +175,10 @@ struct BuildRecord {
     std::string build_hash, inputs_key;
     std::vector<std::string> param_key;
     std::vector<FileDigest> input_digests;
+    /// Textures read only to make others (the photos behind stylised
+    /// facades): fingerprinted in place of what was made of them, which
+    /// lives in the working folder.
+    std::vector<FileDigest> source_textures;
     std::string format = "native", web_textures = "webp", bc_quality = "fast";
     int web_quality = 90;  ///< --web-quality (Tiles3dParams::jpeg_quality)
     int position_bits = 14, uv_bits = 12;
@@ -202,6 +217,7 @@ ordered_json recordJson(const BuildRecord& r, const Stages& stages, const Diagno
     for (const auto& [name, c] : stages) st.push_back({name, c.seconds, c.cpu_seconds, c.peak_rss_mb});
     return {{"target", r.target}, {"working", r.working}, {"build_hash", r.build_hash}, {"inputs_key", r.inputs_key},
             {"param_key", r.param_key}, {"input_digests", toJson(r.input_digests)},
+            {"source_textures", toJson(r.source_textures)},
             {"format", r.format}, {"web_textures", r.web_textures}, {"web_quality", r.web_quality},
             {"bc_quality", r.bc_quality}, {"position_bits", r.position_bits}, {"uv_bits", r.uv_bits},
             {"position_error_mm", r.position_error_mm}, {"features", r.features}, {"triangles", r.triangles},
@@ -216,6 +232,7 @@ void recordFrom(const nlohmann::json& j, BuildRecord* r, Stages* stages, Diagnos
     r->inputs_key = j.at("inputs_key");
     r->param_key = j.at("param_key").get<std::vector<std::string>>();
     r->input_digests = digestsFromJson(j.at("input_digests"));
+    r->source_textures = digestsFromJson(j.at("source_textures"));
     r->format = j.at("format");
     r->web_textures = j.at("web_textures");
     r->web_quality = j.at("web_quality");
@@ -358,6 +375,7 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
     {
         std::error_code ignored;
         fs::remove_all(tmp / kProceduralDir, ignored);  // the facade cells were read into the atlases and blocks
+        fs::remove_all(tmp / kStylisedDir, ignored);
     }
     auto abandon = [&](const Status& s) {
         std::error_code ignored;
@@ -366,8 +384,12 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
     };
     // The texture digests (a million at city scale) as text, not as a DOM.
     std::vector<size_t> listed;
-    forEachFingerprintTexture(textures, texture_digests, [&](size_t t) { listed.push_back(t); });
-    std::string text = format::spliceArray(report.dump(2), 2, "textures", kFingerprintTextures, listed.size(), [&](size_t i) {
+    forEachFingerprintTexture(textures, texture_digests, [&](size_t t) {
+        if (!isGenerated(textures[t].path, rec.working)) listed.push_back(t);
+    });
+    const size_t count = listed.size() + rec.source_textures.size();
+    std::string text = format::spliceArray(report.dump(2), 2, "textures", kFingerprintTextures, count, [&](size_t i) {
+        if (i >= listed.size()) return nlohmann::json(toJson({rec.source_textures[i - listed.size()]})[0]).dump(2);
         const size_t t = listed[i];
         const nlohmann::json e = {{"path", textures[t].path}, {"bytes", texture_digests[t].bytes},
                                   {"xxh3", hexDigest(texture_digests[t].xxh3)}};
@@ -538,8 +560,34 @@ int runBuild(const BuildCliOptions& opt_in) {
         scene_stats.textures = scene.textures.size();
         if (!opt.quiet) note("build", fmt::format("procedural facades on {} wall triangles", walls));
     }
+    std::vector<std::string> stylised_photos;
+    if (opt.facades == "stylised") {
+        // Photo facades reduced to colours and a window grid (ingest/stylised_facades.h).
+        StylisedFacadeCounts counts;
+        if (Status s = addStylisedFacades(spill, tmp / kStylisedDir, &scene, &counts); !s.ok()) return abandon(s);
+        if (!opt.quiet)
+            note("build", fmt::format("stylised facades: {} textures, {} of them one colour ({} not upright on their "
+                                      "walls); {} kept as they are (also on roofs or the ground), {} unreadable",
+                                      counts.stylised, counts.without_windows, counts.tilted, counts.not_facades,
+                                      counts.unreadable));
+        stylised_photos = std::move(counts.photos);
+    }
     const std::vector<TextureDigest> texture_digests = digestTextures(scene.textures);
-    const std::string build_hash = buildHash(inputs_key, scene.textures, texture_digests);
+    std::vector<FileDigest> source_textures;
+    for (const std::string& photo : stylised_photos) {
+        FileDigest d;
+        if (Status s = digestFile(photo, &d); !s.ok()) return abandon(s);
+        source_textures.push_back(std::move(d));
+    }
+    // Generated textures enter the hash by their place in the working folder
+    // (and their contents), not by the folder's name, so the same build to
+    // another output has the same hash; their sources enter as themselves.
+    std::vector<TextureRef> hashed = scene.textures;
+    for (TextureRef& t : hashed)
+        if (isGenerated(t.path, tmp.string())) t.path = "<working>" + t.path.substr(tmp.string().size());
+    std::vector<std::string> hash_parts{buildHash(inputs_key, hashed, texture_digests)};
+    for (const FileDigest& d : source_textures) hash_parts.push_back(d.path + "=" + d.xxh3);
+    const std::string build_hash = source_textures.empty() ? hash_parts[0] : hashStrings(hash_parts);
     endStage("read");
 
     // The atlas stage takes the scene's triangles (the tree holds them from
@@ -559,6 +607,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     // What the end of the build needs, here or in the merge job (`merge`).
     auto buildRecord = [&] {
         BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests);
+        rec.source_textures = source_textures;
         rec.features = feature_count;
         rec.triangles = scene_triangles;
         rec.textured_triangles = scene_stats.textured_triangles;
@@ -886,6 +935,14 @@ RunFn addBuildCommand(CLI::App& app) {
                   "attributes: a row of windows per storey (storeys or storey-height attributes, else the wall height "
                   "over --storey-height), a window every 3 m, a wall colour chosen by the building's id; walls with a "
                   "photo keep it")
+        ->group("Computed and procedural textures");
+    cmd->add_option("--facades", opt->facades,
+                    "photo: facades as their textures show them; stylised: every texture that only walls use "
+                    "reduced to its average facade colour, average window colour and window grid, and drawn again "
+                    "clean at its size (textures also on roofs or the ground, such as whole-building atlases, stay "
+                    "photos)")
+        ->default_val("photo")
+        ->check(CLI::IsMember({"photo", "stylised"}))
         ->group("Computed and procedural textures");
     cmd->add_option("--computed", opt->computed,
                     "A computed texture over the atlas coordinates, NAME[:KEY=VALUE,...] (repeatable): sky_view "

@@ -96,6 +96,24 @@ Status readSpill(const std::filesystem::path& spill, std::vector<Triangle>* out)
 Status addProceduralFacades(const std::filesystem::path& spill, const FeatureSpill& features,
                             const ProceduralFacadeParams& params, const std::filesystem::path& dir, Scene* tables,
                             tiles::FeatureBoundsAccumulator* bounds, uint64_t* walls);
+/// What addStylisedFacades did with the scene's textures.
+struct StylisedFacadeCounts {
+    uint64_t stylised = 0;         ///< replaced by their stylised facade
+    uint64_t without_windows = 0;  ///< of those, with no window grid (one colour), tilted ones included
+    uint64_t tilted = 0;           ///< of those, not upright on their walls: their colour only
+    uint64_t not_facades = 0;      ///< also on roofs or the ground (an atlas, paving): kept
+    uint64_t unreadable = 0;       ///< kept; the atlas stage reports them
+    std::vector<std::string> photos;  ///< the paths of the textures replaced, in texture order
+};
+/// Stylised facades (ingest/stylised_facades.h) over a spilled read: every
+/// texture that only walls use is analysed, drawn again as its stylised
+/// facade (same size and channels) into `dir` as PNG, and `tables`' entry
+/// points there; triangles and uvs are unchanged. The window grid is kept
+/// only where the texture stands upright on its walls (world up along the
+/// image's columns within 10 degrees, over 90 % of their area): a tilted
+/// crop (oblique aerial texturing) gets its facade colour alone.
+Status addStylisedFacades(const std::filesystem::path& spill, const std::filesystem::path& dir, Scene* tables,
+                          StylisedFacadeCounts* counts);
 /// decideGlobals over the spilled scene: two passes over the file, more when
 /// its texture models exceed their budget (atlas_tree.h).
 Status decideGlobalsFromSpill(const std::filesystem::path& spill, const Scene& tables, const atlas::AtlasParams& params,

@@ -74,8 +74,9 @@ synth::Image8 facadeCell(const FacadePalette& p, int n) {
     return img;
 }
 
-bool isBareWall(const Triangle& t) {
-    if (t.texture >= 0) return false;
+bool isBareWall(const Triangle& t) { return t.texture < 0 && isWall(t); }
+
+bool isWall(const Triangle& t) {
     if (t.semantic != SurfaceSemantic::Wall && t.semantic != SurfaceSemantic::Unclassified) return false;
     const std::array<Vec3d, 3>& p = t.position_local;
     const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);

@@ -57,6 +57,8 @@ synth::Image8 facadeCell(const FacadePalette& palette, int cell_px);
 
 /// A triangle procedural facades texture (see the file comment).
 bool isBareWall(const Triangle& t);
+/// A wall or unclassified surface within 15 degrees of vertical, textured or not.
+bool isWall(const Triangle& t);
 
 /// What a building's walls need: its palette, lowest wall point and storey height.
 struct FacadeLayout {
