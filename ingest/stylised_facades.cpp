@@ -315,16 +315,22 @@ void keepTypicalBlobs(int w, int h, std::vector<uint8_t>* mask) {
         }
     }
     if (blobs.empty()) return;
-    // Medians over the blobs larger than specks (a 3 x 3 pixel square), so
-    // that noise does not make a window look large and one big sign does not
-    // make a window look small.
+    // Medians weighted by area (the blob the median window pixel lies in,
+    // so that specks of noise do not count), the largest blob left out (so
+    // that one big sign does not set them).
+    size_t largest = 0;
+    for (size_t k = 1; k < blobs.size(); ++k)
+        if (blobs[k].area > blobs[largest].area) largest = k;
     auto median = [&](auto value) {
-        std::vector<double> v;
-        for (const Blob& b : blobs)
-            if (b.area >= 9) v.push_back(value(b));
-        if (v.empty()) return 0.0;
-        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-        return v[v.size() / 2];
+        std::vector<std::pair<double, size_t>> v;
+        size_t total = 0;
+        for (size_t k = 0; k < blobs.size(); ++k)
+            if (k != largest || blobs.size() == 1) v.emplace_back(value(blobs[k]), blobs[k].area), total += blobs[k].area;
+        std::sort(v.begin(), v.end());
+        size_t seen = 0;
+        for (const auto& [x, a] : v)
+            if ((seen += a) * 2 >= total) return x;
+        return v.back().first;
     };
     const double area = median([](const Blob& b) { return static_cast<double>(b.area); });
     const double width = median([](const Blob& b) { return b.x1 - b.x0 + 1.0; });
