@@ -16,7 +16,8 @@ namespace {
 // ones are box-averaged by an integer factor first (windows stay far larger
 // than a pixel) and the grid is scaled back.
 constexpr int kMaxAnalysedSide = 1024;
-// Clusters closer than this (sRGB-encoded luminance, 0..1) are one wall tone.
+// The least distance beyond the facade's peak (sRGB-encoded, 0..1) that
+// counts as far: a plain wall's noise stays inside.
 constexpr double kMinContrast = 16.0 / 255.0;
 
 double linearFromSrgb(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
@@ -192,11 +193,11 @@ std::vector<std::pair<int, int>> runsAbove(const std::vector<double>& profile, d
 }
 
 // One axis of the grid from the window fraction of each column (row): the
-// runs above half the profile's peak; where the profile is periodic, the
-// cells of one regular grid instead, each present when a run above a
-// quarter of the peak (a column with some windows lit, or missing) covers
-// at least half of it. A run confirms one cell only (the one it covers
-// most), so a taller ground-floor window is not two rows.
+// runs above a quarter of the profile's typical height; where they repeat,
+// the cells of one regular grid instead, each present when a run above an
+// eighth (a column with some windows lit, a door alone) covers at least
+// half of it. A run confirms as many cells as the periods it spans, so a
+// taller ground-floor window is one row and two merged storeys are two.
 WindowAxis windowAxis(const std::vector<double>& profile) {
     WindowAxis axis;
     const int n = static_cast<int>(profile.size());
@@ -372,9 +373,9 @@ void tighten(const std::vector<double>& profile, WindowAxis* axis) {
     axis->length = b - a;
 }
 
-bool inCell(const WindowAxis& axis, int i, int margin) {
+bool inCell(const WindowAxis& axis, int i) {
     for (int s : axis.start)
-        if (i >= s - margin && i < s + axis.length + margin) return true;
+        if (i >= s && i < s + axis.length) return true;
     return false;
 }
 
@@ -385,129 +386,139 @@ WindowAxis scaled(WindowAxis axis, int factor) {
     return axis;
 }
 
-}  // namespace
+// Steps 1 and 2 of analyseFacade: which pixels are far from the wall, which
+// of them are windows, which rows are trim bands.
+struct FacadeMasks {
+    int radius = 0;                  ///< the blur's, pixels
+    std::vector<float> raw_distance; ///< each pixel's distance from the facade tone, unblurred
+    double cut = 0;                  ///< where the (blurred) distance leaves the facade
+    std::vector<uint8_t> far;        ///< either measure beyond its cut
+    std::vector<uint8_t> window;     ///< far, at half the blur, outside trim bands, in typical blobs
+    std::vector<uint8_t> band;       ///< per row: a trim band across the facade
+};
 
-FacadeSummary analyseFacade(const synth::Image8& image) {
-    FacadeSummary summary;
-    if (image.width <= 0 || image.height <= 0 || image.channels < 1) return summary;
-    const int factor = std::max(1, (std::max(image.width, image.height) + kMaxAnalysedSide - 1) / kMaxAnalysedSide);
-    const LinearImage lin = linearImage(image, factor);
-    const int w = lin.width, h = lin.height;
-    const size_t n = lin.px.size();
-
-    // 1. Each pixel's distance from the facade tone (the median of each
-    // channel), in sRGB-encoded values (distances then follow what the eye
-    // sees), box-blurred over about 1/32 of the facade: a wall's fine pattern
-    // (bricks and their joints) averages out near the tone, while a window's
-    // glass and frame, both far from it, stay far together.
-    std::array<std::vector<float>, 3> encoded;
-    std::array<float, 3> tone{};
+// Each pixel's distance from the median colour of the planes (sRGB-encoded
+// values: distances then follow what the eye sees).
+std::vector<float> distanceFromMedian(const std::array<std::vector<float>, 3>& encoded) {
+    const size_t n = encoded[0].size();
+    std::array<float, 3> median{};
     for (size_t c = 0; c < 3; ++c) {
-        encoded[c].resize(n);
-        for (size_t i = 0; i < n; ++i) encoded[c][i] = srgbFromLinearFast(lin.px[i][c]);
         std::vector<float> v = encoded[c];
         std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2), v.end());
-        tone[c] = v[n / 2];
+        median[c] = v[n / 2];
     }
-    std::vector<float> raw_distance(n);
+    std::vector<float> d(n);
     for (size_t i = 0; i < n; ++i) {
         double d2 = 0;
-        for (size_t c = 0; c < 3; ++c) d2 += (encoded[c][i] - tone[c]) * (encoded[c][i] - tone[c]);
-        raw_distance[i] = static_cast<float>(std::min(1.0, std::sqrt(d2)));
+        for (size_t c = 0; c < 3; ++c) d2 += (encoded[c][i] - median[c]) * (encoded[c][i] - median[c]);
+        d[i] = static_cast<float>(std::min(1.0, std::sqrt(d2)));
     }
-    const int radius = std::min(w, h) / 64, radius_y = radius;
-    const std::vector<float> distance = boxBlur(raw_distance, w, h, radius, radius_y);
-    // And the distance of the blurred colour (in linear light) from its
-    // median: there the joints blend into the wall's mean colour, so a
-    // window of another hue that is no farther from the tone than the joints
-    // are (green glass on brick with light joints) still stands out, where
-    // a window whose glass and frame average to the wall's colour does not.
-    auto blurredColourDistance = [&](int r) {
-        std::array<std::vector<float>, 3> blurred;
-        std::array<float, 3> median{};
-        for (size_t c = 0; c < 3; ++c) {
-            std::vector<float> plane(n);
-            for (size_t i = 0; i < n; ++i) plane[i] = lin.px[i][c];
-            blurred[c] = boxBlur(plane, w, h, r, r);
-            for (float& v : blurred[c]) v = srgbFromLinearFast(v);
-            std::vector<float> v = blurred[c];
-            std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2), v.end());
-            median[c] = v[n / 2];
-        }
-        std::vector<float> d(n);
-        for (size_t i = 0; i < n; ++i) {
-            double d2 = 0;
-            for (size_t c = 0; c < 3; ++c) d2 += (blurred[c][i] - median[c]) * (blurred[c][i] - median[c]);
-            d[i] = static_cast<float>(std::min(1.0, std::sqrt(d2)));
-        }
-        return d;
-    };
-    const std::vector<float> colour_distance = blurredColourDistance(2 * radius);
+    return d;
+}
 
-    // 2. The facade is the histogram's main peak of that distance, windows
-    // (with their frames and sills), trim, doors and signs lie beyond it:
-    // the cut is the peak plus three of its half widths (at half height,
-    // measured on its near side, which nothing else overlaps).
-    const double cut = facadeCut(distance), colour_cut = facadeCut(colour_distance);
-    std::vector<uint8_t> far(n, 0);
-    for (size_t i = 0; i < n; ++i) far[i] = distance[i] >= cut || colour_distance[i] >= colour_cut;
+// The image's colour planes, box-blurred in linear light by r (0: not
+// blurred), sRGB-encoded.
+std::array<std::vector<float>, 3> encodedPlanes(const LinearImage& lin, int r) {
+    std::array<std::vector<float>, 3> planes;
+    for (size_t c = 0; c < 3; ++c) {
+        planes[c].resize(lin.px.size());
+        for (size_t i = 0; i < lin.px.size(); ++i) planes[c][i] = lin.px[i][c];
+        if (r > 0) planes[c] = boxBlur(planes[c], lin.width, lin.height, r, r);
+        for (float& v : planes[c]) v = srgbFromLinearFast(v);
+    }
+    return planes;
+}
+
+FacadeMasks farFromWall(const LinearImage& lin) {
+    const int w = lin.width, h = lin.height;
+    const size_t n = lin.px.size();
+    FacadeMasks m;
+    // 1. Each pixel's distance from the facade tone, box-blurred over about
+    // 1/32 of the facade: a wall's fine pattern (bricks and their joints)
+    // averages out near the tone, while a window's glass and frame, both far
+    // from it, stay far together. And the distance of the blurred colour
+    // from its median: there the joints blend into the wall's mean colour,
+    // so a window of another hue that is no farther from the tone than the
+    // joints are (green glass on brick with light joints) still stands out,
+    // where a window whose glass and frame average to the wall's colour does
+    // not.
+    m.radius = std::min(w, h) / 64;
+    m.raw_distance = distanceFromMedian(encodedPlanes(lin, 0));
+    const std::vector<float> distance = boxBlur(m.raw_distance, w, h, m.radius, m.radius);
+    const std::vector<float> colour_distance = distanceFromMedian(encodedPlanes(lin, 2 * m.radius));
+
+    // 2. The facade is each histogram's main peak; windows (with their
+    // frames and sills), trim, doors and signs lie beyond its cut.
+    m.cut = facadeCut(distance);
+    const double colour_cut = facadeCut(colour_distance);
+    m.far.assign(n, 0);
+    for (size_t i = 0; i < n; ++i) m.far[i] = distance[i] >= m.cut || colour_distance[i] >= colour_cut;
     // A band across (nearly) the whole width is trim (a cornice, a string
     // course, a plinth), part of the facade and not a row of windows; so are
     // the rows the blur spread it over.
-    std::vector<uint8_t> band(static_cast<size_t>(h), 0), band_reach(static_cast<size_t>(h), 0);
+    m.band.assign(static_cast<size_t>(h), 0);
+    std::vector<uint8_t> band_reach(static_cast<size_t>(h), 0);
     for (int y = 0; y < h; ++y) {
-        const uint8_t* row = far.data() + static_cast<size_t>(y) * w;
+        const uint8_t* row = m.far.data() + static_cast<size_t>(y) * w;
         if (std::count(row, row + w, uint8_t{1}) * 10 < w * 9) continue;
-        band[static_cast<size_t>(y)] = 1;
-        for (int b = std::max(0, y - radius_y); b <= std::min(h - 1, y + radius_y); ++b) band_reach[static_cast<size_t>(b)] = 1;
+        m.band[static_cast<size_t>(y)] = 1;
+        for (int b = std::max(0, y - m.radius); b <= std::min(h - 1, y + m.radius); ++b) band_reach[static_cast<size_t>(b)] = 1;
     }
     // The windows from half the blur: the full blur's halos would join
     // windows closer than its width into one blob.
-    const std::vector<float> fine = boxBlur(raw_distance, w, h, radius / 2, radius_y / 2);
-    const std::vector<float> colour_fine = blurredColourDistance(radius);
-    std::vector<uint8_t> window(n);
-    for (size_t i = 0; i < n; ++i) window[i] = far[i] && (fine[i] >= cut || colour_fine[i] >= colour_cut);
+    const std::vector<float> fine = boxBlur(m.raw_distance, w, h, m.radius / 2, m.radius / 2);
+    const std::vector<float> colour_fine = distanceFromMedian(encodedPlanes(lin, m.radius));
+    m.window.assign(n, 0);
+    for (size_t i = 0; i < n; ++i) m.window[i] = m.far[i] && (fine[i] >= m.cut || colour_fine[i] >= colour_cut);
     for (int y = 0; y < h; ++y)
-        if (band_reach[static_cast<size_t>(y)]) std::fill_n(window.begin() + static_cast<std::ptrdiff_t>(y) * w, w, uint8_t{0});
-
-    // Windows are many blobs of one size: a blob both wider and taller than
-    // the typical one (a sign, a shop front, a number plate) or much smaller
+        if (band_reach[static_cast<size_t>(y)]) std::fill_n(m.window.begin() + static_cast<std::ptrdiff_t>(y) * w, w, uint8_t{0});
+    // Windows are many blobs of one size: a blob larger than the typical one
+    // both ways (a sign, a shop front, a number plate) or much smaller
     // (noise) is not one. Merged windows (a column joined by its sills) and
     // doors are larger in one direction only.
-    keepTypicalBlobs(w, h, &window);
+    keepTypicalBlobs(w, h, &m.window);
+    return m;
+}
 
-    // 3. The grid, from each column's and each row's window fraction.
+// Step 3: the grid, from each column's and each row's window fraction; the
+// blur widened each window by up to its reach, so the cells' extent comes
+// again from the unblurred distances, inside the other axis' cells.
+void findGrid(const LinearImage& lin, const FacadeMasks& m, WindowAxis* columns, WindowAxis* rows) {
+    const int w = lin.width, h = lin.height;
     std::vector<double> column_share(static_cast<size_t>(w), 0), row_share(static_cast<size_t>(h), 0);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
-            if (window[static_cast<size_t>(y) * w + x])
+            if (m.window[static_cast<size_t>(y) * w + x])
                 column_share[static_cast<size_t>(x)] += 1.0 / h, row_share[static_cast<size_t>(y)] += 1.0 / w;
-    WindowAxis columns = windowAxis(column_share), rows = windowAxis(row_share);
-    if (columns.start.empty() || rows.start.empty()) columns = rows = {};
-    // The blur widened each window by up to its reach: the cells' extent
-    // again from the unblurred distances, inside the other axis' cells.
-    if (!columns.start.empty()) {
-        std::vector<double> raw_columns(static_cast<size_t>(w), 0), raw_rows(static_cast<size_t>(h), 0);
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) {
-                if (raw_distance[static_cast<size_t>(y) * w + x] < cut) continue;
-                if (inCell(rows, y, 0)) raw_columns[static_cast<size_t>(x)] += 1;
-                if (inCell(columns, x, 0)) raw_rows[static_cast<size_t>(y)] += 1;
-            }
-        tighten(raw_columns, &columns);
-        tighten(raw_rows, &rows);
+    *columns = windowAxis(column_share), *rows = windowAxis(row_share);
+    if (columns->start.empty() || rows->start.empty()) {
+        *columns = *rows = {};
+        return;
     }
+    std::vector<double> raw_columns(static_cast<size_t>(w), 0), raw_rows(static_cast<size_t>(h), 0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            if (m.raw_distance[static_cast<size_t>(y) * w + x] < m.cut) continue;
+            if (inCell(*rows, y)) raw_columns[static_cast<size_t>(x)] += 1;
+            if (inCell(*columns, x)) raw_rows[static_cast<size_t>(y)] += 1;
+        }
+    tighten(raw_columns, columns);
+    tighten(raw_rows, rows);
+}
 
-    // 4. The colours: the facade's from the pixels that are neither far nor
-    // near a window (the blur's reach: its edges mix wall and frame), trim
-    // bands included; the windows' from their pixels inside the grid's cells.
-    std::vector<float> window_f(window.begin(), window.end());
-    const std::vector<float> near_window = boxBlur(window_f, w, h, radius, radius_y);
-    // Row by row, as the facade's horizontal parts (trim bands, rows of
-    // windows) take their own share of it: each row's sample (all of a band,
-    // which has no windows; elsewhere what is neither far nor near a window)
-    // weighted by the row's facade area (all but the pixels far both blurred
-    // and unblurred: a blurred window reaches over the wall around it).
+// Step 4: the facade's colour, row by row, as the facade's horizontal parts
+// (trim bands, rows of windows) take their own share of it: each row's
+// sample (all of a band, which has no windows; elsewhere what is neither
+// far nor near a window, where the blur mixes wall and frame) weighted by
+// the row's facade area (all but the pixels far both blurred and
+// unblurred: a blurred window reaches over the wall around it). The
+// windows' colour from their pixels inside the grid's cells. The grid goes
+// into the summary only if it holds window pixels.
+void averageColours(const LinearImage& lin, const FacadeMasks& m, const WindowAxis& columns, const WindowAxis& rows,
+                    FacadeSummary* summary) {
+    const int w = lin.width, h = lin.height;
+    std::vector<float> window_f(m.window.begin(), m.window.end());
+    const std::vector<float> near_window = boxBlur(window_f, w, h, m.radius, m.radius);
     struct Mean {
         std::array<double, 4> sum{0, 0, 0, 0};
         double samples = 0;
@@ -520,40 +531,57 @@ FacadeSummary analyseFacade(const synth::Image8& image) {
     std::vector<Mean> row_mean(static_cast<size_t>(h));
     std::vector<double> row_area(static_cast<size_t>(h), 0);
     for (int y = 0; y < h; ++y) {
-        const bool in_band = band[static_cast<size_t>(y)] != 0;
+        const bool in_band = m.band[static_cast<size_t>(y)] != 0;
         for (int x = 0; x < w; ++x) {
             const size_t i = static_cast<size_t>(y) * w + x;
-            if (in_band || !far[i] || raw_distance[i] < cut) row_area[static_cast<size_t>(y)] += 1;
-            if (in_band || (!far[i] && near_window[i] < 1e-4f)) {
+            if (in_band || !m.far[i] || m.raw_distance[i] < m.cut) row_area[static_cast<size_t>(y)] += 1;
+            if (in_band || (!m.far[i] && near_window[i] < 1e-4f)) {
                 row_mean[static_cast<size_t>(y)].add(lin.px[i]);
                 wall.add(lin.px[i]);
             }
-            if (window[i] && inCell(rows, y, 0) && inCell(columns, x, 0)) windows.add(lin.px[i]);
+            if (m.window[i] && inCell(rows, y) && inCell(columns, x)) windows.add(lin.px[i]);
         }
     }
     std::array<double, 4> facade{0, 0, 0, 0};
     double area = 0;
     for (size_t y = 0; y < static_cast<size_t>(h) && wall.samples > 0; ++y) {
-        const Mean& m = row_mean[y].samples > 0 ? row_mean[y] : wall;  // a row all windows: the wall's mean
-        for (size_t c = 0; c < 4; ++c) facade[c] += row_area[y] * m.sum[c] / m.samples;
+        const Mean& mean = row_mean[y].samples > 0 ? row_mean[y] : wall;  // a row all windows: the wall's mean
+        for (size_t c = 0; c < 4; ++c) facade[c] += row_area[y] * mean.sum[c] / mean.samples;
         area += row_area[y];
     }
     if (area == 0) {  // nothing but windows: the mean of everything
         for (const auto& p : lin.px)
             for (size_t c = 0; c < 4; ++c) facade[c] += p[c];
-        area = static_cast<double>(n);
+        area = static_cast<double>(lin.px.size());
     }
     auto colour = [](const std::array<double, 4>& s, double c, std::array<uint8_t, 3>* rgb, uint8_t* alpha) {
         for (size_t k = 0; k < 3; ++k) (*rgb)[k] = srgbByte(s[k] / c);
         *alpha = static_cast<uint8_t>(std::lround(std::clamp(s[3] / c, 0.0, 1.0) * 255));
     };
-    colour(facade, area, &summary.facade_rgb, &summary.facade_alpha);
+    colour(facade, area, &summary->facade_rgb, &summary->facade_alpha);
     if (windows.samples > 0) {
-        colour(windows.sum, windows.samples, &summary.window_rgb, &summary.window_alpha);
-        summary.columns = scaled(columns, factor);
-        summary.rows = scaled(rows, factor);
+        colour(windows.sum, windows.samples, &summary->window_rgb, &summary->window_alpha);
+        summary->columns = columns;
+        summary->rows = rows;
     } else {
-        summary.window_rgb = summary.facade_rgb;
+        summary->window_rgb = summary->facade_rgb;
+    }
+}
+
+}  // namespace
+
+FacadeSummary analyseFacade(const synth::Image8& image) {
+    FacadeSummary summary;
+    if (image.width <= 0 || image.height <= 0 || image.channels < 1) return summary;
+    const int factor = std::max(1, (std::max(image.width, image.height) + kMaxAnalysedSide - 1) / kMaxAnalysedSide);
+    const LinearImage lin = linearImage(image, factor);
+    const FacadeMasks masks = farFromWall(lin);
+    WindowAxis columns, rows;
+    findGrid(lin, masks, &columns, &rows);
+    averageColours(lin, masks, columns, rows, &summary);
+    if (!summary.columns.start.empty()) {
+        summary.columns = scaled(summary.columns, factor);
+        summary.rows = scaled(summary.rows, factor);
     }
     return summary;
 }
