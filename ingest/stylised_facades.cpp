@@ -194,8 +194,8 @@ std::vector<std::pair<int, int>> runsAbove(const std::vector<double>& profile, d
 
 // One axis of the grid from the window fraction of each column (row): the
 // runs above a quarter of the profile's typical height; where they repeat,
-// the cells of one regular grid instead, each present when a run above an
-// eighth (a column with some windows lit, a door alone) covers at least
+// the cells of one regular grid instead, each present when a run above a
+// twelfth (a column with some windows lit, a narrow door alone) covers at least
 // half of it. A run confirms as many cells as the periods it spans, so a
 // taller ground-floor window is one row and two merged storeys are two.
 WindowAxis windowAxis(const std::vector<double>& profile) {
@@ -266,7 +266,7 @@ WindowAxis windowAxis(const std::vector<double>& profile) {
     std::vector<int> cells;
     for (double k = std::floor(-phase / pitch) - 1; phase + k * pitch < n; k += 1) cells.push_back(static_cast<int>(std::lround(phase + k * pitch)));
     std::vector<uint8_t> present(cells.size(), 0);
-    for (const auto& [rs, re] : runsAbove(profile, peak / 8)) {
+    for (const auto& [rs, re] : runsAbove(profile, peak / 12)) {
         // The cells this run covers, most covered first; it confirms as many
         // as the periods it spans (at least one), each if at least half covered.
         std::vector<std::pair<int, size_t>> cover;
@@ -509,7 +509,8 @@ void findGrid(const LinearImage& lin, const FacadeMasks& m, WindowAxis* columns,
 // Step 4: the facade's colour, row by row, as the facade's horizontal parts
 // (trim bands, rows of windows) take their own share of it: each row's
 // sample (all of a band, which has no windows; elsewhere what is neither
-// far nor near a window, where the blur mixes wall and frame) weighted by
+// far, nor near a window, where the blur mixes wall and frame, nor in a
+// cell, where a lit window can be as near the wall's tone) weighted by
 // the row's facade area (all but the pixels far both blurred and
 // unblurred: a blurred window reaches over the wall around it). The
 // windows' colour from their pixels inside the grid's cells. The grid goes
@@ -535,7 +536,7 @@ void averageColours(const LinearImage& lin, const FacadeMasks& m, const WindowAx
         for (int x = 0; x < w; ++x) {
             const size_t i = static_cast<size_t>(y) * w + x;
             if (in_band || !m.far[i] || m.raw_distance[i] < m.cut) row_area[static_cast<size_t>(y)] += 1;
-            if (in_band || (!m.far[i] && near_window[i] < 1e-4f)) {
+            if (in_band || (!m.far[i] && near_window[i] < 1e-4f && !(inCell(rows, y) && inCell(columns, x)))) {
                 row_mean[static_cast<size_t>(y)].add(lin.px[i]);
                 wall.add(lin.px[i]);
             }

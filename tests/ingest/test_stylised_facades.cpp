@@ -90,24 +90,24 @@ Tally tally(bool number_plate, const std::vector<int>& sizes) {
     return t;
 }
 
-// Bars: columns as SEED-FEATURES §4.2 asks (>= 95 %); rows and the facade
-// colour at the level this analysis reaches (measured 205, 215 and 198 of
-// 216 when written: 94.9 %, 99.5 %, 91.7 %), just below the spec's 95 % for
-// rows and below it for the colour. The colour's median error must stay
-// within 1 LSB and its worst within 9 (measured 0.7 and 8.2).
+// Bars: rows and columns as SEED-FEATURES §4.2 asks (>= 95 %; measured 208
+// and 216 of 216 when written: 96.3 %, 100 %); the facade colour at the
+// level this analysis reaches (201 of 216, 93.1 %), below the spec's 95 %.
+// The colour's median error must stay within 1 LSB and its worst within 9
+// (measured 0.7 and 8.2).
 TEST(StylisedFacades, RecoverColourRowsAndColumnsOfSyntheticFacades) {
     const Tally t = tally(false, {128, 256, 512});
     EXPECT_GE(t.columns_ok * 100, 95 * t.facades);
-    EXPECT_GE(t.rows_ok * 100, 94 * t.facades);
-    EXPECT_GE(t.colour_ok * 100, 91 * t.facades);
+    EXPECT_GE(t.rows_ok * 100, 95 * t.facades);
+    EXPECT_GE(t.colour_ok * 100, 93 * t.facades);
     EXPECT_LE(t.median_colour, 1.0);
     EXPECT_LE(t.worst_colour, 9.0);
 }
 
 // The synthetic town's own facades carry a number plate (a white sign a
 // fifth of the facade high, for the decoding tests): the blob filter keeps
-// it out of the grid on most (measured 163, 194 and 183 of 216: 75 %, 90 %,
-// 85 %; without the filter 36 rows and 36 columns right).
+// it out of the grid on most (measured 163, 194 and 185 of 216: 75 %, 90 %,
+// 86 %; without the filter 37 rows and 36 columns right).
 TEST(StylisedFacades, NumberPlatesAreNotWindowsOnMostFacades) {
     const Tally t = tally(true, {128, 256, 512});
     EXPECT_GE(t.rows_ok * 100, 72 * t.facades);
