@@ -33,9 +33,6 @@ namespace cityatlas::atlas {
 
 namespace fs = std::filesystem;
 
-double linearFromSrgb(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
-double srgbFromLinear(double l) { return l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1.0 / 2.4) - 0.055; }
-
 namespace {
 
 struct ColourTables {

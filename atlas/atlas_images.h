@@ -11,12 +11,9 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
+#include "core/srgb.h"
 
 namespace cityatlas::atlas {
-
-/// sRGB transfer functions (IEC 61966-2-1), exact formulas.
-double linearFromSrgb(double encoded);
-double srgbFromLinear(double linear);
 
 struct RenderResult {
     std::set<int32_t> unreadable_textures;  ///< their regions were filled with mid grey

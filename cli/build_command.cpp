@@ -71,6 +71,21 @@ bool isGenerated(const std::string& path, const std::string& working) {
            (path[working.size()] == '/' || path[working.size()] == '\\');
 }
 
+// The build hash (tileset.json's tilesetVersion). Generated textures enter
+// it by their place in the working folder (and their contents), not by the
+// folder's name, so the same build to another output has the same hash;
+// the photos they were made from enter as themselves.
+std::string buildHashOf(const std::string& inputs_key, const std::vector<TextureRef>& textures,
+                        const std::vector<TextureDigest>& digests, const std::string& working,
+                        const std::vector<FileDigest>& source_textures) {
+    std::vector<TextureRef> hashed = textures;
+    for (TextureRef& t : hashed)
+        if (isGenerated(t.path, working)) t.path = "<working>" + t.path.substr(working.size());
+    std::vector<std::string> parts{buildHash(inputs_key, hashed, digests)};
+    for (const FileDigest& d : source_textures) parts.push_back(d.path + "=" + d.xxh3);
+    return source_textures.empty() ? parts[0] : hashStrings(parts);
+}
+
 // Everything that changes the output, as text (threads and cache size do not).
 std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::AtlasParams& a) {
     std::vector<std::string> k{std::string("cityatlas ") + kCityAtlasVersion, "lod=" + opt.input.lod,
@@ -389,11 +404,10 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
     });
     const size_t count = listed.size() + rec.source_textures.size();
     std::string text = format::spliceArray(report.dump(2), 2, "textures", kFingerprintTextures, count, [&](size_t i) {
-        if (i >= listed.size()) return nlohmann::json(toJson({rec.source_textures[i - listed.size()]})[0]).dump(2);
-        const size_t t = listed[i];
-        const nlohmann::json e = {{"path", textures[t].path}, {"bytes", texture_digests[t].bytes},
-                                  {"xxh3", hexDigest(texture_digests[t].xxh3)}};
-        return e.dump(2);
+        const FileDigest d = i >= listed.size() ? rec.source_textures[i - listed.size()]
+                                                : FileDigest{textures[listed[i]].path, texture_digests[listed[i]].bytes,
+                                                             hexDigest(texture_digests[listed[i]].xxh3)};
+        return nlohmann::json{{"path", d.path}, {"bytes", d.bytes}, {"xxh3", d.xxh3}}.dump(2);
     });
     text += '\n';
     if (Status s = writeTextAtomically(tmp / "build_report.json", text); !s.ok()) return abandon(s);
@@ -579,15 +593,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         if (Status s = digestFile(photo, &d); !s.ok()) return abandon(s);
         source_textures.push_back(std::move(d));
     }
-    // Generated textures enter the hash by their place in the working folder
-    // (and their contents), not by the folder's name, so the same build to
-    // another output has the same hash; their sources enter as themselves.
-    std::vector<TextureRef> hashed = scene.textures;
-    for (TextureRef& t : hashed)
-        if (isGenerated(t.path, tmp.string())) t.path = "<working>" + t.path.substr(tmp.string().size());
-    std::vector<std::string> hash_parts{buildHash(inputs_key, hashed, texture_digests)};
-    for (const FileDigest& d : source_textures) hash_parts.push_back(d.path + "=" + d.xxh3);
-    const std::string build_hash = source_textures.empty() ? hash_parts[0] : hashStrings(hash_parts);
+    const std::string build_hash = buildHashOf(inputs_key, scene.textures, texture_digests, tmp.string(), source_textures);
     endStage("read");
 
     // The atlas stage takes the scene's triangles (the tree holds them from

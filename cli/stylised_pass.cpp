@@ -5,7 +5,6 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
-#include <cmath>
 
 #include "cli/shards.h"
 #include "ingest/stylised_facades.h"
@@ -14,25 +13,6 @@
 namespace cityatlas::cli {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-// Whether a wall triangle's texture shows the wall upright: world up runs
-// up the image (rows stay level on the wall) within 10 degrees. Photos
-// rectified to the facade do; crops of oblique aerial images often do not.
-bool uprightOnWall(const Triangle& t, const TextureRef& texture) {
-    const Vec3d e1 = t.position_local[1] - t.position_local[0], e2 = t.position_local[2] - t.position_local[0];
-    const Vec2d d1{t.uv[1].x - t.uv[0].x, t.uv[1].y - t.uv[0].y}, d2{t.uv[2].x - t.uv[0].x, t.uv[2].y - t.uv[0].y};
-    const double det = d1.x * d2.y - d2.x * d1.y;
-    if (det == 0 || texture.width_px <= 0 || texture.height_px <= 0) return false;
-    // z = a u + b v + c over the triangle; in pixels (x = u W, y = (1 - v) H,
-    // rows top-down) its gradient is (a / W, -b / H).
-    const double a = (e1.z * d2.y - e2.z * d1.y) / det, b = (d1.x * e2.z - d2.x * e1.z) / det;
-    const double gx = a / texture.width_px, gy = -b / texture.height_px;
-    return gy < 0 && std::abs(gx) <= std::tan(10.0 * M_PI / 180.0) * -gy;
-}
-
-}  // namespace
 
 Status addStylisedFacades(const fs::path& spill, const fs::path& dir, Scene* tables, StylisedFacadeCounts* counts) {
     // Which textures walls use, and which anything else uses; and how much

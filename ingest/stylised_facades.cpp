@@ -9,6 +9,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "core/srgb.h"
+
 namespace cityatlas {
 namespace {
 
@@ -20,8 +22,6 @@ constexpr int kMaxAnalysedSide = 1024;
 // counts as far: a plain wall's noise stays inside.
 constexpr double kMinContrast = 16.0 / 255.0;
 
-double linearFromSrgb(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
-double srgbFromLinear(double l) { return l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1.0 / 2.4) - 0.055; }
 // The same, for the analysis's per-pixel distances: a table, interpolated
 // (within 2e-4 of the curve: far below the distances' cuts), as a pow per
 // channel and pixel was most of the analysis' time.
@@ -585,6 +585,18 @@ FacadeSummary analyseFacade(const synth::Image8& image) {
         summary.rows = scaled(summary.rows, factor);
     }
     return summary;
+}
+
+bool uprightOnWall(const Triangle& t, const TextureRef& texture) {
+    const Vec3d e1 = t.position_local[1] - t.position_local[0], e2 = t.position_local[2] - t.position_local[0];
+    const Vec2d d1{t.uv[1].x - t.uv[0].x, t.uv[1].y - t.uv[0].y}, d2{t.uv[2].x - t.uv[0].x, t.uv[2].y - t.uv[0].y};
+    const double det = d1.x * d2.y - d2.x * d1.y;
+    if (det == 0 || texture.width_px <= 0 || texture.height_px <= 0) return false;
+    // z = a u + b v + c over the triangle; in pixels (x = u W, y = (1 - v) H,
+    // rows top-down) its gradient is (a / W, -b / H).
+    const double a = (e1.z * d2.y - e2.z * d1.y) / det, b = (d1.x * e2.z - d2.x * e1.z) / det;
+    const double gx = a / texture.width_px, gy = -b / texture.height_px;
+    return gy < 0 && std::abs(gx) <= std::tan(10.0 * M_PI / 180.0) * -gy;
 }
 
 synth::Image8 drawStylisedFacade(const FacadeSummary& summary, int width, int height, int channels) {

@@ -42,6 +42,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "ingest/scene.h"
 #include "ingest/synth/facade_texture.h"
 
 namespace cityatlas {
@@ -64,6 +65,12 @@ struct FacadeSummary {
 
 /// The summary of a facade image (1 to 4 channels, rows top-down).
 FacadeSummary analyseFacade(const synth::Image8& image);
+
+/// Whether a wall triangle's texture shows the wall upright: world up runs
+/// up the image (rows stay level on the wall) within 10 degrees. Photos
+/// rectified to the facade do; crops of oblique aerial images often do not,
+/// and a window grid along the image's axes means nothing there.
+bool uprightOnWall(const Triangle& t, const TextureRef& texture);
 
 /// The clean facade of a summary: facade colour, and a window at every
 /// (row, column) of the grid. channels 3 or 4.

@@ -19,6 +19,8 @@
 #include <tbb/parallel_for.h>
 #include <unistd.h>
 
+#include "core/srgb.h"
+
 namespace cityatlas::tiles {
 namespace {
 
@@ -45,9 +47,8 @@ struct SrgbTables {
     std::array<double, 256> to_linear{};
     std::array<double, 255> thresholds{};  // linear value where code k+1 starts
     SrgbTables() {
-        auto lin = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
-        for (int k = 0; k < 256; ++k) to_linear[size_t(k)] = lin(k / 255.0);
-        for (int k = 0; k < 255; ++k) thresholds[size_t(k)] = lin((k + 0.5) / 255.0);
+        for (int k = 0; k < 256; ++k) to_linear[size_t(k)] = linearFromSrgb(k / 255.0);
+        for (int k = 0; k < 255; ++k) thresholds[size_t(k)] = linearFromSrgb((k + 0.5) / 255.0);
     }
     uint8_t encode(double linear) const {
         return uint8_t(std::upper_bound(thresholds.begin(), thresholds.end(), linear) - thresholds.begin());

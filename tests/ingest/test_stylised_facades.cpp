@@ -192,4 +192,28 @@ TEST(StylisedFacades, DrawsTheGridClippedAtTheEdges) {
     EXPECT_EQ(windows, 5 * 8 + 10 * 8 + 5 * 5 + 10 * 5);
 }
 
+// A wall 10 m wide and 5 m tall in the x-z plane, its uvs v = z / 5 + t x / 10
+// and u = x / 10 (or upside down): world up runs up the image when the
+// tilt, in pixels, is within 10 degrees.
+TEST(StylisedFacades, UprightOnWallIsMeasuredInPixels) {
+    auto wall = [](double t, bool flipped) {
+        cityatlas::Triangle tri;
+        tri.position_local = {cityatlas::Vec3d{0, 0, 0}, cityatlas::Vec3d{10, 0, 0}, cityatlas::Vec3d{0, 0, 5}};
+        for (size_t k = 0; k < 3; ++k) {
+            const auto& p = tri.position_local[k];
+            const double v = p.z / 5 + t * p.x / 10;
+            tri.uv[k] = {p.x / 10, flipped ? 1 - v : v};
+        }
+        return tri;
+    };
+    const cityatlas::TextureRef square{"", 100, 100, 3}, wide{"", 1000, 100, 3};
+    EXPECT_TRUE(cityatlas::uprightOnWall(wall(0, false), square));
+    EXPECT_TRUE(cityatlas::uprightOnWall(wall(0.15, false), square));   // 8.5 degrees
+    EXPECT_FALSE(cityatlas::uprightOnWall(wall(0.2, false), square));   // 11.3 degrees
+    EXPECT_FALSE(cityatlas::uprightOnWall(wall(0.5, false), square));   // 26.6 degrees
+    EXPECT_TRUE(cityatlas::uprightOnWall(wall(0.5, false), wide));      // the same uvs, 2.9 degrees in pixels
+    EXPECT_FALSE(cityatlas::uprightOnWall(wall(0, true), square));      // upside down
+    EXPECT_FALSE(cityatlas::uprightOnWall(wall(0, false), cityatlas::TextureRef{}));  // size unknown
+}
+
 }  // namespace
