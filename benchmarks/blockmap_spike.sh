@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# Issue 20's spike: does a BlockMap (papers/002) pay at the root? For the
+# 10,000-building town (benchmarks/build_scale.sh 10000 400 main: 512 px
+# facades, --d-min 400) and the 100,000-building one (100000 2000 main 32),
+# a root BlockMap at the root's own texel size (tests/tools/blockmap_spike.cpp)
+# against the root's geometry and atlases in the built folder:
+#   - bytes (zstd planes + BC1 colour, as SEED-FEATURES §1.2 lays them out)
+#     and the BlockMap's build seconds;
+#   - plan-view built area kept: every building, the root geometry's
+#     buildings (it leaves out those smaller than its texel), the BlockMap's
+#     occupied cells;
+#   - frame time on this machine's GL (llvmpipe without a GPU) at four
+#     cameras: `switch` (the root's min distance), `full` (the town fills the
+#     frame one way), `close` (all frame is town: the ray caster's worst case,
+#     closer than the root is ever drawn), `away` (looking away: the frame's
+#     fixed cost). The root's own frames come from `cityatlas render` with a
+#     budget that holds the root alone, so it draws the root at every camera;
+#   - per level of the folder: buildings the geometry leaves out, and how
+#     many of them span 2 or more texels of their node (>= 2 px at its switch).
+# Writes out/benchmarks/blockmap-spike.json and prints a table.
+# Usage: benchmarks/blockmap_spike.sh [SIZE=1280x720] [FRAMES=10]
+# Builds missing towns and folders with benchmarks/build_scale.sh (minutes).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SIZE="${1:-1280x720}"; FRAMES="${2:-10}"
+./scripts/build > /dev/null
+ninja -C build blockmap_spike > /dev/null
+TOWNS=("10000 400 512" "100000 2000 32")
+for t in "${TOWNS[@]}"; do
+  set -- $t
+  tag="$1-$2"; [ "$3" = 512 ] || tag="$tag-$3px"
+  folder="out/benchmarks/build-$tag-default"
+  [ -f "$folder/tileset.json" ] || benchmarks/build_scale.sh "$1" "$2" main "$3"
+  work="out/benchmarks/blockmap-spike-$1"
+  rm -rf "$work"; mkdir -p "$work"
+  ./build/tests/tools/blockmap_spike "$1" "$3" "$folder" "$work" "$SIZE" "$FRAMES" > /dev/null
+  root_bytes=$(/usr/bin/python3 -c "import json; print(json.load(open('$work/spike.json'))['root']['bytes'])")
+  pinned=$(du -cb "$folder"/features/bounds/*.bin | tail -1 | cut -f1)
+  ./build/cli/cityatlas render "$folder" --path "$work/cameras.json" --size "$SIZE" --fade-s 0 -q \
+    --budget $((root_bytes + pinned + 4096)) -o "$work/root-frames" --every 40
+done
+/usr/bin/python3 - "$SIZE" <<'PY'
+import json, os, statistics, struct, sys, collections
+size = sys.argv[1]
+def dropped_per_level(folder):
+    widths, base = {}, 0
+    bdir = os.path.join(folder, "features", "bounds")
+    for f in sorted(os.listdir(bdir), key=lambda f: int(f.split(".")[0])):
+        data = open(os.path.join(bdir, f), "rb").read()
+        for i in range(len(data) // 32):
+            mn, mx = struct.unpack_from("<3f", data, i * 32), struct.unpack_from("<3f", data, i * 32 + 12)
+            widths[base + i] = max(mx[0] - mn[0], mx[1] - mn[1])
+        base += len(data) // 32
+    levels = collections.defaultdict(lambda: {"nodes": 0, "nodes_dropping": 0, "dropped": 0, "dropped_2_texels": 0})
+    def walk(n):
+        e = n["extras"]["cityatlas"]
+        row, d = levels[e["level"]], e["features"].get("dropped", [])
+        row["nodes"] += 1; row["nodes_dropping"] += bool(d); row["dropped"] += len(d)
+        row["dropped_2_texels"] += sum(1 for f in d if widths.get(f, 0) >= 2 * e["world_texel_m"])
+        for c in n.get("children", []): walk(c)
+    walk(json.load(open(os.path.join(folder, "tileset.json")))["root"])
+    return dict(sorted(levels.items()))
+result = {"size": size, "towns": []}
+for n in (10000, 100000):
+    work = f"out/benchmarks/blockmap-spike-{n}"
+    r = json.load(open(f"{work}/spike.json"))
+    frames = json.load(open(f"{work}/root-frames/report.json"))["frames"]
+    root_ms = {}
+    for cam in ("switch", "full", "close", "away"):
+        ok = [f["frame_ms"] for f in frames if f["label"] == cam and f["uploads"] == 0 and not f["root_missing"]]
+        root_ms[cam] = round(statistics.median(ok), 2) if ok else None
+    r["render_root_geometry"] = root_ms
+    r["levels"] = dropped_per_level(r["root"]["folder"])
+    result["towns"].append(r)
+json.dump(result, open("out/benchmarks/blockmap-spike.json", "w"), indent=1)
+print(f"frame {size}, {result['towns'][0]['render']['renderer']}")
+for r in result["towns"]:
+    b, root, a = r["blockmap"], r["root"], r["plan_area_m2"]
+    print(f"\n{r['town']['buildings']} buildings: root texel {root['world_texel_m']:.2f} m, switch {root['min_distance_m']:.0f} m")
+    print(f"  bytes: root geometry+atlases {root['bytes']:,}  BlockMap {b['bytes']['total']:,} (GPU {b['bytes']['gpu']:,})"
+          f"  grid {b['grid'][0]}x{b['grid'][1]}, {b['columns']:,} columns, {b['features']:,} buildings")
+    print(f"  BlockMap build {b['build']['total_s']:.2f} s (BVH {b['build']['bvh_s']:.2f} s)")
+    print(f"  plan area: buildings {a['buildings']/1e6:.2f} km2, root geometry {a['root_geometry']/1e6:.2f} km2,"
+          f" BlockMap cells {a['blockmap_cells']/1e6:.2f} km2; root drops {root['features_dropped']:,} buildings,"
+          f" {b['dropped_by_geometry_present']:,} of them in the BlockMap")
+    for cam in ("switch", "full", "close", "away"):
+        print(f"  {cam:6s} frame ms: root geometry {r['render_root_geometry'][cam]}, BlockMap {r['render'][cam]['frame_ms_median']:.2f}"
+              f" ({r['render'][cam]['pixels_not_background']:,} px)")
+    for lvl, row in r["levels"].items():
+        if row["dropped"]:
+            print(f"  level {lvl}: {row['dropped']:,} dropped in {row['nodes_dropping']} of {row['nodes']} nodes,"
+                  f" {row['dropped_2_texels']} of them >= 2 texels wide")
+PY
