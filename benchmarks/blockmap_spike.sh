@@ -79,7 +79,8 @@ for r in result["towns"]:
     print(f"\n{r['town']['buildings']} buildings: root texel {root['world_texel_m']:.2f} m, switch {root['min_distance_m']:.0f} m")
     print(f"  bytes: root geometry+atlases {root['bytes']:,}  BlockMap {b['bytes']['total']:,} (GPU {b['bytes']['gpu']:,})"
           f"  grid {b['grid'][0]}x{b['grid'][1]}, {b['columns']:,} columns, {b['features']:,} buildings")
-    print(f"  BlockMap build {b['build']['total_s']:.2f} s (BVH {b['build']['bvh_s']:.2f} s)")
+    print(f"  BlockMap build {b['build']['total_s']:.2f} s: planes {b['build']['planes_s']:.2f} s (BVH included),"
+          f" wall rays {b['build']['wall_rays_s']:.2f} s (+ BVH {b['build']['wall_bvh_s']:.2f} s), encode {b['build']['encode_s']:.2f} s")
     print(f"  plan area: buildings {a['buildings']/1e6:.2f} km2, root geometry {a['root_geometry']/1e6:.2f} km2,"
           f" BlockMap cells {a['blockmap_cells']/1e6:.2f} km2; root drops {root['features_dropped']:,} buildings,"
           f" {b['dropped_by_geometry_present']:,} of them in the BlockMap")

@@ -2,14 +2,14 @@
 // Issue 20's spike: a root BlockMap (papers/002, SEED-FEATURES.md §1) of a
 // synthetic town, against the root's geometry and atlases in a built folder:
 // bytes, build seconds and frame time. Not a test and not the feature: the
-// planes are built as §1.2 specifies them (cells with top, base, local
-// feature and first column; distance plane; one column per exposed side,
-// shelf-packed into a 1024-wide wall image; column table; feature ids), but
-// colours are a palette per building instead of the facade textures sampled
-// (the rays that would sample them are cast and timed; the texture reads are
-// not), and columns are packed in cell order, not unfolded per building.
-// The GL part ray-casts the BlockMap with the DDA of §1.2 (space leaping on
-// the distance plane, gl_FragDepth) on the current EGL device.
+// planes are atlas/blockmap.h's (cells with top, base, building and first
+// column; distance plane; one column per exposed side, shelf-packed into a
+// 1024-wide wall image; column table; feature ids), but colours are a
+// palette per building instead of the facade textures sampled (the rays
+// that would sample them are cast and timed; the texture reads are not), and
+// columns are packed in cell order, not unfolded per building. The GL part
+// ray-casts the BlockMap with the DDA of §1.2 (space leaping on the
+// distance plane, gl_FragDepth) on the current EGL device.
 //
 // Usage: blockmap_spike BUILDINGS TEXTURE_PX TILE_FOLDER OUT_DIR [WxH] [FRAMES]
 //   The town is synth --buildings BUILDINGS --texture-size TEXTURE_PX --lod 2
@@ -34,6 +34,7 @@
 #include <nlohmann/json.hpp>
 #include <OpenImageIO/imageio.h>
 
+#include "atlas/blockmap.h"
 #include "atlas/raycast.h"
 #include "ingest/synth/town.h"
 #include "render/gl/gl_context.h"
@@ -48,29 +49,11 @@ namespace {
 
 double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-struct Column {
-    uint16_t x = 0, y0 = 0, rows = 0, base_q = 0;
-    uint32_t cell = 0;
-    int side = 0;
-};
-
-// The BlockMap planes of §1.2 (GPU layout), CPU side.
-struct BlockMap {
-    int nx = 0, ny = 0;
-    double s = 0;          // cell side, metres
-    double x0 = 0, y0 = 0;  // grid origin, local frame
-    double z_lo = 0, z_hi = 0;
-    std::vector<uint16_t> cells;  // RGBA16UI: top q, base q, local feature (0xFFFF none), first column (0xFFFF none)
-    std::vector<uint8_t> dist;    // R8UI: Chebyshev distance to an occupied cell, clamped to 255
-    std::vector<uint8_t> roof;    // RGB8, nx x ny
-    std::vector<Column> columns;
-    int wall_w = 1024, wall_h = 0;
-    std::vector<uint8_t> walls;      // RGB8, wall_w x wall_h
-    std::vector<uint32_t> fids;      // local feature -> feature id
-    double zq(uint16_t q) const { return z_lo + (z_hi - z_lo) * q / 65535.0; }
-    uint16_t q(double z) const {
-        return static_cast<uint16_t>(std::clamp(std::lround((z - z_lo) / (z_hi - z_lo) * 65535.0), 0L, 65535L));
-    }
+// The planes (atlas/blockmap.h) and the spike's colour planes.
+struct SpikeBlockMap {
+    format::BlockMap planes;
+    std::vector<uint8_t> roof;   // RGB8, nx x ny
+    std::vector<uint8_t> walls;  // RGB8, wall_width x wall_height
 };
 
 std::array<uint8_t, 3> palette(uint32_t feature, double shade) {
@@ -85,180 +68,99 @@ size_t zstdBytes(const void* data, size_t n) {
     return ZSTD_isError(r) ? n : r;
 }
 
-// Planes for the whole scene at cell side s (the root holds every building).
-json buildBlockMap(const Scene& scene, double s, BlockMap* bm) {
+// The root BlockMap of the whole scene (the root holds every building) at cell side s.
+json buildSpike(const Scene& scene, double s, SpikeBlockMap* out) {
     json timing;
-    Box3d box;
-    for (const Triangle& t : scene.triangles)
-        for (const Vec3d& p : t.position_local) box.extend(p);
     auto t0 = Clock::now();
+    atlas::BlockMapParams params;
+    params.cell_m = s;
+    if (Status st = atlas::buildBlockMap(scene.triangles, params, &out->planes); !st.ok()) throw std::runtime_error(st.error);
+    timing["planes_s"] = secondsSince(t0);  // BVH, cells, columns, distance
+    const format::BlockMap& bm = out->planes;
+
+    // Wall colours: 4 x 4 rays per wall texel into the side strip (§1.2 step 4),
+    // the first hit within 1.5 s, on a caster of their own (its build timed
+    // apart); the colour is the building's palette (the texture read that
+    // would follow is not done in the spike).
+    t0 = Clock::now();
     std::vector<std::array<Vec3d, 3>> tris;
     tris.reserve(scene.triangles.size());
     for (const Triangle& t : scene.triangles) tris.push_back(t.position_local);
     const auto caster = atlas::RayCaster::build(tris);
-    timing["bvh_s"] = secondsSince(t0);
-
-    bm->s = s;
-    bm->x0 = std::floor(box.min.x / s) * s;
-    bm->y0 = std::floor(box.min.y / s) * s;
-    bm->nx = static_cast<int>(std::ceil((box.max.x - bm->x0) / s));
-    bm->ny = static_cast<int>(std::ceil((box.max.y - bm->y0) / s));
-    bm->z_lo = box.min.z;
-    bm->z_hi = box.max.z;
-    const int nx = bm->nx, ny = bm->ny;
-    const size_t n = static_cast<size_t>(nx) * ny;
-    std::vector<double> top(n, -1e300), base(n, 0);
-    std::vector<int64_t> feature(n, -1);
-
-    // 1. Top, base and feature per cell: a ray down through the cell centre, one up.
+    timing["wall_bvh_s"] = secondsSince(t0);
     t0 = Clock::now();
-    tbb::parallel_for(0, ny, [&](int y) {
-        for (int x = 0; x < nx; ++x) {
-            const size_t c = static_cast<size_t>(y) * nx + x;
-            const double cx = bm->x0 + (x + 0.5) * s, cy = bm->y0 + (y + 0.5) * s;
-            const atlas::RayHit down = caster->nearest({cx, cy, box.max.z + 1}, {0, 0, -1});
-            if (!down.hit) continue;
-            top[c] = box.max.z + 1 - down.distance;
-            feature[c] = scene.triangles[down.triangle].feature;
-            const atlas::RayHit up = caster->nearest({cx, cy, box.min.z - 1}, {0, 0, 1});
-            base[c] = up.hit ? box.min.z - 1 + up.distance : box.min.z;
-        }
-    });
-    timing["cells_s"] = secondsSince(t0);
-
-    // 2. Local features, cells plane, roof colours.
-    t0 = Clock::now();
-    bm->cells.assign(n * 4, 0xFFFF);
-    bm->roof.assign(n * 3, 0);
-    std::vector<int> local(scene.features.size(), -1);
-    for (size_t c = 0; c < n; ++c) {
-        if (feature[c] < 0) {
-            bm->cells[c * 4] = 0, bm->cells[c * 4 + 1] = 0;
-            continue;
-        }
-        const auto f = static_cast<uint32_t>(feature[c]);
-        if (local[f] < 0) local[f] = static_cast<int>(bm->fids.size()), bm->fids.push_back(f);
-        bm->cells[c * 4] = std::max<uint16_t>(1, bm->q(top[c]));
-        bm->cells[c * 4 + 1] = bm->q(base[c]);
-        bm->cells[c * 4 + 2] = static_cast<uint16_t>(std::min(local[f], 0xFFFE));
-        const auto rgb = palette(f, 1.15);
-        std::copy(rgb.begin(), rgb.end(), bm->roof.begin() + static_cast<long>(c * 3));
-    }
-
-    // 3. Exposed sides (+x, -x, +y, -y): the neighbour lower or outside; one column each.
-    const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
-    for (int y = 0; y < ny; ++y)
-        for (int x = 0; x < nx; ++x) {
-            const size_t c = static_cast<size_t>(y) * nx + x;
-            if (feature[c] < 0) continue;
-            for (int k = 0; k < 4; ++k) {
-                const int ex = x + dx[k], ey = y + dy[k];
-                const bool inside = ex >= 0 && ey >= 0 && ex < nx && ey < ny;
-                const size_t e = inside ? static_cast<size_t>(ey) * nx + ex : 0;
-                const uint16_t te = inside ? bm->cells[e * 4] : 0;
-                if (te >= bm->cells[c * 4]) continue;
-                const double zb = std::max(base[c], inside && feature[e] >= 0 ? top[e] : -1e300);
-                Column col;
-                col.rows = static_cast<uint16_t>(std::clamp(std::ceil((top[c] - zb) / s), 1.0, 1024.0));
-                col.base_q = bm->q(zb);
-                col.cell = static_cast<uint32_t>(c);
-                col.side = k;
-                if (bm->cells[c * 4 + 3] == 0xFFFF) bm->cells[c * 4 + 3] = static_cast<uint16_t>(std::min<size_t>(bm->columns.size(), 0xFFFE));
-                bm->columns.push_back(col);
-            }
-        }
-    // Shelf packing, tallest first; the column table keeps cell order.
-    std::vector<size_t> order(bm->columns.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return bm->columns[a].rows > bm->columns[b].rows; });
-    int sx = 0, sy = 0, shelf = 0;
-    for (size_t i : order) {
-        Column& col = bm->columns[i];
-        if (sx == bm->wall_w) sx = 0, sy += shelf, shelf = 0;
-        if (shelf == 0) shelf = col.rows;
-        col.x = static_cast<uint16_t>(sx++);
-        col.y0 = static_cast<uint16_t>(sy);
-    }
-    bm->wall_h = sy + shelf;
-    timing["planes_s"] = secondsSince(t0);
-
-    // 4. Wall colours: 4 x 4 rays per wall texel into the side strip (§1.2 step 4),
-    //    the first hit within 1.5 s; the colour is the hit building's palette
-    //    (the texture read that would follow is not done in the spike).
-    t0 = Clock::now();
-    bm->walls.assign(static_cast<size_t>(bm->wall_w) * bm->wall_h * 3, 0);
-    std::vector<uint64_t> hits(bm->columns.size(), 0);
-    tbb::parallel_for(size_t{0}, bm->columns.size(), [&](size_t i) {
-        const Column& col = bm->columns[i];
-        const int x = static_cast<int>(col.cell % nx), y = static_cast<int>(col.cell / nx);
-        const double zb = bm->zq(col.base_q), zt = top[col.cell];
-        const Vec3d inward{-static_cast<double>(dx[col.side]), -static_cast<double>(dy[col.side]), 0};
-        // The side's outer edge, 0.5 s outside it.
-        const double ex = bm->x0 + (x + 0.5 + 0.5 * dx[col.side]) * s + 0.5 * s * dx[col.side];
-        const double ey = bm->y0 + (y + 0.5 + 0.5 * dy[col.side]) * s + 0.5 * s * dy[col.side];
+    out->walls.assign(static_cast<size_t>(bm.wall_width) * static_cast<size_t>(bm.wall_height) * 3, 0);
+    std::vector<uint64_t> hits(bm.columns.size(), 0);
+    tbb::parallel_for(size_t{0}, bm.columns.size(), [&](size_t i) {
+        const format::BlockMapColumn& col = bm.columns[i];
+        const int x = static_cast<int>(col.cell % static_cast<uint32_t>(bm.nx)), y = static_cast<int>(col.cell / static_cast<uint32_t>(bm.nx));
+        const int dx = format::kSideDx[col.side], dy = format::kSideDy[col.side];
+        const double zb = bm.height(col.base), zt = bm.height(bm.cells[col.cell].top);
+        const Vec3d inward{-static_cast<double>(dx), -static_cast<double>(dy), 0};
+        // Half a cell outside the side.
+        const double ex = bm.origin.x + (x + 0.5 + dx) * s, ey = bm.origin.y + (y + 0.5 + dy) * s;
         for (int r = 0; r < col.rows; ++r) {
             int counted = 0;
             for (int a = 0; a < 4; ++a)
                 for (int b = 0; b < 4; ++b) {
                     const double along = (a + 0.5) / 4 - 0.5;
                     const double z = zb + (zt - zb) * (r + (b + 0.5) / 4) / col.rows;
-                    const Vec3d o{ex + along * s * std::abs(dy[col.side]), ey + along * s * std::abs(dx[col.side]), z};
+                    const Vec3d o{ex + along * s * std::abs(dy), ey + along * s * std::abs(dx), z};
                     counted += caster->nearest(o, inward, 0, 1.5 * s).hit;
                 }
             hits[i] += static_cast<uint64_t>(counted);
-            const auto rgb = palette(bm->fids[bm->cells[col.cell * 4 + 2]], 0.55 + 0.1 * col.side + 0.02 * (r % 3));
+            const auto rgb = palette(bm.features[bm.cells[col.cell].feature], 0.55 + 0.1 * col.side + 0.02 * (r % 3));
             std::copy(rgb.begin(), rgb.end(),
-                      bm->walls.begin() + static_cast<long>(((col.y0 + r) * static_cast<size_t>(bm->wall_w) + col.x) * 3));
+                      out->walls.begin() + static_cast<long>(((col.y + r) * static_cast<size_t>(bm.wall_width) + col.x) * 3));
         }
     });
     uint64_t hit_total = 0;
     for (uint64_t h : hits) hit_total += h;
     timing["wall_rays_s"] = secondsSince(t0);
     timing["wall_rays_hit"] = hit_total;
-
-    // 5. Distance plane: two-pass Chebyshev transform, clamped.
-    t0 = Clock::now();
-    std::vector<int> d(n);
-    for (size_t c = 0; c < n; ++c) d[c] = feature[c] >= 0 ? 0 : 1 << 20;
-    for (int y = 0; y < ny; ++y)
-        for (int x = 0; x < nx; ++x) {
-            int& v = d[static_cast<size_t>(y) * nx + x];
-            for (int k = 0; k < 4; ++k) {
-                const int px = x + (k == 0 ? -1 : k - 2), py = y - (k == 0 ? 0 : 1);
-                if (px >= 0 && py >= 0 && px < nx) v = std::min(v, d[static_cast<size_t>(py) * nx + px] + 1);
-            }
+    out->roof.assign(bm.cells.size() * 3, 0);
+    for (size_t c = 0; c < bm.cells.size(); ++c)
+        if (bm.cells[c].occupied()) {
+            const auto rgb = palette(bm.features[bm.cells[c].feature], 1.15);
+            std::copy(rgb.begin(), rgb.end(), out->roof.begin() + static_cast<long>(c * 3));
         }
-    for (int y = ny - 1; y >= 0; --y)
-        for (int x = nx - 1; x >= 0; --x) {
-            int& v = d[static_cast<size_t>(y) * nx + x];
-            for (int k = 0; k < 4; ++k) {
-                const int px = x + (k == 0 ? 1 : k - 2), py = y + (k == 0 ? 0 : 1);
-                if (px >= 0 && py < ny && px < nx) v = std::min(v, d[static_cast<size_t>(py) * nx + px] + 1);
-            }
-        }
-    bm->dist.resize(n);
-    for (size_t c = 0; c < n; ++c) bm->dist[c] = static_cast<uint8_t>(std::min(d[c], 255));
-    timing["dist_s"] = secondsSince(t0);
     return timing;
 }
 
-json blockMapBytes(const BlockMap& bm, double* encode_s) {
-    auto t0 = Clock::now();
+// The column table as the GPU gets it (RGBA16UI: x, y, rows, base).
+std::vector<uint16_t> columnTable(const format::BlockMap& bm) {
     std::vector<uint16_t> coltab;
-    for (const Column& c : bm.columns) coltab.insert(coltab.end(), {c.x, c.y0, c.rows, c.base_q});
+    for (const format::BlockMapColumn& c : bm.columns) coltab.insert(coltab.end(), {c.x, c.y, c.rows, c.base});
+    return coltab;
+}
+
+// Bytes of §1.2's layout: cells RGBA16UI while feature and column indices fit in 16 bits
+// (else RGBA32UI), distance R8UI, the column table, ids, colour as BC1; zstd 19 for the non-colour planes.
+json blockMapBytes(const format::BlockMap& bm, double* encode_s) {
+    auto t0 = Clock::now();
+    const bool narrow = bm.features.size() < 0xFFFF && bm.columns.size() < 0xFFFF;
+    std::vector<uint32_t> cells32;
+    std::vector<uint16_t> cells16;
+    for (const format::BlockMapCell& c : bm.cells) {
+        cells32.insert(cells32.end(), {c.top, c.base, c.feature, c.first_column});
+        cells16.insert(cells16.end(), {c.top, c.base, static_cast<uint16_t>(c.feature), static_cast<uint16_t>(c.first_column)});
+    }
+    const std::vector<uint16_t> coltab = columnTable(bm);
     json b;
-    b["cells_zstd"] = zstdBytes(bm.cells.data(), bm.cells.size() * 2);
+    const size_t cells_raw = narrow ? cells16.size() * 2 : cells32.size() * 4;
+    b["cells_zstd"] = narrow ? zstdBytes(cells16.data(), cells_raw) : zstdBytes(cells32.data(), cells_raw);
     b["dist_zstd"] = zstdBytes(bm.dist.data(), bm.dist.size());
     b["coltab_zstd"] = zstdBytes(coltab.data(), coltab.size() * 2);
-    b["fids_zstd"] = zstdBytes(bm.fids.data(), bm.fids.size() * 4);
-    const auto bc1 = [](int w, int h) { return static_cast<size_t>((w + 3) / 4) * ((h + 3) / 4) * 8; };
+    b["fids_zstd"] = zstdBytes(bm.features.data(), bm.features.size() * 4);
+    const auto bc1 = [](int w, int h) { return static_cast<size_t>((w + 3) / 4) * static_cast<size_t>((h + 3) / 4) * 8; };
     b["roof_bc1"] = bc1(bm.nx, bm.ny);
-    b["walls_bc1"] = bc1(bm.wall_w, bm.wall_h);
+    b["walls_bc1"] = bc1(bm.wall_width, bm.wall_height);
     size_t total = 0;
     for (const auto& [k, v] : b.items()) total += v.get<size_t>();
     b["total"] = total;
-    b["gpu"] = bm.cells.size() * 2 + bm.dist.size() + coltab.size() * 2 + bm.fids.size() * 4 + b["roof_bc1"].get<size_t>() +
+    b["gpu"] = cells_raw + bm.dist.size() + coltab.size() * 2 + bm.features.size() * 4 + b["roof_bc1"].get<size_t>() +
                b["walls_bc1"].get<size_t>();
+    b["cells_16_bit"] = narrow;
     *encode_s = secondsSince(t0);
     return b;
 }
@@ -454,7 +356,7 @@ GLuint texture2D(GLenum internal, GLenum format, GLenum type, int w, int h, cons
     return t;
 }
 
-json renderBlockMap(const BlockMap& bm, const std::vector<Camera>& cams, int width, int height, int frames,
+json renderBlockMap(const SpikeBlockMap& spike, const std::vector<Camera>& cams, int width, int height, int frames,
                     const std::string& out_dir) {
     Status st;
     auto context = render::HeadlessContext::create(&st);
@@ -464,13 +366,17 @@ json renderBlockMap(const BlockMap& bm, const std::vector<Camera>& cams, int wid
     std::string error;
     const GLuint program = render::linkProgram(kVertex, kFragment, &error);
     if (!program) throw std::runtime_error(error);
-    const double hg = (bm.z_hi - bm.z_lo) / bm.s;
-    const GLuint cells = texture2D(GL_RGBA16UI, GL_RGBA_INTEGER, GL_UNSIGNED_SHORT, bm.nx, bm.ny, bm.cells.data());
+    const format::BlockMap& bm = spike.planes;
+    const double hg = (bm.z_hi - bm.origin.z) / bm.cell_m;
+    // Cells as RGBA32UI (top, base, feature, first column): the wide variant, whatever the counts.
+    std::vector<uint32_t> cells32;
+    for (const format::BlockMapCell& c : bm.cells) cells32.insert(cells32.end(), {c.top, c.base, c.feature, c.first_column});
+    const GLuint cells = texture2D(GL_RGBA32UI, GL_RGBA_INTEGER, GL_UNSIGNED_INT, bm.nx, bm.ny, cells32.data());
     const GLuint dist = texture2D(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, bm.nx, bm.ny, bm.dist.data());
-    const GLuint roof = texture2D(GL_SRGB8, GL_RGB, GL_UNSIGNED_BYTE, bm.nx, bm.ny, bm.roof.data());
-    const GLuint walls = texture2D(GL_SRGB8, GL_RGB, GL_UNSIGNED_BYTE, bm.wall_w, std::max(1, bm.wall_h), bm.walls.data());
-    std::vector<uint16_t> coltab;
-    for (const Column& c : bm.columns) coltab.insert(coltab.end(), {c.x, c.y0, c.rows, c.base_q});
+    const GLuint roof = texture2D(GL_SRGB8, GL_RGB, GL_UNSIGNED_BYTE, bm.nx, bm.ny, spike.roof.data());
+    const GLuint walls =
+        texture2D(GL_SRGB8, GL_RGB, GL_UNSIGNED_BYTE, bm.wall_width, std::max(1, bm.wall_height), spike.walls.data());
+    const std::vector<uint16_t> coltab = columnTable(bm);
     GLuint tbo = 0, coltex = 0;
     glGenBuffers(1, &tbo);
     glBindBuffer(GL_TEXTURE_BUFFER, tbo);
@@ -498,13 +404,14 @@ json renderBlockMap(const BlockMap& bm, const std::vector<Camera>& cams, int wid
     out["renderer"] = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
     for (const Camera& cam : cams) {
         // grid -> camera-relative world: scale by s, translate by origin - camera (double on the CPU).
-        const Vec3d o = Vec3d{bm.x0, bm.y0, bm.z_lo} - cam.position;
-        const Mat4 model{bm.s, 0, 0, 0, 0, bm.s, 0, 0, 0, 0, bm.s, 0, o.x, o.y, o.z, 1};
+        const Vec3d o = bm.origin - cam.position;
+        const double s = bm.cell_m;
+        const Mat4 model{s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, o.x, o.y, o.z, 1};
         const double dist_m = length(cam.look_at - cam.position);
         const Mat4 mvp = mul(viewProjection(cam, static_cast<double>(width) / height, std::max(1.0, dist_m * 0.01), dist_m * 4), model);
         std::array<float, 16> mvpf{};
         for (int i = 0; i < 16; ++i) mvpf[i] = static_cast<float>(mvp[i]);
-        const Vec3d cg{(cam.position.x - bm.x0) / bm.s, (cam.position.y - bm.y0) / bm.s, (cam.position.z - bm.z_lo) / bm.s};
+        const Vec3d cg = (1.0 / s) * (cam.position - bm.origin);
         target->bind();
         glUseProgram(program);
         glUniformMatrix4fv(glGetUniformLocation(program, "u_mvp"), 1, GL_FALSE, mvpf.data());
@@ -587,9 +494,10 @@ int main(int argc, char** argv) {
         auto t0 = Clock::now();
         const Scene scene = synth::townToScene(synth::generateTown(settings), "/nonexistent");
         const double scene_s = secondsSince(t0);
-        BlockMap bm;
+        SpikeBlockMap spike;
         t0 = Clock::now();
-        json timing = buildBlockMap(scene, texel, &bm);
+        json timing = buildSpike(scene, texel, &spike);
+        const format::BlockMap& bm = spike.planes;
         double encode_s = 0;
         json bytes = blockMapBytes(bm, &encode_s);
         timing["encode_s"] = encode_s;
@@ -605,14 +513,15 @@ int main(int argc, char** argv) {
         double built_m2 = 0, dropped_m2 = 0;
         for (double a : roof_area) built_m2 += a;
         for (uint32_t f : dropped) dropped_m2 += roof_area[f];
-        std::set<uint32_t> present(bm.fids.begin(), bm.fids.end());
+        std::set<uint32_t> present(bm.features.begin(), bm.features.end());
         size_t dropped_present = 0;
         for (uint32_t f : dropped) dropped_present += present.count(f);
         size_t occupied = 0;
         for (uint8_t v : bm.dist) occupied += v == 0;
         Box3d box;
-        box.min = {bm.x0, bm.y0, bm.z_lo};
-        box.max = {bm.x0 + bm.nx * bm.s, bm.y0 + bm.ny * bm.s, bm.z_hi};
+        const double s = bm.cell_m;
+        box.min = bm.origin;
+        box.max = {bm.origin.x + bm.nx * s, bm.origin.y + bm.ny * s, bm.z_hi};
         const auto cams = cameras(box, switch_m, static_cast<double>(width) / height);
 
         json report;
@@ -621,14 +530,14 @@ int main(int argc, char** argv) {
         report["root"] = {{"folder", folder}, {"world_texel_m", texel}, {"min_distance_m", switch_m}, {"bytes", root_bytes},
                           {"layers", geometry_bytes}, {"features_drawn", extras["features"]["count"]},
                           {"features_dropped", dropped.size()}};
-        report["blockmap"] = {{"grid", {bm.nx, bm.ny}}, {"cell_m", bm.s}, {"z_range", {bm.z_lo, bm.z_hi}},
+        report["blockmap"] = {{"grid", {bm.nx, bm.ny}}, {"cell_m", s}, {"z_range", {bm.origin.z, bm.z_hi}},
                               {"occupied_cells", occupied}, {"columns", bm.columns.size()},
-                              {"wall_px", {bm.wall_w, bm.wall_h}}, {"features", bm.fids.size()},
+                              {"wall_px", {bm.wall_width, bm.wall_height}}, {"features", bm.features.size()},
                               {"dropped_by_geometry_present", dropped_present}, {"bytes", bytes}, {"build", timing},
-                              {"voxel_error_bound_m", 0.5 * std::sqrt(2 * bm.s * bm.s + std::pow((bm.z_hi - bm.z_lo) / 65535.0, 2))}};
+                              {"voxel_error_bound_m", 0.5 * std::sqrt(2 * s * s + std::pow((bm.z_hi - bm.origin.z) / 65535.0, 2))}};
         report["plan_area_m2"] = {{"buildings", built_m2}, {"root_geometry", built_m2 - dropped_m2},
-                                  {"blockmap_cells", static_cast<double>(occupied) * bm.s * bm.s}};
-        report["render"] = renderBlockMap(bm, cams, width, height, frames, out_dir);
+                                  {"blockmap_cells", static_cast<double>(occupied) * s * s}};
+        report["render"] = renderBlockMap(spike, cams, width, height, frames, out_dir);
         report["render"]["size"] = {width, height};
         std::ofstream(out_dir + "/spike.json") << report.dump(1) << "\n";
         json path = {{"interpolation", "linear"}, {"frame_rate", 20}, {"keyframes", json::array()}};

@@ -1,0 +1,232 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// A BlockMap's geometry planes (atlas/blockmap.h) against exact truth
+// (../shared/SEED-FEATURES.md §1.3): on a synthetic LOD1 town, every cell
+// whose centre is strictly inside a footprint (CGAL's exact point-in-polygon
+// on the generator's own footprints, holes included) holds that building's
+// base and eave height and id, and every other cell is empty (B1); the
+// exposed sides and their columns equal a brute-force set from the cells
+// and the wall image's columns do not overlap (B2); the distance plane
+// equals a brute-force Chebyshev distance (B3); every building that holds a
+// cell centre is in the feature list, and only those (B5).
+#include "atlas/blockmap.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_2_algorithms.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "ingest/synth/town.h"
+
+namespace cityatlas::atlas {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using format::BlockMap;
+using format::kBlockMapNone;
+
+struct LodOneTown {
+    synth::Town town;
+    Scene scene;
+    std::vector<int> building_of_feature;  // scene feature -> town building
+};
+
+LodOneTown lodOneTown(uint32_t buildings, uint64_t seed) {
+    LodOneTown t;
+    synth::TownSettings s;
+    s.buildings = buildings;
+    s.seed = seed;
+    s.lod = 1;
+    s.texture_size_px = 16;
+    t.town = synth::generateTown(s);
+    t.scene = synth::townToScene(t.town, "/nonexistent");
+    std::map<std::string, int> by_id;
+    for (size_t b = 0; b < t.town.buildings.size(); ++b) by_id[t.town.buildings[b].gml_id] = static_cast<int>(b);
+    for (const Feature& f : t.scene.features) t.building_of_feature.push_back(by_id.count(f.gml_id) ? by_id[f.gml_id] : -1);
+    return t;
+}
+
+double toSegment(const Vec2d& p, const Vec2d& a, const Vec2d& b) {
+    const double abx = b.x - a.x, aby = b.y - a.y;
+    const double s = std::clamp(((p.x - a.x) * abx + (p.y - a.y) * aby) / (abx * abx + aby * aby), 0.0, 1.0);
+    return std::hypot(p.x - (a.x + s * abx), p.y - (a.y + s * aby));
+}
+
+// -1: on (within 1e-6 m of) an edge; 1: strictly inside the footprint (outside its holes); 0: outside.
+int classify(const synth::SynthBuilding& b, const Vec2d& p) {
+    std::vector<const std::vector<Vec2d>*> rings{&b.outer};
+    for (const auto& h : b.holes) rings.push_back(&h);
+    for (const auto* ring : rings)
+        for (size_t i = 0; i < ring->size(); ++i)
+            if (toSegment(p, (*ring)[i], (*ring)[(i + 1) % ring->size()]) <= 1e-6) return -1;
+    auto inside = [&](const std::vector<Vec2d>& ring) {
+        std::vector<K::Point_2> pts;
+        for (const Vec2d& v : ring) pts.emplace_back(v.x, v.y);
+        return CGAL::bounded_side_2(pts.begin(), pts.end(), K::Point_2(p.x, p.y), K()) == CGAL::ON_BOUNDED_SIDE;
+    };
+    if (!inside(b.outer)) return 0;
+    for (const auto& h : b.holes)
+        if (inside(h)) return 0;
+    return 1;
+}
+
+class LodOneBlockMap : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        town_ = new LodOneTown(lodOneTown(150, 7));
+        bm_ = new BlockMap;
+        BlockMapParams p;
+        p.cell_m = 1.25;
+        ASSERT_TRUE(buildBlockMap(town_->scene.triangles, p, bm_).ok());
+    }
+    static void TearDownTestSuite() { delete town_, delete bm_; }
+    static LodOneTown* town_;
+    static BlockMap* bm_;
+};
+LodOneTown* LodOneBlockMap::town_ = nullptr;
+BlockMap* LodOneBlockMap::bm_ = nullptr;
+
+TEST_F(LodOneBlockMap, CellsHoldTheFootprintTheirCentreIsIn) {
+    const BlockMap& bm = *bm_;
+    const LodOneTown& t = *town_;
+    // The grid nests: its corner on multiples of the cell side.
+    EXPECT_DOUBLE_EQ(std::remainder(bm.origin.x, bm.cell_m), 0.0);
+    EXPECT_DOUBLE_EQ(std::remainder(bm.origin.y, bm.cell_m), 0.0);
+    size_t checked = 0, on_edge = 0, inside = 0, wrong = 0;
+    std::set<int> holding;  // buildings with a cell centre strictly inside
+    for (int y = 0; y < bm.ny; ++y)
+        for (int x = 0; x < bm.nx; ++x) {
+            const Vec2d c{bm.origin.x + (x + 0.5) * bm.cell_m, bm.origin.y + (y + 0.5) * bm.cell_m};
+            int in = -2;  // the building whose footprint holds c
+            bool edge = false;
+            for (size_t b = 0; b < t.town.buildings.size() && !edge; ++b) {
+                const int k = classify(t.town.buildings[b], c);
+                edge = k < 0;
+                if (k == 1) in = static_cast<int>(b);
+            }
+            if (edge) {
+                ++on_edge;
+                continue;
+            }
+            ++checked;
+            const format::BlockMapCell& cell = bm.cells[bm.index(x, y)];
+            if (in < 0) {
+                wrong += cell.occupied() || cell.top != 0;
+                continue;
+            }
+            ++inside;
+            holding.insert(in);
+            const synth::SynthBuilding& b = t.town.buildings[static_cast<size_t>(in)];
+            const bool ok = cell.occupied() && cell.top == bm.quantize(b.base_height_m + b.eave_height_m) &&
+                            cell.base == bm.quantize(b.base_height_m) &&
+                            t.building_of_feature[bm.features[cell.feature]] == in;
+            if (!ok && wrong < 5)
+                ADD_FAILURE() << "cell " << x << "," << y << " in " << b.gml_id << ": top " << cell.top << " want "
+                              << bm.quantize(b.base_height_m + b.eave_height_m) << ", base " << cell.base << " want "
+                              << bm.quantize(b.base_height_m);
+            wrong += !ok;
+        }
+    EXPECT_EQ(wrong, 0u) << "of " << checked << " cells";
+    EXPECT_GT(inside, 10000u);
+    // The synthetic footprints lie on a fine grid, and about 2 % of the centres on their edges.
+    EXPECT_LT(on_edge, checked / 25) << "cells on a footprint edge are not checked";
+    // B5: exactly the buildings holding a cell centre are listed (none lost at 1.25 m).
+    std::set<int> listed;
+    for (uint32_t f : bm.features) listed.insert(t.building_of_feature[f]);
+    EXPECT_EQ(listed, holding);
+    EXPECT_EQ(listed.size(), t.town.buildings.size());
+}
+
+TEST_F(LodOneBlockMap, ColumnsAreTheExposedSidesAndDoNotOverlap) {
+    const BlockMap& bm = *bm_;
+    // Brute force from the cells: (cell, side) -> the wall span's base.
+    std::map<std::pair<size_t, int>, uint16_t> want;
+    for (int y = 0; y < bm.ny; ++y)
+        for (int x = 0; x < bm.nx; ++x) {
+            const format::BlockMapCell& c = bm.cells[bm.index(x, y)];
+            if (!c.occupied()) continue;
+            for (int k = 0; k < 4; ++k) {
+                const int ex = x + format::kSideDx[static_cast<size_t>(k)], ey = y + format::kSideDy[static_cast<size_t>(k)];
+                const bool in = ex >= 0 && ey >= 0 && ex < bm.nx && ey < bm.ny;
+                const format::BlockMapCell* n = in ? &bm.cells[bm.index(ex, ey)] : nullptr;
+                const uint16_t ntop = n && n->occupied() ? n->top : 0;
+                if (ntop < c.top) want[{bm.index(x, y), k}] = n && n->occupied() ? std::max(c.base, ntop) : c.base;
+            }
+        }
+    ASSERT_EQ(bm.columns.size(), want.size());
+    std::vector<uint8_t> used(static_cast<size_t>(bm.wall_width) * static_cast<size_t>(bm.wall_height), 0);
+    size_t overlaps = 0, mismatched = 0;
+    for (const auto& [key, base] : want) {
+        const int x = static_cast<int>(key.first % static_cast<size_t>(bm.nx)), y = static_cast<int>(key.first / static_cast<size_t>(bm.nx));
+        const uint32_t i = bm.columnOf(x, y, key.second);
+        ASSERT_NE(i, kBlockMapNone);
+        const format::BlockMapColumn& col = bm.columns[i];
+        const double span = bm.height(bm.cells[key.first].top) - bm.height(base);
+        mismatched += col.cell != key.first || col.side != key.second || col.base != base ||
+                      col.rows != std::max(1, static_cast<int>(std::ceil(span / bm.cell_m - 1e-9)));
+        ASSERT_LE(col.x, bm.wall_width - 1);
+        ASSERT_LE(col.y + col.rows, bm.wall_height);
+        for (int r = 0; r < col.rows; ++r) overlaps += used[static_cast<size_t>(col.y + r) * static_cast<size_t>(bm.wall_width) + col.x]++ > 0;
+    }
+    EXPECT_EQ(mismatched, 0u);
+    EXPECT_EQ(overlaps, 0u);
+}
+
+TEST_F(LodOneBlockMap, DistanceIsTheChebyshevDistanceToTheNearestBuilding) {
+    const BlockMap& bm = *bm_;
+    std::vector<std::pair<int, int>> occupied;
+    for (int y = 0; y < bm.ny; ++y)
+        for (int x = 0; x < bm.nx; ++x)
+            if (bm.cells[bm.index(x, y)].occupied()) occupied.emplace_back(x, y);
+    size_t wrong = 0, far = 0;
+    for (int y = 0; y < bm.ny; ++y)
+        for (int x = 0; x < bm.nx; ++x) {
+            int d = 1 << 30;
+            for (const auto& [ox, oy] : occupied) d = std::min(d, std::max(std::abs(ox - x), std::abs(oy - y)));
+            wrong += bm.dist[bm.index(x, y)] != std::min(d, 255);
+            far += d >= 2;
+        }
+    EXPECT_EQ(wrong, 0u);
+    EXPECT_GT(far, 1000u) << "space leaping has room to leap";
+}
+
+TEST(BlockMap, NothingToBuildAndBadParameters) {
+    BlockMap bm;
+    bm.nx = 3;
+    ASSERT_TRUE(buildBlockMap({}, BlockMapParams{}, &bm).ok());
+    EXPECT_EQ(bm.nx, 0);
+    EXPECT_TRUE(bm.cells.empty());
+    Triangle t;
+    t.position_local = {Vec3d{0, 0, 0}, Vec3d{1, 0, 0}, Vec3d{0, 1, 0}};
+    for (double cell : {0.0, -1.0, std::nan("")}) {
+        BlockMapParams p;
+        p.cell_m = cell;
+        EXPECT_FALSE(buildBlockMap(std::span<const Triangle>(&t, 1), p, &bm).ok()) << cell;
+    }
+}
+
+TEST(BlockMap, ExposedSidesFollowTheNeighboursHeights) {
+    // A 3 x 1 grid: tall, low, empty -> the tall cell shows +x (over the low
+    // one, from its top) and the three sides to the outside; the low one
+    // its +x side and the two outside ones, not -x (its neighbour is taller).
+    BlockMap bm;
+    bm.nx = 3, bm.ny = 1, bm.cell_m = 1, bm.z_hi = 10;
+    bm.cells.resize(3);
+    bm.cells[0] = {40000, 0, 0, 0};
+    bm.cells[1] = {20000, 0, 1, 4};
+    EXPECT_EQ(bm.exposedSides(0, 0), 0b1111);
+    EXPECT_EQ(bm.exposedSides(1, 0), 0b1101);
+    EXPECT_EQ(bm.exposedSides(2, 0), 0);
+    EXPECT_EQ(bm.columnOf(1, 0, format::kPlusX), 4u);
+    EXPECT_EQ(bm.columnOf(1, 0, format::kMinusX), kBlockMapNone);
+    EXPECT_EQ(bm.columnOf(1, 0, format::kPlusY), 5u);
+    EXPECT_EQ(bm.columnOf(1, 0, format::kMinusY), 6u);
+    EXPECT_EQ(bm.quantize(5), 32768);
+    EXPECT_EQ(bm.quantize(-3), 0);
+    EXPECT_EQ(bm.quantize(11), 65535);
+}
+
+}  // namespace
+}  // namespace cityatlas::atlas
