@@ -90,11 +90,13 @@ void makeColumns(const BlockMapParams& params, BlockMap* bm) {
             for (int k = 0; k < 4; ++k) {
                 if (!(mask >> k & 1u)) continue;
                 const int nx = x + format::kSideDx[static_cast<size_t>(k)], ny = y + format::kSideDy[static_cast<size_t>(k)];
-                const bool neighbour = bm->inside(nx, ny) && bm->cells[bm->index(nx, ny)].occupied();
+                // The wall shows above a neighbour that stands on the same ground or lower; all of it otherwise.
+                const bool on_top = bm->inside(nx, ny) && bm->cells[bm->index(nx, ny)].occupied() &&
+                                    bm->cells[bm->index(nx, ny)].base <= c.base;
                 format::BlockMapColumn col;
                 col.cell = static_cast<uint32_t>(bm->index(x, y));
                 col.side = static_cast<uint8_t>(k);
-                col.base = neighbour ? std::max(c.base, bm->topAt(nx, ny)) : c.base;
+                col.base = on_top ? std::max(c.base, bm->topAt(nx, ny)) : c.base;
                 const double span = bm->height(c.top) - bm->height(col.base);
                 col.rows = static_cast<uint16_t>(std::clamp(std::ceil(span / row_m - 1e-9), 1.0, 65535.0));
                 bm->columns.push_back(col);

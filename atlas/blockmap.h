@@ -8,9 +8,9 @@
 /// 1. **cells**: through every cell centre a vertical ray down from above
 ///    the buildings (atlas/raycast.h: Embree's watertight test) gives the
 ///    top and the building; one up from below gives the base;
-/// 2. **columns**: one per exposed side (the neighbour lower), its span from
-///    the higher of the cell's base and the neighbour's top to the cell's
-///    top, `row_m` per texel; shelf-packed, tallest first, into the wall
+/// 2. **columns**: one per exposed side (format/blockmap.h), its span from
+///    the higher of the cell's base and the neighbour's top (the cell's base
+///    when the neighbour stands higher) to the cell's top, `row_m` per texel; shelf-packed, tallest first, into the wall
 ///    image;
 /// 3. **distance**: the exact Chebyshev distance transform (two passes),
 ///    clamped to 255.

@@ -86,7 +86,7 @@ for r in result["towns"]:
           f" {b['dropped_by_geometry_present']:,} of them in the BlockMap")
     for cam in ("switch", "full", "close", "away"):
         print(f"  {cam:6s} frame ms: root geometry {r['render_root_geometry'][cam]}, BlockMap {r['render'][cam]['frame_ms_median']:.2f}"
-              f" ({r['render'][cam]['pixels_not_background']:,} px)")
+              f" ({r['render'][cam]['pixels_covered']:,} px)")
     for lvl, row in r["levels"].items():
         if row["dropped"]:
             print(f"  level {lvl}: {row['dropped']:,} dropped in {row['nodes_dropping']} of {row['nodes']} nodes,"

@@ -16,10 +16,14 @@ uint16_t BlockMap::quantize(double z) const {
 
 uint8_t BlockMap::exposedSides(int x, int y) const {
     if (!inside(x, y) || !cells[index(x, y)].occupied()) return 0;
-    const uint16_t top = cells[index(x, y)].top;
+    const BlockMapCell& c = cells[index(x, y)];
     uint8_t mask = 0;
-    for (int k = 0; k < 4; ++k)
-        if (topAt(x + kSideDx[k], y + kSideDy[k]) < top) mask |= static_cast<uint8_t>(1u << k);
+    for (int k = 0; k < 4; ++k) {
+        const int nx = x + kSideDx[static_cast<size_t>(k)], ny = y + kSideDy[static_cast<size_t>(k)];
+        const bool covered = inside(nx, ny) && cells[index(nx, ny)].occupied() && cells[index(nx, ny)].top >= c.top &&
+                             cells[index(nx, ny)].base <= c.base;
+        if (!covered) mask |= static_cast<uint8_t>(1u << k);
+    }
     return mask;
 }
 

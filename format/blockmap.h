@@ -17,12 +17,15 @@
 /// - the building (an index into `features`);
 /// - the first of its wall columns.
 ///
-/// An occupied cell's side is **exposed** when the neighbour across it is
-/// lower (empty cells and cells outside the grid have top 0): the paper's
-/// boundary texels. Every exposed side has a **column** of its own (the
-/// paper averages a cell's sides into one column and scales the columns to
-/// fit 256; both are lossy), spanning from the higher of the cell's base and
-/// the neighbour's top up to the cell's top, in `rows` texels; a cell's
+/// An occupied cell's side is **exposed** unless the neighbour across it
+/// covers it: occupied, as high and with a base as low. That is the paper's
+/// boundary texels (a lower neighbour) and also a side under a neighbour
+/// whose base is higher (buildings on a slope: the paper stands on terrain
+/// and has no such case). Every exposed side has a **column** of its own
+/// (the paper averages a cell's sides into one column and scales the
+/// columns to fit 256; both are lossy), spanning from the cell's base (when
+/// the neighbour's base is higher, or there is none) or the neighbour's top
+/// up to the cell's top, in `rows` texels; a cell's
 /// columns follow each other in side order +x, -x, +y, -y, so the ray caster
 /// finds a side's column from the cell's first one and its exposed sides.
 /// The columns are shelf-packed into a `wall_width`-wide image.
@@ -79,7 +82,7 @@ struct BlockMap {
     double height(uint16_t q) const { return origin.z + (z_hi - origin.z) * q / 65535.0; }
     /// The nearest quantized height (clamped to the range).
     uint16_t quantize(double z) const;
-    /// Bit k set: side k of cell (x, y) is exposed (the neighbour is lower); 0 for an empty cell.
+    /// Bit k set: side k of cell (x, y) is exposed (the neighbour does not cover it); 0 for an empty cell.
     uint8_t exposedSides(int x, int y) const;
     /// The column of side `side` of cell (x, y); kBlockMapNone when that side is not exposed.
     uint32_t columnOf(int x, int y, int side) const;

@@ -151,8 +151,9 @@ TEST_F(LodOneBlockMap, ColumnsAreTheExposedSidesAndDoNotOverlap) {
                 const int ex = x + format::kSideDx[static_cast<size_t>(k)], ey = y + format::kSideDy[static_cast<size_t>(k)];
                 const bool in = ex >= 0 && ey >= 0 && ex < bm.nx && ey < bm.ny;
                 const format::BlockMapCell* n = in ? &bm.cells[bm.index(ex, ey)] : nullptr;
-                const uint16_t ntop = n && n->occupied() ? n->top : 0;
-                if (ntop < c.top) want[{bm.index(x, y), k}] = n && n->occupied() ? std::max(c.base, ntop) : c.base;
+                const bool occupied = n && n->occupied();
+                if (occupied && n->top >= c.top && n->base <= c.base) continue;  // covered
+                want[{bm.index(x, y), k}] = occupied && n->base <= c.base ? std::max(c.base, n->top) : c.base;
             }
         }
     ASSERT_EQ(bm.columns.size(), want.size());
@@ -208,17 +209,20 @@ TEST(BlockMap, NothingToBuildAndBadParameters) {
 }
 
 TEST(BlockMap, ExposedSidesFollowTheNeighboursHeights) {
-    // A 3 x 1 grid: tall, low, empty -> the tall cell shows +x (over the low
-    // one, from its top) and the three sides to the outside; the low one
-    // its +x side and the two outside ones, not -x (its neighbour is taller).
+    // A 4 x 1 grid: tall, low, empty, floating -> the tall cell shows +x
+    // (over the low one) and the three sides to the outside; the low one its
+    // +x side and the two outside ones, not -x (its neighbour is taller and
+    // stands as low); the floating cell all four.
     BlockMap bm;
-    bm.nx = 3, bm.ny = 1, bm.cell_m = 1, bm.z_hi = 10;
-    bm.cells.resize(3);
+    bm.nx = 4, bm.ny = 1, bm.cell_m = 1, bm.z_hi = 10;
+    bm.cells.resize(4);
     bm.cells[0] = {40000, 0, 0, 0};
     bm.cells[1] = {20000, 0, 1, 4};
+    bm.cells[3] = {60000, 1000, 2, 7};
     EXPECT_EQ(bm.exposedSides(0, 0), 0b1111);
     EXPECT_EQ(bm.exposedSides(1, 0), 0b1101);
     EXPECT_EQ(bm.exposedSides(2, 0), 0);
+    EXPECT_EQ(bm.exposedSides(3, 0), 0b1111);
     EXPECT_EQ(bm.columnOf(1, 0, format::kPlusX), 4u);
     EXPECT_EQ(bm.columnOf(1, 0, format::kMinusX), kBlockMapNone);
     EXPECT_EQ(bm.columnOf(1, 0, format::kPlusY), 5u);
@@ -226,6 +230,11 @@ TEST(BlockMap, ExposedSidesFollowTheNeighboursHeights) {
     EXPECT_EQ(bm.quantize(5), 32768);
     EXPECT_EQ(bm.quantize(-3), 0);
     EXPECT_EQ(bm.quantize(11), 65535);
+    // Under a taller neighbour standing higher, the side shows; not once the cell stands as high.
+    bm.cells[0].base = 5000;
+    EXPECT_EQ(bm.exposedSides(1, 0), 0b1111);
+    bm.cells[1].base = 5000;
+    EXPECT_EQ(bm.exposedSides(1, 0), 0b1101);
 }
 
 }  // namespace

@@ -7,9 +7,8 @@
 // 1024-wide wall image; column table; feature ids), but colours are a
 // palette per building instead of the facade textures sampled (the rays
 // that would sample them are cast and timed; the texture reads are not), and
-// columns are packed in cell order, not unfolded per building. The GL part
-// ray-casts the BlockMap with the DDA of §1.2 (space leaping on the
-// distance plane, gl_FragDepth) on the current EGL device.
+// columns are packed in cell order, not unfolded per building. Frames are
+// drawn by render/gl/blockmap_pass.h on the current EGL device.
 //
 // Usage: blockmap_spike BUILDINGS TEXTURE_PX TILE_FOLDER OUT_DIR [WxH] [FRAMES]
 //   The town is synth --buildings BUILDINGS --texture-size TEXTURE_PX --lod 2
@@ -37,8 +36,8 @@
 #include "atlas/blockmap.h"
 #include "atlas/raycast.h"
 #include "ingest/synth/town.h"
+#include "render/gl/blockmap_pass.h"
 #include "render/gl/gl_context.h"
-#include "render/gl/gl_program.h"
 #include "render/gl/gl_renderer.h"
 
 using namespace cityatlas;
@@ -165,134 +164,22 @@ json blockMapBytes(const format::BlockMap& bm, double* encode_s) {
     return b;
 }
 
-// ---- GL: the DDA of §1.2 in grid units (a cell is 1, z in cells above z_lo).
-const char* kVertex = R"(#version 330 core
-layout(location = 0) in vec3 g;
-uniform mat4 u_mvp;
-out vec3 v_g;
-void main() { v_g = g; gl_Position = u_mvp * vec4(g, 1.0); }
-)";
-
-const char* kFragment = R"(#version 330 core
-in vec3 v_g;
-uniform vec3 u_cam;            // camera, grid units
-uniform mat4 u_mvp;
-uniform ivec2 u_n;             // nx, ny
-uniform float u_h;             // box height, grid units
-uniform usampler2D u_cells;    // top, base, local feature, first column
-uniform usampler2D u_dist;
-uniform sampler2D u_roof;
-uniform sampler2D u_walls;
-uniform usamplerBuffer u_coltab; // x, y0, rows, base
-uniform int u_max_steps;
-out vec4 o_colour;
-
-float zOf(uint q) { return float(q) / 65535.0 * u_h; }
-uint topOf(ivec2 c) {
-  if (any(lessThan(c, ivec2(0))) || any(greaterThanEqual(c, u_n))) return 0u;
-  return texelFetch(u_cells, c, 0).r;
-}
-void main() {
-  vec3 d = normalize(v_g - u_cam);
-  vec3 inv = 1.0 / d;
-  // box exit (entry is the rasterised front face)
-  vec3 b1 = vec3(vec2(u_n), u_h);
-  vec3 ta = (vec3(0.0) - u_cam) * inv, tb = (b1 - u_cam) * inv;
-  vec3 tfar = max(ta, tb), tnear = min(ta, tb);
-  float t_exit = min(min(tfar.x, tfar.y), tfar.z);
-  float t = max(max(tnear.x, tnear.y), tnear.z);
-  int face = tnear.z >= max(tnear.x, tnear.y) ? 4 : (tnear.x >= tnear.y ? (d.x > 0.0 ? 1 : 0) : (d.y > 0.0 ? 3 : 2));
-  // face: the side of the cell the ray enters through: 0 +x, 1 -x, 2 +y, 3 -y, 4 top
-  ivec2 step = ivec2(d.x > 0.0 ? 1 : -1, d.y > 0.0 ? 1 : -1);
-  vec3 p = u_cam + d * t;
-  ivec2 c = clamp(ivec2(floor(p.xy)), ivec2(0), u_n - 1);
-  vec2 tdelta = abs(inv.xy);
-  vec2 tmax = (vec2(c + max(step, ivec2(0))) - u_cam.xy) * inv.xy;
-  for (int i = 0; i < u_max_steps; ++i) {
-    uint D = texelFetch(u_dist, c, 0).r;
-    if (D >= 2u) {
-      // all cells within D - 1 of c are empty: leave that square at once
-      vec2 lo = vec2(c) - float(D - 1u), hi = vec2(c) + float(D);
-      vec2 tx = (mix(lo, hi, greaterThan(d.xy, vec2(0.0))) - u_cam.xy) * inv.xy;
-      float tl = min(tx.x, tx.y);
-      if (tl >= t_exit) discard;
-      face = tx.x < tx.y ? (d.x > 0.0 ? 1 : 0) : (d.y > 0.0 ? 3 : 2);
-      t = tl;
-      p = u_cam + d * t;
-      c = ivec2(floor(p.xy));
-      if (face == 1) c.x = int(round(p.x)); else if (face == 0) c.x = int(round(p.x)) - 1;
-      if (face == 3) c.y = int(round(p.y)); else if (face == 2) c.y = int(round(p.y)) - 1;
-      if (any(lessThan(c, ivec2(0))) || any(greaterThanEqual(c, u_n))) discard;
-      tmax = (vec2(c + max(step, ivec2(0))) - u_cam.xy) * inv.xy;
-      continue;
-    }
-    float tout = min(min(tmax.x, tmax.y), t_exit);
-    if (D == 0u) {
-      uvec4 cell = texelFetch(u_cells, c, 0);
-      float h = zOf(cell.r), b = zOf(cell.g);
-      float zin = u_cam.z + d.z * t, zout = u_cam.z + d.z * tout;
-      float thit = -1.0; int hface = face;
-      if (face == 4 && zin <= h + 1e-4) { thit = t; }
-      else if (zin <= h && zin >= b) { thit = t; }
-      else if (zin > h && zout <= h) { thit = t + (h - zin) / d.z; hface = 4; }
-      else if (zin < b && zout >= b) { thit = t + (b - zin) / d.z; hface = 5; }
-      if (thit >= 0.0) {
-        vec3 hit = u_cam + d * thit;
-        vec3 colour;
-        if (hface == 4) colour = texelFetch(u_roof, c, 0).rgb;
-        else if (hface == 5) colour = vec3(0.1);
-        else {
-          // rank of this side among the cell's exposed sides (+x, -x, +y, -y)
-          ivec2 nb[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
-          int rank = 0;
-          for (int k = 0; k < hface; ++k) rank += topOf(c + nb[k]) < cell.r ? 1 : 0;
-          uvec4 col = texelFetch(u_coltab, int(cell.a) + rank);
-          float zb = zOf(col.a);
-          int row = clamp(int((hit.z - zb) / max(h - zb, 1e-6) * float(col.b)), 0, int(col.b) - 1);
-          colour = texelFetch(u_walls, ivec2(col.r, col.g + uint(row)), 0).rgb;
-        }
-        vec4 clip = u_mvp * vec4(hit, 1.0);
-        gl_FragDepth = 0.5 * clip.z / clip.w + 0.5;
-        o_colour = vec4(colour, 1.0);
-        return;
-      }
-    }
-    if (tout >= t_exit) discard;
-    t = tout;
-    if (tmax.x < tmax.y) { c.x += step.x; tmax.x += tdelta.x; face = step.x > 0 ? 1 : 0; }
-    else { c.y += step.y; tmax.y += tdelta.y; face = step.y > 0 ? 3 : 2; }
-    if (any(lessThan(c, ivec2(0))) || any(greaterThanEqual(c, u_n))) discard;
-  }
-  o_colour = vec4(1.0, 0.0, 1.0, 1.0);  // out of steps: magenta, so it shows
-}
-)";
-
-using Mat4 = std::array<double, 16>;  // column-major
-Mat4 mul(const Mat4& a, const Mat4& b) {
-    Mat4 r{};
-    for (int c = 0; c < 4; ++c)
-        for (int rr = 0; rr < 4; ++rr)
-            for (int k = 0; k < 4; ++k) r[c * 4 + rr] += a[k * 4 + rr] * b[c * 4 + k];
-    return r;
-}
-Vec3d normalised(const Vec3d& v) { return (1.0 / length(v)) * v; }
-
-struct Camera {
+// ---- Cameras and frames.
+struct NamedCamera {
     std::string name;
-    Vec3d position;  // local frame
+    render::Camera camera;
     Vec3d look_at;
 };
 
-// Camera-relative view-projection (the camera at the origin), 60 degrees vertical.
-Mat4 viewProjection(const Camera& cam, double aspect, double near_m, double far_m) {
-    const Vec3d f = normalised(cam.look_at - cam.position);
-    const Vec3d r = normalised(cross(f, {0, 0, 1}));
-    const Vec3d u = cross(r, f);
-    const Mat4 view{r.x, u.x, -f.x, 0, r.y, u.y, -f.y, 0, r.z, u.z, -f.z, 0, 0, 0, 0, 1};
-    const double k = 1.0 / std::tan(30.0 * M_PI / 180.0);
-    const Mat4 proj{k / aspect, 0, 0, 0, 0, k, 0, 0, 0, 0, (far_m + near_m) / (near_m - far_m), -1,
-                    0, 0, 2 * far_m * near_m / (near_m - far_m), 0};
-    return mul(proj, view);
+render::Camera lookingAt(const Vec3d& position, const Vec3d& target, int width, int height) {
+    render::Camera c;
+    c.position = position;
+    c.direction = (1.0 / length(target - position)) * (target - position);
+    c.width_px = width, c.height_px = height;
+    c.vertical_fov_deg = 60;
+    const double d = length(target - position);
+    c.near_m = std::max(1.0, 0.01 * d), c.far_m = 4 * d;
+    return c;
 }
 
 double boxDistance(const Vec3d& p, const Box3d& b) {
@@ -302,16 +189,16 @@ double boxDistance(const Vec3d& p, const Box3d& b) {
     return std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
-// Largest |ndc x| or |ndc y| of the box's corners from `cam`.
-double screenExtent(const Camera& cam, const Box3d& b, double aspect) {
-    const Mat4 vp = viewProjection(cam, aspect, 1, 1e7);
+// Largest |ndc x| or |ndc y| of the box's corners (the client's projection).
+double screenExtent(const render::Camera& cam, const Box3d& b) {
+    const auto p = render::projection(cam), v = render::viewRotation(cam);
     double m = 0;
     for (int i = 0; i < 8; ++i) {
-        const Vec3d p = Vec3d{i & 1 ? b.max.x : b.min.x, i & 2 ? b.max.y : b.min.y, i & 4 ? b.max.z : b.min.z} - cam.position;
-        const double cx = vp[0] * p.x + vp[4] * p.y + vp[8] * p.z + vp[12];
-        const double cy = vp[1] * p.x + vp[5] * p.y + vp[9] * p.z + vp[13];
-        const double cw = vp[3] * p.x + vp[7] * p.y + vp[11] * p.z + vp[15];
-        m = std::max({m, std::abs(cx / cw), std::abs(cy / cw)});
+        const Vec3d q = Vec3d{i & 1 ? b.max.x : b.min.x, i & 2 ? b.max.y : b.min.y, i & 4 ? b.max.z : b.min.z} - cam.position;
+        double eye[3];
+        for (int r = 0; r < 3; ++r) eye[r] = v[0 * 4 + r] * q.x + v[1 * 4 + r] * q.y + v[2 * 4 + r] * q.z;
+        const double w = -eye[2];
+        m = std::max({m, std::abs(p[0] * eye[0] / w), std::abs(p[5] * eye[1] / w)});
     }
     return m;
 }
@@ -320,11 +207,11 @@ double screenExtent(const Camera& cam, const Box3d& b, double aspect) {
 // `switch` at box distance `switch_m`; `full` where the box just fills the
 // frame (along one axis); `close` at a third of that, the frame all box;
 // `away` at `switch` looking the other way (a frame's cost without the town).
-std::vector<Camera> cameras(const Box3d& b, double switch_m, double aspect) {
+std::vector<NamedCamera> cameras(const Box3d& b, double switch_m, int width, int height) {
     const Vec3d centre = 0.5 * (b.min + b.max);
     const double az = 30 * M_PI / 180, el = 40 * M_PI / 180;
     const Vec3d dir{std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
-    auto at = [&](double r) { return Camera{"", centre + r * dir, centre}; };
+    auto at = [&](const char* name, double r) { return NamedCamera{name, lookingAt(centre + r * dir, centre, width, height), centre}; };
     auto bisect = [&](auto&& too_close) {
         double lo = 1, hi = 1e8;
         for (int i = 0; i < 200; ++i) {
@@ -333,130 +220,56 @@ std::vector<Camera> cameras(const Box3d& b, double switch_m, double aspect) {
         }
         return hi;
     };
-    Camera sw = at(bisect([&](double r) { return boxDistance(at(r).position, b) < switch_m; }));
-    sw.name = "switch";
-    Camera full = at(bisect([&](double r) { return screenExtent(at(r), b, aspect) > 1.0; }));
-    full.name = "full";
-    // Closer, so the box covers the whole frame: the worst fragment cost.
-    Camera close = at(0.35 * length(full.position - centre));
-    close.name = "close";
-    // Looking away from the town: what a frame costs without it (clear, planning).
-    Camera away{"away", sw.position, sw.position + (sw.position - centre)};
-    return {sw, full, close, away};
+    const NamedCamera sw = at("switch", bisect([&](double r) { return boxDistance(centre + r * dir, b) < switch_m; }));
+    const double full_r = bisect([&](double r) { return screenExtent(at("", r).camera, b) > 1.0; });
+    const Vec3d away_target = sw.camera.position + (sw.camera.position - centre);
+    return {sw, at("full", full_r), at("close", 0.35 * full_r),
+            NamedCamera{"away", lookingAt(sw.camera.position, away_target, width, height), away_target}};
 }
 
-GLuint texture2D(GLenum internal, GLenum format, GLenum type, int w, int h, const void* data) {
-    GLuint t = 0;
-    glGenTextures(1, &t);
-    glBindTexture(GL_TEXTURE_2D, t);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexImage2D(GL_TEXTURE_2D, 0, static_cast<GLint>(internal), w, h, 0, format, type, data);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    return t;
-}
-
-json renderBlockMap(const SpikeBlockMap& spike, const std::vector<Camera>& cams, int width, int height, int frames,
+json renderBlockMap(const SpikeBlockMap& spike, const std::vector<NamedCamera>& cams, int width, int height, int frames,
                     const std::string& out_dir) {
     Status st;
     auto context = render::HeadlessContext::create(&st);
     if (!context) throw std::runtime_error(st.error);
+    // No id buffer: as `cityatlas render` draws its frames.
     auto target = render::OffscreenTarget::create(width, height, &st);
     if (!target) throw std::runtime_error(st.error);
-    std::string error;
-    const GLuint program = render::linkProgram(kVertex, kFragment, &error);
-    if (!program) throw std::runtime_error(error);
-    const format::BlockMap& bm = spike.planes;
-    const double hg = (bm.z_hi - bm.origin.z) / bm.cell_m;
-    // Cells as RGBA32UI (top, base, feature, first column): the wide variant, whatever the counts.
-    std::vector<uint32_t> cells32;
-    for (const format::BlockMapCell& c : bm.cells) cells32.insert(cells32.end(), {c.top, c.base, c.feature, c.first_column});
-    const GLuint cells = texture2D(GL_RGBA32UI, GL_RGBA_INTEGER, GL_UNSIGNED_INT, bm.nx, bm.ny, cells32.data());
-    const GLuint dist = texture2D(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, bm.nx, bm.ny, bm.dist.data());
-    const GLuint roof = texture2D(GL_SRGB8, GL_RGB, GL_UNSIGNED_BYTE, bm.nx, bm.ny, spike.roof.data());
-    const GLuint walls =
-        texture2D(GL_SRGB8, GL_RGB, GL_UNSIGNED_BYTE, bm.wall_width, std::max(1, bm.wall_height), spike.walls.data());
-    const std::vector<uint16_t> coltab = columnTable(bm);
-    GLuint tbo = 0, coltex = 0;
-    glGenBuffers(1, &tbo);
-    glBindBuffer(GL_TEXTURE_BUFFER, tbo);
-    glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(coltab.size() * 2), coltab.data(), GL_STATIC_DRAW);
-    glGenTextures(1, &coltex);
-    glBindTexture(GL_TEXTURE_BUFFER, coltex);
-    glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA16UI, tbo);
-    // The box, grid units.
-    const float bx = static_cast<float>(bm.nx), by = static_cast<float>(bm.ny), bz = static_cast<float>(hg);
-    const float corners[8][3] = {{0, 0, 0}, {bx, 0, 0}, {0, by, 0}, {bx, by, 0}, {0, 0, bz}, {bx, 0, bz}, {0, by, bz}, {bx, by, bz}};
-    const uint16_t idx[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
-    GLuint vao = 0, vbo = 0, ebo = 0;
-    glGenVertexArrays(1, &vao);
-    glBindVertexArray(vao);
-    glGenBuffers(1, &vbo);
-    glBindBuffer(GL_ARRAY_BUFFER, vbo);
-    glBufferData(GL_ARRAY_BUFFER, sizeof(corners), corners, GL_STATIC_DRAW);
-    glEnableVertexAttribArray(0);
-    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
-    glGenBuffers(1, &ebo);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, sizeof(idx), idx, GL_STATIC_DRAW);
-
+    auto pass = render::BlockMapPass::create(&st);
+    if (!pass) throw std::runtime_error(st.error);
+    render::GpuBlockMap gpu = pass->upload(spike.planes, spike.roof, spike.walls, &st);
+    if (!gpu.valid()) throw std::runtime_error(st.error);
     json out = json::object();
     out["renderer"] = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    for (const Camera& cam : cams) {
-        // grid -> camera-relative world: scale by s, translate by origin - camera (double on the CPU).
-        const Vec3d o = bm.origin - cam.position;
-        const double s = bm.cell_m;
-        const Mat4 model{s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, o.x, o.y, o.z, 1};
-        const double dist_m = length(cam.look_at - cam.position);
-        const Mat4 mvp = mul(viewProjection(cam, static_cast<double>(width) / height, std::max(1.0, dist_m * 0.01), dist_m * 4), model);
-        std::array<float, 16> mvpf{};
-        for (int i = 0; i < 16; ++i) mvpf[i] = static_cast<float>(mvp[i]);
-        const Vec3d cg = (1.0 / s) * (cam.position - bm.origin);
+    for (const NamedCamera& nc : cams) {
         target->bind();
-        glUseProgram(program);
-        glUniformMatrix4fv(glGetUniformLocation(program, "u_mvp"), 1, GL_FALSE, mvpf.data());
-        glUniform3f(glGetUniformLocation(program, "u_cam"), static_cast<float>(cg.x), static_cast<float>(cg.y), static_cast<float>(cg.z));
-        glUniform2i(glGetUniformLocation(program, "u_n"), bm.nx, bm.ny);
-        glUniform1f(glGetUniformLocation(program, "u_h"), static_cast<float>(hg));
-        glUniform1i(glGetUniformLocation(program, "u_max_steps"), bm.nx + bm.ny + 8);
-        const std::pair<const char*, GLuint> units[5] = {{"u_cells", cells}, {"u_dist", dist}, {"u_roof", roof}, {"u_walls", walls}, {"u_coltab", coltex}};
-        for (int u = 0; u < 5; ++u) {
-            glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(u));
-            glBindTexture(u == 4 ? GL_TEXTURE_BUFFER : GL_TEXTURE_2D, units[u].second);
-            glUniform1i(glGetUniformLocation(program, units[u].first), u);
-        }
-        glEnable(GL_DEPTH_TEST);
-        glEnable(GL_CULL_FACE);
-        glCullFace(GL_BACK);
-        glFrontFace(GL_CCW);
         std::vector<double> ms;
         for (int f = 0; f < frames + 2; ++f) {
             const auto t0 = Clock::now();
-            glClearColor(0.55f, 0.7f, 0.9f, 1);
+            glClearColor(0.3f, 0.45f, 0.75f, 1);  // no building has this colour (palette() stays above 90)
             glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-            glDrawElements(GL_TRIANGLES, 36, GL_UNSIGNED_SHORT, nullptr);
+            pass->draw(gpu, nc.camera);
             glFinish();
             if (f >= 2) ms.push_back(secondsSince(t0) * 1000);
         }
         std::sort(ms.begin(), ms.end());
         std::vector<uint8_t> rgba;
         target->readPixels(&rgba);
-        size_t covered = 0, magenta = 0;
-        for (size_t i = 0; i < rgba.size(); i += 4) {
-            covered += !(rgba[i] == rgba[0] && rgba[i + 1] == rgba[1] && rgba[i + 2] == rgba[2]);
-            magenta += rgba[i] == 255 && rgba[i + 1] == 0 && rgba[i + 2] == 255;
-        }
-        const std::string png = out_dir + "/blockmap-" + cam.name + ".png";
+        size_t covered = 0;  // pixels not of the clear colour
+        for (size_t i = 0; i < rgba.size(); i += 4)
+            covered += rgba[i] != rgba[0] || rgba[i + 1] != rgba[1] || rgba[i + 2] != rgba[2];
+        const std::string png = out_dir + "/blockmap-" + nc.name + ".png";
         auto img = OIIO::ImageOutput::create(png);
         if (img && img->open(png, OIIO::ImageSpec(width, height, 4, OIIO::TypeDesc::UINT8))) {
             img->write_image(OIIO::TypeDesc::UINT8, rgba.data());
             img->close();
         }
-        out[cam.name] = {{"frame_ms_median", ms[ms.size() / 2]}, {"frame_ms_min", ms.front()}, {"frame_ms_max", ms.back()},
-                         {"frames", ms.size()}, {"pixels_not_background", covered}, {"pixels_out_of_steps", magenta},
-                         {"camera", {{"position", {cam.position.x, cam.position.y, cam.position.z}},
-                                     {"look_at", {cam.look_at.x, cam.look_at.y, cam.look_at.z}}}}};
+        const Vec3d& p = nc.camera.position;
+        out[nc.name] = {{"frame_ms_median", ms[ms.size() / 2]}, {"frame_ms_min", ms.front()}, {"frame_ms_max", ms.back()},
+                        {"frames", ms.size()}, {"pixels_covered", covered},
+                        {"camera", {{"position", {p.x, p.y, p.z}}, {"look_at", {nc.look_at.x, nc.look_at.y, nc.look_at.z}}}}};
     }
+    pass->release(&gpu);
     return out;
 }
 
@@ -522,7 +335,7 @@ int main(int argc, char** argv) {
         const double s = bm.cell_m;
         box.min = bm.origin;
         box.max = {bm.origin.x + bm.nx * s, bm.origin.y + bm.ny * s, bm.z_hi};
-        const auto cams = cameras(box, switch_m, static_cast<double>(width) / height);
+        const auto cams = cameras(box, switch_m, width, height);
 
         json report;
         report["town"] = {{"buildings", settings.buildings}, {"texture_px", settings.texture_size_px},
@@ -542,9 +355,10 @@ int main(int argc, char** argv) {
         std::ofstream(out_dir + "/spike.json") << report.dump(1) << "\n";
         json path = {{"interpolation", "linear"}, {"frame_rate", 20}, {"keyframes", json::array()}};
         double time = 0;
-        for (const Camera& c : cams)
+        for (const NamedCamera& c : cams)
             for (int rep = 0; rep < 40; ++rep, time += 0.05)
-                path["keyframes"].push_back({{"time_s", time}, {"position", {c.position.x, c.position.y, c.position.z}},
+                path["keyframes"].push_back({{"time_s", time},
+                                             {"position", {c.camera.position.x, c.camera.position.y, c.camera.position.z}},
                                              {"look_at", {c.look_at.x, c.look_at.y, c.look_at.z}}, {"label", c.name},
                                              {"cut", rep == 0 && time > 0}});
         std::ofstream(out_dir + "/cameras.json") << path.dump(1) << "\n";

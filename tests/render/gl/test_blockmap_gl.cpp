@@ -1,0 +1,208 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The BlockMap shader (render/gl/blockmap_pass.h) against its C++ twin
+// (render/core/blockmap_ray.h), which test_blockmap_ray holds to brute
+// force: on a synthetic LOD2 town's BlockMap seen from several cameras, every
+// pixel's centre ray cast on the CPU gives the same hit or miss, the same
+// cell and face (the pass's cell-id hook), the same depth and, from colour
+// planes where every cell's roof and every column has a colour of its own,
+// the same colour (../shared/SEED-FEATURES.md §1.3 item 7). Pixels whose
+// ray passes within a hundredth of a pixel of a prism edge may differ (the
+// shader walks in float); they are counted and bounded.
+#include <gtest/gtest.h>
+
+#include <epoxy/gl.h>
+
+#include <cmath>
+#include <cstdlib>
+
+#include "atlas/blockmap.h"
+#include "ingest/synth/town.h"
+#include "render/core/blockmap_ray.h"
+#include "render/core/picking.h"
+#include "render/gl/blockmap_pass.h"
+#include "render/gl/gl_context.h"
+#include "render/gl/gl_renderer.h"
+
+namespace cityatlas::render {
+namespace {
+
+struct Expected {
+    bool hit = false;
+    uint32_t id = OffscreenTarget::kNoFeature;
+    double depth = 1;
+};
+
+Expected expectAt(const format::BlockMap& bm, const Camera& camera, double px, double py) {
+    const Vec3d dir = pixelRay(camera, px, py);
+    const BlockMapHit h = castBlockMapRay(bm, camera.position, dir);
+    Expected e;
+    if (!h.hit) return e;
+    e.hit = true;
+    e.id = static_cast<uint32_t>(bm.index(h.x, h.y)) * 8u + static_cast<uint32_t>(h.face);
+    // Window depth of the hit with the camera's projection, in double.
+    const Vec3d forward = (1.0 / length(camera.direction)) * camera.direction;
+    const double z_eye = h.t * dot(dir, forward);  // distance along the view axis
+    const double n = camera.near_m, f = camera.far_m;
+    const double ndc = ((f + n) / (f - n)) - (2 * f * n / (f - n)) / z_eye;
+    e.depth = 0.5 * ndc + 0.5;
+    return e;
+}
+
+// sRGB bytes per cell (roof) and per column (every row the same), all different.
+std::array<uint8_t, 3> colourOf(uint32_t k, uint32_t salt) {
+    const uint32_t h = (k + 1) * 2654435761u ^ salt;
+    return {static_cast<uint8_t>(40 + (h & 0xAF)), static_cast<uint8_t>(40 + ((h >> 8) & 0xAF)), static_cast<uint8_t>(40 + ((h >> 16) & 0xAF))};
+}
+
+class BlockMapGl : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        unsetenv("DISPLAY");
+        unsetenv("WAYLAND_DISPLAY");
+        Status status;
+        context_ = HeadlessContext::create(&status).release();
+        ASSERT_NE(context_, nullptr) << status.error;
+    }
+    static void TearDownTestSuite() {
+        delete context_;
+        context_ = nullptr;
+    }
+    void SetUp() override {
+        ASSERT_NE(context_, nullptr);
+        ASSERT_TRUE(context_->makeCurrent());
+    }
+    void TearDown() override { EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR)); }
+    static HeadlessContext* context_;
+};
+HeadlessContext* BlockMapGl::context_ = nullptr;
+
+TEST_F(BlockMapGl, ShaderEqualsTheCppTraversalOnEveryPixel) {
+    synth::TownSettings s;
+    s.buildings = 60;
+    s.seed = 4;
+    s.texture_size_px = 16;
+    const Scene scene = synth::townToScene(synth::generateTown(s), "/nonexistent");
+    format::BlockMap bm;
+    atlas::BlockMapParams params;
+    params.cell_m = 2.5;
+    ASSERT_TRUE(atlas::buildBlockMap(scene.triangles, params, &bm).ok());
+    std::vector<uint8_t> roof(bm.cells.size() * 3), walls(static_cast<size_t>(bm.wall_width) * bm.wall_height * 3, 0);
+    for (size_t c = 0; c < bm.cells.size(); ++c) {
+        const auto rgb = colourOf(static_cast<uint32_t>(c), 0x5A5A);
+        std::copy(rgb.begin(), rgb.end(), roof.begin() + static_cast<long>(c * 3));
+    }
+    for (size_t i = 0; i < bm.columns.size(); ++i) {
+        const format::BlockMapColumn& col = bm.columns[i];
+        const auto rgb = colourOf(static_cast<uint32_t>(i), 0xC3C3);
+        for (int r = 0; r < col.rows; ++r)
+            std::copy(rgb.begin(), rgb.end(), walls.begin() + static_cast<long>(((col.y + r) * static_cast<size_t>(bm.wall_width) + col.x) * 3));
+    }
+    Status status;
+    auto pass = BlockMapPass::create(&status);
+    ASSERT_NE(pass, nullptr) << status.error;
+    GpuBlockMap gpu = pass->upload(bm, roof, walls, &status);
+    ASSERT_TRUE(gpu.valid()) << status.error;
+    const int size = 128;
+    auto target = OffscreenTarget::create(size, size, &status, true);
+    ASSERT_NE(target, nullptr) << status.error;
+
+    const Vec3d centre{bm.origin.x + 0.5 * bm.nx * bm.cell_m, bm.origin.y + 0.5 * bm.ny * bm.cell_m, 0.5 * (bm.origin.z + bm.z_hi)};
+    const double reach = std::hypot(bm.nx * bm.cell_m, bm.ny * bm.cell_m);
+    size_t pixels = 0, hits = 0, boundary = 0, wrong = 0, colour_checked = 0, colour_wrong = 0;
+    double worst_depth = 0;
+    // Oblique views from four sides and a steep one; the town fills most of the frame.
+    const double views[5][2] = {{20, 35}, {110, 25}, {200, 50}, {290, 15}, {45, 80}};
+    for (const auto& v : views) {
+        const double az = v[0] * M_PI / 180, el = v[1] * M_PI / 180;
+        Camera cam;
+        cam.position = centre + 0.55 * reach * Vec3d{std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+        cam.direction = (1.0 / length(centre - cam.position)) * (centre - cam.position);
+        cam.width_px = cam.height_px = size;
+        cam.vertical_fov_deg = 60;
+        cam.near_m = 1;
+        cam.far_m = 4 * reach;
+        target->bind();
+        glClearColor(0, 0, 0, 0);
+        glClearDepth(1);
+        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        const GLuint none = OffscreenTarget::kNoFeature;
+        glClearBufferuiv(GL_COLOR, 1, &none);
+        pass->setCellIds(true);
+        pass->draw(gpu, cam);
+        std::vector<uint32_t> ids;
+        std::vector<float> depth;
+        ASSERT_TRUE(target->readIds(&ids));
+        target->readDepth(&depth);
+        // Colours in a second frame with feature ids (the normal mode).
+        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        pass->setCellIds(false);
+        pass->draw(gpu, cam);
+        std::vector<uint8_t> rgba;
+        target->readPixels(&rgba);
+        for (int py = 0; py < size; ++py)
+            for (int px = 0; px < size; ++px, ++pixels) {
+                const size_t i = static_cast<size_t>(py) * size + static_cast<size_t>(px);
+                const Expected e = expectAt(bm, cam, px + 0.5, py + 0.5);
+                hits += e.hit;
+                if (ids[i] != e.id) {
+                    // Near an edge the float walk may take the neighbour: a ray a hundredth of a pixel away agrees.
+                    bool near = false;
+                    for (const auto& j : {std::pair{0.01, 0.0}, {-0.01, 0.0}, {0.0, 0.01}, {0.0, -0.01}})
+                        near |= expectAt(bm, cam, px + 0.5 + j.first, py + 0.5 + j.second).id == ids[i];
+                    if (!near && wrong < 5)
+                        ADD_FAILURE() << "view " << v[0] << "/" << v[1] << " pixel " << px << "," << py << ": shader id " << ids[i]
+                                      << ", C++ " << e.id;
+                    (near ? boundary : wrong)++;
+                    continue;
+                }
+                if (!e.hit) continue;
+                worst_depth = std::max(worst_depth, std::abs(depth[i] - e.depth));
+                // The colour of the face hit: the cell's roof, or its side's column.
+                const uint32_t cell = e.id / 8, face = e.id % 8;
+                std::array<uint8_t, 3> want{25, 25, 25};
+                if (face == kBlockMapRoof) want = colourOf(cell, 0x5A5A);
+                else if (face < 4) {
+                    const uint32_t col = bm.columnOf(static_cast<int>(cell % static_cast<uint32_t>(bm.nx)),
+                                                     static_cast<int>(cell / static_cast<uint32_t>(bm.nx)), static_cast<int>(face));
+                    ASSERT_NE(col, format::kBlockMapNone);
+                    want = colourOf(col, 0xC3C3);
+                } else continue;
+                ++colour_checked;
+                bool same = true;
+                for (int k = 0; k < 3; ++k) same &= std::abs(rgba[i * 4 + static_cast<size_t>(k)] - want[static_cast<size_t>(k)]) <= 1;
+                colour_wrong += !same;
+            }
+    }
+    pass->release(&gpu);
+    EXPECT_EQ(wrong, 0u) << "of " << pixels << " pixels";
+    EXPECT_LE(boundary, pixels / 100) << "pixels on a prism edge";
+    EXPECT_GT(hits, pixels / 8) << "the town fills a good part of the frames";
+    EXPECT_LE(worst_depth, 2e-6) << "window depth against the double-precision hit";
+    EXPECT_EQ(colour_wrong, 0u) << "of " << colour_checked;
+    RecordProperty("boundary_pixels", static_cast<int>(boundary));
+    std::printf("pixels %zu, hits %zu, on edges %zu, worst depth %.2g, colours checked %zu\n", pixels, hits, boundary, worst_depth,
+                colour_checked);
+}
+
+TEST_F(BlockMapGl, RefusesPlanesOfTheWrongSize) {
+    Status status;
+    auto pass = BlockMapPass::create(&status);
+    ASSERT_NE(pass, nullptr) << status.error;
+    format::BlockMap bm;
+    bm.nx = 2, bm.ny = 2, bm.cell_m = 1, bm.z_hi = 1;
+    bm.cells.resize(4);
+    bm.dist.resize(3);
+    EXPECT_FALSE(pass->upload(bm, {}, {}, &status).valid());
+    EXPECT_FALSE(status.ok());
+    bm.dist.resize(4);
+    status = Status::Ok();
+    const std::vector<uint8_t> roof(5);
+    EXPECT_FALSE(pass->upload(bm, roof, {}, &status).valid());
+    status = Status::Ok();
+    GpuBlockMap g = pass->upload(bm, {}, {}, &status);
+    EXPECT_TRUE(g.valid()) << status.error;
+    pass->release(&g);
+}
+
+}  // namespace
+}  // namespace cityatlas::render
