@@ -6,13 +6,16 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
 
+#include <OpenImageIO/imagecache.h>
 #include <fmt/format.h>
 
 #include "atlas/raycast.h"
+#include "core/srgb.h"
 
 namespace cityatlas::atlas {
 namespace {
@@ -46,10 +49,7 @@ double heightOn(const Triangle& t, double x, double y, double ray_z) {
 
 // Pass 1: top, base and building of every cell from two vertical rays
 // through its centre.
-void castCells(std::span<const Triangle> triangles, BlockMap* bm) {
-    std::vector<std::array<Vec3d, 3>> corners(triangles.size());
-    for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
-    const auto caster = RayCaster::build(corners);
+void castCells(std::span<const Triangle> triangles, const RayCaster* caster, BlockMap* bm) {
     const double above = bm->z_hi + 1, below = bm->origin.z - 1;
     std::vector<uint32_t> hit_feature(static_cast<size_t>(bm->nx) * static_cast<size_t>(bm->ny), kBlockMapNone);
     bm->cells.assign(hit_feature.size(), format::BlockMapCell{});
@@ -146,19 +146,174 @@ void distanceTransform(BlockMap* bm) {
     for (size_t i = 0; i < d.size(); ++i) bm->dist[i] = static_cast<uint8_t>(std::min(d[i], 255));
 }
 
+// Pass 4: the colour of what rays hit, averaged in linear light.
+class SurfaceColours {
+public:
+    SurfaceColours(std::span<const Triangle> triangles, const SurfaceTables& tables)
+        : triangles_(triangles), tables_(tables), cache_(OIIO::ImageCache::create(false)) {
+        cache_->attribute("max_memory_MB", static_cast<float>(tables.cache_mb));
+        cache_->attribute("autotile", 0);
+    }
+    ~SurfaceColours() { OIIO::ImageCache::destroy(cache_); }
+    SurfaceColours(const SurfaceColours&) = delete;
+    SurfaceColours& operator=(const SurfaceColours&) = delete;
+
+    /// Linear RGB of triangle `index` at point `p` on it.
+    std::array<double, 3> at(uint32_t index, const Vec3d& p, std::atomic<uint64_t>* unreadable) const {
+        const Triangle& t = triangles_[index];
+        if (t.texture >= 0 && static_cast<size_t>(t.texture) < tables_.textures.size()) {
+            const TextureRef& ref = tables_.textures[static_cast<size_t>(t.texture)];
+            const Vec2d uv = uvAt(t, p);
+            float rgb[4] = {0, 0, 0, 0};
+            const OIIO::ImageSpec* spec = cache_->imagespec(OIIO::ustring(ref.path));
+            if (spec && spec->width > 0 && spec->height > 0) {
+                const int x = wrapIndex(static_cast<int>(std::floor(uv.x * spec->width)), spec->width, ref.wrap);
+                const int y = wrapIndex(static_cast<int>(std::floor((1 - uv.y) * spec->height)), spec->height, ref.wrap);
+                const int nc = std::min(spec->nchannels, 3);
+                if (cache_->get_pixels(OIIO::ustring(ref.path), 0, 0, x, x + 1, y, y + 1, 0, 1, 0, nc, OIIO::TypeFloat, rgb)) {
+                    if (nc < 3) rgb[1] = rgb[2] = rgb[0];  // grey images
+                    return {linearFromSrgb(rgb[0]), linearFromSrgb(rgb[1]), linearFromSrgb(rgb[2])};
+                }
+            }
+            (void)cache_->geterror();
+            ++*unreadable;
+            return {0.5, 0.5, 0.5};
+        }
+        if (t.material >= 0 && static_cast<size_t>(t.material) < tables_.materials.size()) {
+            const auto& d = tables_.materials[static_cast<size_t>(t.material)].diffuse;
+            return {d[0], d[1], d[2]};
+        }
+        return {0.7, 0.7, 0.7};
+    }
+
+private:
+    // The uv at p from its barycentric coordinates (in double).
+    static Vec2d uvAt(const Triangle& t, const Vec3d& p) {
+        const auto& q = t.position_local;
+        const Vec3d e0 = q[1] - q[0], e1 = q[2] - q[0], ep = p - q[0];
+        const double d00 = dot(e0, e0), d01 = dot(e0, e1), d11 = dot(e1, e1), dp0 = dot(ep, e0), dp1 = dot(ep, e1);
+        const double den = d00 * d11 - d01 * d01;
+        const double b1 = den != 0 ? (d11 * dp0 - d01 * dp1) / den : 0, b2 = den != 0 ? (d00 * dp1 - d01 * dp0) / den : 0;
+        const double b0 = 1 - b1 - b2;
+        return {b0 * t.uv[0].x + b1 * t.uv[1].x + b2 * t.uv[2].x, b0 * t.uv[0].y + b1 * t.uv[1].y + b2 * t.uv[2].y};
+    }
+    // A texel index inside [0, n): repeated, mirrored or clamped as the texture wraps.
+    static int wrapIndex(int i, int n, WrapMode mode) {
+        if (mode == WrapMode::Wrap) return ((i % n) + n) % n;
+        if (mode == WrapMode::Mirror) {
+            const int m = ((i % (2 * n)) + 2 * n) % (2 * n);
+            return m < n ? m : 2 * n - 1 - m;
+        }
+        return std::clamp(i, 0, n - 1);
+    }
+
+    std::span<const Triangle> triangles_;
+    const SurfaceTables& tables_;
+    OIIO::ImageCache* cache_;
+};
+
+// A deterministic offset in [0, 1) for sample (a, b) of item i: stratified
+// jitter, so a regular sample grid cannot alias with a periodic texture
+// (paving whose repeat divides the cell: every sample on its joints).
+double jitter(uint64_t i, int a, int b, int axis) {
+    uint64_t h = (i * 0x9E3779B97F4A7C15ull) ^ (static_cast<uint64_t>(a * 4 + b) << 32 | static_cast<uint64_t>(axis));
+    h ^= h >> 31, h *= 0xBF58476D1CE4E5B9ull, h ^= h >> 27, h *= 0x94D049BB133111EBull, h ^= h >> 31;
+    return static_cast<double>(h >> 11) * 0x1.0p-53;
+}
+
+std::array<uint8_t, 3> srgb8(const std::array<double, 3>& linear) {
+    std::array<uint8_t, 3> out{};
+    for (size_t k = 0; k < 3; ++k)
+        out[k] = static_cast<uint8_t>(std::lround(std::clamp(srgbFromLinear(linear[k]), 0.0, 1.0) * 255));
+    return out;
+}
+
+void colourPlanes(std::span<const Triangle> triangles, const RayCaster& caster, const SurfaceTables& tables, BlockMap* bm,
+                  BlockMapColourStats* stats) {
+    const SurfaceColours colours(triangles, tables);
+    std::atomic<uint64_t> rays{0}, hits{0}, without{0}, unreadable{0};
+    const double s = bm->cell_m, above = bm->z_hi + 1;
+    bm->roof.assign(bm->cells.size() * 3, 0);
+    std::vector<std::array<double, 3>> roof_linear(bm->cells.size(), {0.7, 0.7, 0.7});
+    tbb::parallel_for(0, bm->ny, [&](int y) {
+        uint64_t r = 0, h = 0;
+        for (int x = 0; x < bm->nx; ++x) {
+            const size_t c = bm->index(x, y);
+            if (!bm->cells[c].occupied()) continue;
+            std::array<double, 3> sum{0, 0, 0};
+            int n = 0;
+            for (int a = 0; a < 4; ++a)
+                for (int b = 0; b < 4; ++b, ++r) {
+                    const Vec3d o{bm->origin.x + (x + (a + jitter(c, a, b, 0)) / 4) * s,
+                                  bm->origin.y + (y + (b + jitter(c, a, b, 1)) / 4) * s, above};
+                    const RayHit hit = caster.nearest(o, {0, 0, -1});
+                    if (!hit.hit) continue;
+                    const auto rgb = colours.at(hit.triangle, o + hit.distance * Vec3d{0, 0, -1}, &unreadable);
+                    for (size_t k = 0; k < 3; ++k) sum[k] += rgb[k];
+                    ++n, ++h;
+                }
+            if (n > 0) roof_linear[c] = {sum[0] / n, sum[1] / n, sum[2] / n};
+            const auto out = srgb8(roof_linear[c]);
+            std::copy(out.begin(), out.end(), bm->roof.begin() + static_cast<long>(c * 3));
+        }
+        rays += r, hits += h;
+    });
+    bm->walls.assign(static_cast<size_t>(bm->wall_width) * static_cast<size_t>(bm->wall_height) * 3, 0);
+    tbb::parallel_for(size_t{0}, bm->columns.size(), [&](size_t i) {
+        const format::BlockMapColumn& col = bm->columns[i];
+        const int x = static_cast<int>(col.cell % static_cast<uint32_t>(bm->nx));
+        const int y = static_cast<int>(col.cell / static_cast<uint32_t>(bm->nx));
+        const int dx = format::kSideDx[col.side], dy = format::kSideDy[col.side];
+        const double zb = bm->height(col.base), zt = bm->height(bm->cells[col.cell].top);
+        const Vec3d inward{-static_cast<double>(dx), -static_cast<double>(dy), 0};
+        // Half a cell outside the side, across its width.
+        const double ex = bm->origin.x + (x + 0.5 + dx) * s, ey = bm->origin.y + (y + 0.5 + dy) * s;
+        uint64_t r = 0, h = 0;
+        for (int row = 0; row < col.rows; ++row) {
+            std::array<double, 3> sum{0, 0, 0};
+            int n = 0;
+            for (int a = 0; a < 4; ++a)
+                for (int b = 0; b < 4; ++b, ++r) {
+                    const uint64_t texel = (static_cast<uint64_t>(i) << 16) + static_cast<uint64_t>(row);
+                    const double along = (a + jitter(texel, a, b, 0)) / 4 - 0.5;
+                    const double z = zb + (zt - zb) * (row + (b + jitter(texel, a, b, 1)) / 4) / col.rows;
+                    const Vec3d o{ex + along * s * std::abs(dy), ey + along * s * std::abs(dx), z};
+                    const RayHit hit = caster.nearest(o, inward, 0, 1.5 * s);
+                    if (!hit.hit) continue;
+                    const auto rgb = colours.at(hit.triangle, o + hit.distance * inward, &unreadable);
+                    for (size_t k = 0; k < 3; ++k) sum[k] += rgb[k];
+                    ++n, ++h;
+                }
+            std::array<double, 3> mean = roof_linear[col.cell];
+            if (n > 0) mean = {sum[0] / n, sum[1] / n, sum[2] / n};
+            else ++without;
+            const auto out = srgb8(mean);
+            std::copy(out.begin(), out.end(),
+                      bm->walls.begin() + static_cast<long>(((col.y + row) * static_cast<size_t>(bm->wall_width) + col.x) * 3));
+        }
+        rays += r, hits += h;
+    });
+    if (stats) *stats = {rays.load(), hits.load(), without.load(), unreadable.load()};
+}
+
 }  // namespace
 
-Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& params, format::BlockMap* out) {
+Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& params, format::BlockMap* out,
+                     const SurfaceTables* surfaces, BlockMapColourStats* stats) {
     if (!(params.cell_m > 0) || !std::isfinite(params.cell_m) || params.row_m < 0 || params.wall_width < 1 ||
         params.wall_width > 65535)
         return Status::Usage(fmt::format("BlockMap: bad parameters (cell {} m, row {} m, wall width {})", params.cell_m,
                                          params.row_m, params.wall_width));
     *out = format::BlockMap{};
     if (triangles.empty()) return Status::Ok();
+    std::vector<std::array<Vec3d, 3>> corners(triangles.size());
+    for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
+    const auto caster = RayCaster::build(corners);
     placeGrid(triangles, params.cell_m, out);
-    castCells(triangles, out);
+    castCells(triangles, caster.get(), out);
     makeColumns(params, out);
     distanceTransform(out);
+    if (surfaces) colourPlanes(triangles, *caster, *surfaces, out, stats);
     return Status::Ok();
 }
 

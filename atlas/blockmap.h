@@ -14,7 +14,16 @@
 ///    image;
 /// 3. **distance**: the exact Chebyshev distance transform (two passes),
 ///    clamped to 255.
-/// The colour planes (roof, walls) are not filled here.
+/// 4. **colours** (when the surfaces' textures and materials are given):
+///    a cell's roof is the mean, in linear light, of 4 x 4 vertical rays
+///    spread over the cell (stratified and jittered: a regular grid aliases
+///    with periodic textures); a wall texel the mean of 4 x 4 horizontal rays
+///    into its side from half a cell outside, the first hit within 1.5
+///    cells (none: the cell's roof colour). A hit's colour is its texture's
+///    texel at the hit's uv (nearest, at full resolution, wrapped as the
+///    texture says; read through an OpenImageIO ImageCache), else its
+///    material's diffuse colour, else grey 0.7; alpha is ignored (the
+///    texel's colour counts as opaque).
 ///
 /// Deterministic: the planes depend on the triangles and the parameters
 /// only (the ray caster's answers do not depend on threads).
@@ -27,6 +36,20 @@
 
 namespace cityatlas::atlas {
 
+/// What the colour pass needs of the scene (Scene::textures, ::materials).
+struct SurfaceTables {
+    std::span<const TextureRef> textures;
+    std::span<const Material> materials;
+    size_t cache_mb = 256;  ///< decoded textures kept (OpenImageIO ImageCache)
+};
+
+/// What the colour pass saw.
+struct BlockMapColourStats {
+    uint64_t rays = 0, hits = 0;
+    uint64_t texels_without_hit = 0;    ///< wall texels given their cell's roof colour
+    uint64_t unreadable_samples = 0;    ///< texture reads that failed (grey)
+};
+
 struct BlockMapParams {
     double cell_m = 1;  ///< grid side
     double row_m = 0;   ///< wall texel height; 0: cell_m
@@ -36,6 +59,8 @@ struct BlockMapParams {
 /// The BlockMap of `triangles` (a node's buildings, in full) on the grid of
 /// side params.cell_m aligned to multiples of it from the local origin. No
 /// triangles: an empty BlockMap (nx = ny = 0). A bad parameter fails.
-Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& params, format::BlockMap* out);
+/// With `surfaces`, also the colour planes (pass 4).
+Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& params, format::BlockMap* out,
+                     const SurfaceTables* surfaces = nullptr, BlockMapColourStats* stats = nullptr);
 
 }  // namespace cityatlas::atlas

@@ -5,7 +5,8 @@
 # a root BlockMap at the root's own texel size (tests/tools/blockmap_spike.cpp)
 # against the root's geometry and atlases in the built folder:
 #   - bytes (zstd planes + BC1 colour, as SEED-FEATURES §1.2 lays them out)
-#     and the BlockMap's build seconds;
+#     and the BlockMap's build seconds (planes and colours from the town's
+#     textures);
 #   - plan-view built area kept: every building, the root geometry's
 #     buildings (it leaves out those smaller than its texel), the BlockMap's
 #     occupied cells;
@@ -33,7 +34,7 @@ for t in "${TOWNS[@]}"; do
   [ -f "$folder/tileset.json" ] || benchmarks/build_scale.sh "$1" "$2" main "$3"
   work="out/benchmarks/blockmap-spike-$1"
   rm -rf "$work"; mkdir -p "$work"
-  ./build/tests/tools/blockmap_spike "$1" "$3" "$folder" "$work" "$SIZE" "$FRAMES" > /dev/null
+  ./build/tests/tools/blockmap_spike "$1" "$3" "out/benchmarks/synth-$1-$3" "$folder" "$work" "$SIZE" "$FRAMES" > /dev/null
   root_bytes=$(/usr/bin/python3 -c "import json; print(json.load(open('$work/spike.json'))['root']['bytes'])")
   pinned=$(du -cb "$folder"/features/bounds/*.bin | tail -1 | cut -f1)
   ./build/cli/cityatlas render "$folder" --path "$work/cameras.json" --size "$SIZE" --fade-s 0 -q \
@@ -79,8 +80,8 @@ for r in result["towns"]:
     print(f"\n{r['town']['buildings']} buildings: root texel {root['world_texel_m']:.2f} m, switch {root['min_distance_m']:.0f} m")
     print(f"  bytes: root geometry+atlases {root['bytes']:,}  BlockMap {b['bytes']['total']:,} (GPU {b['bytes']['gpu']:,})"
           f"  grid {b['grid'][0]}x{b['grid'][1]}, {b['columns']:,} columns, {b['features']:,} buildings")
-    print(f"  BlockMap build {b['build']['total_s']:.2f} s: planes {b['build']['planes_s']:.2f} s (BVH included),"
-          f" wall rays {b['build']['wall_rays_s']:.2f} s (+ BVH {b['build']['wall_bvh_s']:.2f} s), encode {b['build']['encode_s']:.2f} s")
+    print(f"  BlockMap build {b['build']['total_s']:.2f} s: planes and colours {b['build']['planes_s']:.2f} s"
+          f" ({b['build']['colour_rays']:,} colour rays), encode {b['build']['encode_s']:.2f} s")
     print(f"  plan area: buildings {a['buildings']/1e6:.2f} km2, root geometry {a['root_geometry']/1e6:.2f} km2,"
           f" BlockMap cells {a['blockmap_cells']/1e6:.2f} km2; root drops {root['features_dropped']:,} buildings,"
           f" {b['dropped_by_geometry_present']:,} of them in the BlockMap")

@@ -74,6 +74,9 @@ struct BlockMap {
     std::vector<BlockMapColumn> columns;
     int wall_width = 1024, wall_height = 0;
     std::vector<uint32_t> features;    ///< local index -> scene feature id, in order of first cell
+    /// Colour planes, sRGB RGB8, rows from y = 0; both empty when not coloured.
+    std::vector<uint8_t> roof;         ///< nx * ny * 3: each cell's roof
+    std::vector<uint8_t> walls;        ///< wall_width * wall_height * 3: the columns
 
     size_t index(int x, int y) const { return static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x); }
     bool inside(int x, int y) const { return x >= 0 && y >= 0 && x < nx && y < ny; }

@@ -7,7 +7,10 @@
 // exposed sides and their columns equal a brute-force set from the cells
 // and the wall image's columns do not overlap (B2); the distance plane
 // equals a brute-force Chebyshev distance (B3); every building that holds a
-// cell centre is in the feature list, and only those (B5).
+// cell centre is in the feature list, and only those (B5); per building,
+// the mean colour of its wall texels and of its roof cells is that of its
+// facade and roof as textured (B6), the oracle sampling each surface's
+// texture densely over its own uv triangles.
 #include "atlas/blockmap.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -16,9 +19,15 @@
 
 #include <cmath>
 #include <map>
+#include <random>
 #include <set>
 
+#include <OpenImageIO/imageio.h>
+
+#include "core/srgb.h"
 #include "ingest/synth/town.h"
+#include "ingest/synth/write_town.h"
+#include "../ingest/test_support.h"
 
 namespace cityatlas::atlas {
 namespace {
@@ -191,6 +200,116 @@ TEST_F(LodOneBlockMap, DistanceIsTheChebyshevDistanceToTheNearestBuilding) {
         }
     EXPECT_EQ(wrong, 0u);
     EXPECT_GT(far, 1000u) << "space leaping has room to leap";
+}
+
+// Linear RGB image of a texture file (the oracle's own read, OpenImageIO).
+struct LinearImage {
+    int w = 0, h = 0;
+    std::vector<double> px;  // w * h * 3
+    std::array<double, 3> at(double u, double v) const {  // nearest texel, repeated
+        const int x = ((static_cast<int>(std::floor(u * w)) % w) + w) % w;
+        const int y = ((static_cast<int>(std::floor((1 - v) * h)) % h) + h) % h;
+        const size_t i = (static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * 3;
+        return {px[i], px[i + 1], px[i + 2]};
+    }
+};
+
+LinearImage readLinear(const std::string& path) {
+    LinearImage img;
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return img;
+    const OIIO::ImageSpec& spec = in->spec();
+    std::vector<float> raw(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) * static_cast<size_t>(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeFloat, raw.data())) return img;
+    img.w = spec.width, img.h = spec.height;
+    for (size_t i = 0; i < raw.size(); i += static_cast<size_t>(spec.nchannels))
+        for (size_t k = 0; k < 3; ++k) img.px.push_back(linearFromSrgb(raw[i + std::min<size_t>(k, static_cast<size_t>(spec.nchannels) - 1)]));
+    return img;
+}
+
+TEST(BlockMap, WallAndRoofColoursAreTheBuildingsTextureMeans) {
+    synth::TownSettings settings;
+    settings.buildings = 40;
+    settings.seed = 11;
+    settings.lod = 1;
+    settings.texture_size_px = 64;
+    const synth::Town town = synth::generateTown(settings);
+    const auto dir = test::scratchPath("cityatlas_test_blockmap", "town");
+    ASSERT_TRUE(synth::writeTextures(town, dir, {}).ok());
+    const Scene scene = synth::townToScene(town, dir);
+    BlockMap bm;
+    BlockMapParams params;
+    params.cell_m = 1.25;
+    SurfaceTables tables{scene.textures, scene.materials};
+    BlockMapColourStats stats;
+    ASSERT_TRUE(buildBlockMap(scene.triangles, params, &bm, &tables, &stats).ok());
+    EXPECT_EQ(stats.unreadable_samples, 0u);
+    EXPECT_LT(stats.texels_without_hit, bm.columns.size() / 20) << "wall texels whose rays found no wall";
+
+    // Oracle: per feature and surface kind, the area-weighted mean colour of its triangles as textured,
+    // each triangle sampled at 4,000 uniform random points (or its material's colour).
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u01(0, 1);
+    std::map<int32_t, LinearImage> images;
+    auto image = [&](int32_t t) -> const LinearImage& {
+        if (!images.count(t)) images[t] = readLinear(scene.textures[static_cast<size_t>(t)].path);
+        return images[t];
+    };
+    struct Sum {
+        std::array<double, 3> rgb{0, 0, 0};
+        double weight = 0;
+        void add(const std::array<double, 3>& c, double w) {
+            for (size_t k = 0; k < 3; ++k) rgb[k] += w * c[k];
+            weight += w;
+        }
+        std::array<double, 3> mean() const { return {rgb[0] / weight, rgb[1] / weight, rgb[2] / weight}; }
+    };
+    std::map<uint32_t, Sum> want_wall, want_roof, got_wall, got_roof;
+    for (const Triangle& t : scene.triangles) {
+        const bool wall = t.semantic == SurfaceSemantic::Wall, roof = t.semantic == SurfaceSemantic::Roof;
+        if (!wall && !roof) continue;
+        const double area = triangleArea(t.position_local);
+        Sum& sum = (wall ? want_wall : want_roof)[t.feature];
+        if (t.texture < 0) {
+            const auto& d = scene.materials[static_cast<size_t>(t.material)].diffuse;
+            sum.add({d[0], d[1], d[2]}, area);
+            continue;
+        }
+        const LinearImage& img = image(t.texture);
+        ASSERT_GT(img.w, 0);
+        // Uniform random points (a regular grid would alias with the paving's repeat).
+        for (int i = 0; i < 4000; ++i) {
+            double b1 = u01(rng), b2 = u01(rng);
+            if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+            const double b0 = 1 - b1 - b2;
+            sum.add(img.at(b0 * t.uv[0].x + b1 * t.uv[1].x + b2 * t.uv[2].x, b0 * t.uv[0].y + b1 * t.uv[1].y + b2 * t.uv[2].y), area);
+        }
+    }
+    auto linear = [](const uint8_t* p) { return std::array<double, 3>{linearFromSrgb(p[0] / 255.0), linearFromSrgb(p[1] / 255.0), linearFromSrgb(p[2] / 255.0)}; };
+    for (size_t c = 0; c < bm.cells.size(); ++c)
+        if (bm.cells[c].occupied()) got_roof[bm.features[bm.cells[c].feature]].add(linear(&bm.roof[c * 3]), 1);
+    for (const format::BlockMapColumn& col : bm.columns) {
+        const double texel_m2 = bm.cell_m * (bm.height(bm.cells[col.cell].top) - bm.height(col.base)) / col.rows;
+        for (int r = 0; r < col.rows; ++r)
+            got_wall[bm.features[bm.cells[col.cell].feature]].add(
+                linear(&bm.walls[((col.y + r) * static_cast<size_t>(bm.wall_width) + col.x) * 3]), texel_m2);
+    }
+    double worst_wall = 0, worst_roof = 0;
+    size_t compared = 0;
+    for (const auto& [f, got] : got_wall) {
+        if (got.weight < 40 * bm.cell_m * bm.cell_m || got_roof[f].weight < 40) continue;  // small ones are noisy
+        ++compared;
+        for (size_t k = 0; k < 3; ++k) {
+            worst_wall = std::max(worst_wall, std::abs(got.mean()[k] - want_wall[f].mean()[k]));
+            worst_roof = std::max(worst_roof, std::abs(got_roof[f].mean()[k] - want_roof[f].mean()[k]));
+        }
+    }
+    EXPECT_GT(compared, bm.features.size() / 2);
+    EXPECT_LE(worst_wall, 0.02) << "linear, per channel";
+    EXPECT_LE(worst_roof, 0.02);
+    std::printf("buildings compared %zu of %zu, worst wall %.4f, worst roof %.4f, rays %llu, hits %llu\n", compared,
+                bm.features.size(), worst_wall, worst_roof, static_cast<unsigned long long>(stats.rays),
+                static_cast<unsigned long long>(stats.hits));
 }
 
 TEST(BlockMap, NothingToBuildAndBadParameters) {

@@ -1,18 +1,17 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Issue 20's spike: a root BlockMap (papers/002, SEED-FEATURES.md §1) of a
 // synthetic town, against the root's geometry and atlases in a built folder:
-// bytes, build seconds and frame time. Not a test and not the feature: the
-// planes are atlas/blockmap.h's (cells with top, base, building and first
-// column; distance plane; one column per exposed side, shelf-packed into a
-// 1024-wide wall image; column table; feature ids), but colours are a
-// palette per building instead of the facade textures sampled (the rays
-// that would sample them are cast and timed; the texture reads are not), and
-// columns are packed in cell order, not unfolded per building. Frames are
-// drawn by render/gl/blockmap_pass.h on the current EGL device.
+// bytes, build seconds and frame time. Not a test. The planes and colours
+// are atlas/blockmap.h's (cells with top, base, building and first column;
+// distance plane; one column per exposed side, shelf-packed into a
+// 1024-wide wall image; column table; feature ids; roof and wall colours
+// from the town's textures); their bytes are those of SEED-FEATURES §1.2's
+// layout (zstd 19, BC1 colour), without writing a file. Frames are drawn by
+// render/gl/blockmap_pass.h on the current EGL device.
 //
-// Usage: blockmap_spike BUILDINGS TEXTURE_PX TILE_FOLDER OUT_DIR [WxH] [FRAMES]
+// Usage: blockmap_spike BUILDINGS TEXTURE_PX TOWN_DIR TILE_FOLDER OUT_DIR [WxH] [FRAMES]
 //   The town is synth --buildings BUILDINGS --texture-size TEXTURE_PX --lod 2
-//   --seed 1 (benchmarks/build_scale.sh's), TILE_FOLDER its build. Writes
+//   --seed 1 in TOWN_DIR (benchmarks/build_scale.sh's), TILE_FOLDER its build. Writes
 //   OUT_DIR/spike.json, OUT_DIR/cameras.json (the same cameras as a camera
 //   path for `cityatlas render`) and OUT_DIR/blockmap-<camera>.png.
 #include <tbb/parallel_for.h>
@@ -48,82 +47,22 @@ namespace {
 
 double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// The planes (atlas/blockmap.h) and the spike's colour planes.
-struct SpikeBlockMap {
-    format::BlockMap planes;
-    std::vector<uint8_t> roof;   // RGB8, nx x ny
-    std::vector<uint8_t> walls;  // RGB8, wall_width x wall_height
-};
-
-std::array<uint8_t, 3> palette(uint32_t feature, double shade) {
-    uint32_t h = feature * 2654435761u;
-    auto c = [&](int k) { return static_cast<uint8_t>(std::clamp((90 + ((h >> (8 * k)) & 0x7F)) * shade, 0.0, 255.0)); };
-    return {c(0), c(1), c(2)};
-}
-
 size_t zstdBytes(const void* data, size_t n) {
     std::vector<char> out(ZSTD_compressBound(n));
     const size_t r = ZSTD_compress(out.data(), out.size(), data, n, 19);
     return ZSTD_isError(r) ? n : r;
 }
 
-// The root BlockMap of the whole scene (the root holds every building) at cell side s.
-json buildSpike(const Scene& scene, double s, SpikeBlockMap* out) {
-    json timing;
-    auto t0 = Clock::now();
+// The root BlockMap of the whole scene (the root holds every building) at cell side s, coloured from the textures.
+json buildRootBlockMap(const Scene& scene, double s, format::BlockMap* out) {
+    const auto t0 = Clock::now();
     atlas::BlockMapParams params;
     params.cell_m = s;
-    if (Status st = atlas::buildBlockMap(scene.triangles, params, &out->planes); !st.ok()) throw std::runtime_error(st.error);
-    timing["planes_s"] = secondsSince(t0);  // BVH, cells, columns, distance
-    const format::BlockMap& bm = out->planes;
-
-    // Wall colours: 4 x 4 rays per wall texel into the side strip (§1.2 step 4),
-    // the first hit within 1.5 s, on a caster of their own (its build timed
-    // apart); the colour is the building's palette (the texture read that
-    // would follow is not done in the spike).
-    t0 = Clock::now();
-    std::vector<std::array<Vec3d, 3>> tris;
-    tris.reserve(scene.triangles.size());
-    for (const Triangle& t : scene.triangles) tris.push_back(t.position_local);
-    const auto caster = atlas::RayCaster::build(tris);
-    timing["wall_bvh_s"] = secondsSince(t0);
-    t0 = Clock::now();
-    out->walls.assign(static_cast<size_t>(bm.wall_width) * static_cast<size_t>(bm.wall_height) * 3, 0);
-    std::vector<uint64_t> hits(bm.columns.size(), 0);
-    tbb::parallel_for(size_t{0}, bm.columns.size(), [&](size_t i) {
-        const format::BlockMapColumn& col = bm.columns[i];
-        const int x = static_cast<int>(col.cell % static_cast<uint32_t>(bm.nx)), y = static_cast<int>(col.cell / static_cast<uint32_t>(bm.nx));
-        const int dx = format::kSideDx[col.side], dy = format::kSideDy[col.side];
-        const double zb = bm.height(col.base), zt = bm.height(bm.cells[col.cell].top);
-        const Vec3d inward{-static_cast<double>(dx), -static_cast<double>(dy), 0};
-        // Half a cell outside the side.
-        const double ex = bm.origin.x + (x + 0.5 + dx) * s, ey = bm.origin.y + (y + 0.5 + dy) * s;
-        for (int r = 0; r < col.rows; ++r) {
-            int counted = 0;
-            for (int a = 0; a < 4; ++a)
-                for (int b = 0; b < 4; ++b) {
-                    const double along = (a + 0.5) / 4 - 0.5;
-                    const double z = zb + (zt - zb) * (r + (b + 0.5) / 4) / col.rows;
-                    const Vec3d o{ex + along * s * std::abs(dy), ey + along * s * std::abs(dx), z};
-                    counted += caster->nearest(o, inward, 0, 1.5 * s).hit;
-                }
-            hits[i] += static_cast<uint64_t>(counted);
-            const auto rgb = palette(bm.features[bm.cells[col.cell].feature], 0.55 + 0.1 * col.side + 0.02 * (r % 3));
-            std::copy(rgb.begin(), rgb.end(),
-                      out->walls.begin() + static_cast<long>(((col.y + r) * static_cast<size_t>(bm.wall_width) + col.x) * 3));
-        }
-    });
-    uint64_t hit_total = 0;
-    for (uint64_t h : hits) hit_total += h;
-    timing["wall_rays_s"] = secondsSince(t0);
-    timing["wall_rays_hit"] = hit_total;
-    out->roof.assign(bm.cells.size() * 3, 0);
-    for (size_t c = 0; c < bm.cells.size(); ++c)
-        if (bm.cells[c].occupied()) {
-            const auto rgb = palette(bm.features[bm.cells[c].feature], 1.15);
-            std::copy(rgb.begin(), rgb.end(), out->roof.begin() + static_cast<long>(c * 3));
-        }
-    return timing;
+    const atlas::SurfaceTables tables{scene.textures, scene.materials};
+    atlas::BlockMapColourStats stats;
+    if (Status st = atlas::buildBlockMap(scene.triangles, params, out, &tables, &stats); !st.ok()) throw std::runtime_error(st.error);
+    return {{"planes_s", secondsSince(t0)}, {"colour_rays", stats.rays}, {"colour_hits", stats.hits},
+            {"wall_texels_without_hit", stats.texels_without_hit}, {"unreadable_samples", stats.unreadable_samples}};
 }
 
 // The column table as the GPU gets it (RGBA16UI: x, y, rows, base).
@@ -227,7 +166,7 @@ std::vector<NamedCamera> cameras(const Box3d& b, double switch_m, int width, int
             NamedCamera{"away", lookingAt(sw.camera.position, away_target, width, height), away_target}};
 }
 
-json renderBlockMap(const SpikeBlockMap& spike, const std::vector<NamedCamera>& cams, int width, int height, int frames,
+json renderBlockMap(const format::BlockMap& bm, const std::vector<NamedCamera>& cams, int width, int height, int frames,
                     const std::string& out_dir) {
     Status st;
     auto context = render::HeadlessContext::create(&st);
@@ -237,7 +176,7 @@ json renderBlockMap(const SpikeBlockMap& spike, const std::vector<NamedCamera>& 
     if (!target) throw std::runtime_error(st.error);
     auto pass = render::BlockMapPass::create(&st);
     if (!pass) throw std::runtime_error(st.error);
-    render::GpuBlockMap gpu = pass->upload(spike.planes, spike.roof, spike.walls, &st);
+    render::GpuBlockMap gpu = pass->upload(bm, bm.roof, bm.walls, &st);
     if (!gpu.valid()) throw std::runtime_error(st.error);
     json out = json::object();
     out["renderer"] = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
@@ -246,7 +185,7 @@ json renderBlockMap(const SpikeBlockMap& spike, const std::vector<NamedCamera>& 
         std::vector<double> ms;
         for (int f = 0; f < frames + 2; ++f) {
             const auto t0 = Clock::now();
-            glClearColor(0.3f, 0.45f, 0.75f, 1);  // no building has this colour (palette() stays above 90)
+            glClearColor(0.3f, 0.45f, 0.75f, 1);
             glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
             pass->draw(gpu, nc.camera);
             glFinish();
@@ -276,8 +215,8 @@ json renderBlockMap(const SpikeBlockMap& spike, const std::vector<NamedCamera>& 
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 5) {
-        std::fprintf(stderr, "usage: blockmap_spike BUILDINGS TEXTURE_PX TILE_FOLDER OUT_DIR [WxH] [FRAMES]\n");
+    if (argc < 6) {
+        std::fprintf(stderr, "usage: blockmap_spike BUILDINGS TEXTURE_PX TOWN_DIR TILE_FOLDER OUT_DIR [WxH] [FRAMES]\n");
         return 2;
     }
     try {
@@ -285,10 +224,10 @@ int main(int argc, char** argv) {
         settings.buildings = static_cast<uint32_t>(std::stoul(argv[1]));
         settings.texture_size_px = std::stoi(argv[2]);
         settings.seed = 1;
-        const std::string folder = argv[3], out_dir = argv[4];
+        const std::string town_dir = argv[3], folder = argv[4], out_dir = argv[5];
         int width = 1280, height = 720;
-        if (argc > 5) std::sscanf(argv[5], "%dx%d", &width, &height);
-        const int frames = argc > 6 ? std::stoi(argv[6]) : 10;
+        if (argc > 6) std::sscanf(argv[6], "%dx%d", &width, &height);
+        const int frames = argc > 7 ? std::stoi(argv[7]) : 10;
 
         const json tileset = json::parse(std::ifstream(folder + "/tileset.json"));
         const json& root = tileset["root"];
@@ -305,12 +244,11 @@ int main(int argc, char** argv) {
         const std::vector<uint32_t> dropped = extras["features"]["dropped"];
 
         auto t0 = Clock::now();
-        const Scene scene = synth::townToScene(synth::generateTown(settings), "/nonexistent");
+        const Scene scene = synth::townToScene(synth::generateTown(settings), town_dir);
         const double scene_s = secondsSince(t0);
-        SpikeBlockMap spike;
+        format::BlockMap bm;
         t0 = Clock::now();
-        json timing = buildSpike(scene, texel, &spike);
-        const format::BlockMap& bm = spike.planes;
+        json timing = buildRootBlockMap(scene, texel, &bm);
         double encode_s = 0;
         json bytes = blockMapBytes(bm, &encode_s);
         timing["encode_s"] = encode_s;
@@ -350,7 +288,7 @@ int main(int argc, char** argv) {
                               {"voxel_error_bound_m", 0.5 * std::sqrt(2 * s * s + std::pow((bm.z_hi - bm.origin.z) / 65535.0, 2))}};
         report["plan_area_m2"] = {{"buildings", built_m2}, {"root_geometry", built_m2 - dropped_m2},
                                   {"blockmap_cells", static_cast<double>(occupied) * s * s}};
-        report["render"] = renderBlockMap(spike, cams, width, height, frames, out_dir);
+        report["render"] = renderBlockMap(bm, cams, width, height, frames, out_dir);
         report["render"]["size"] = {width, height};
         std::ofstream(out_dir + "/spike.json") << report.dump(1) << "\n";
         json path = {{"interpolation", "linear"}, {"frame_rate", 20}, {"keyframes", json::array()}};
