@@ -63,4 +63,20 @@ struct BlockMapParams {
 Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& params, format::BlockMap* out,
                      const SurfaceTables* surfaces = nullptr, BlockMapColourStats* stats = nullptr);
 
+/// How far a BlockMap's prisms are from the triangles they stand for (B4):
+/// the farthest triangle point from the prisms as solids (0 inside one: a
+/// party wall between two buildings or a floor is hidden in the original
+/// too), and the farthest point of the prisms' visible surface (roofs,
+/// exposed side spans, undersides of floating cells) from the triangles;
+/// both sampled at `spacing` (a lower bound of the true distance by at most
+/// about spacing / sqrt(2)).
+struct BlockMapError {
+    double triangles_to_prisms_m = 0;
+    double prisms_to_triangles_m = 0;
+    double hausdorff_m = 0;  ///< the larger of the two
+};
+/// spacing_m <= 0: a quarter cell (../shared/SEED-FEATURES.md §1.2 step 7).
+BlockMapError measureBlockMapError(std::span<const Triangle> triangles, const format::BlockMap& blockmap,
+                                   double spacing_m = 0);
+
 }  // namespace cityatlas::atlas

@@ -6,7 +6,7 @@
 # against the root's geometry and atlases in the built folder:
 #   - bytes (zstd planes + BC1 colour, as SEED-FEATURES §1.2 lays them out)
 #     and the BlockMap's build seconds (planes and colours from the town's
-#     textures);
+#     textures), its measured Hausdorff error against the triangles;
 #   - plan-view built area kept: every building, the root geometry's
 #     buildings (it leaves out those smaller than its texel), the BlockMap's
 #     occupied cells;
@@ -81,7 +81,9 @@ for r in result["towns"]:
     print(f"  bytes: root geometry+atlases {root['bytes']:,}  BlockMap {b['bytes']['total']:,} (GPU {b['bytes']['gpu']:,})"
           f"  grid {b['grid'][0]}x{b['grid'][1]}, {b['columns']:,} columns, {b['features']:,} buildings")
     print(f"  BlockMap build {b['build']['total_s']:.2f} s: planes and colours {b['build']['planes_s']:.2f} s"
-          f" ({b['build']['colour_rays']:,} colour rays), encode {b['build']['encode_s']:.2f} s")
+          f" ({b['build']['colour_rays']:,} colour rays), encode {b['build']['encode_s']:.2f} s;"
+          f" measured error {b['build']['hausdorff_m']:.2f} m in {b['build']['error_s']:.1f} s (voxel bound {b['voxel_error_bound_m']:.2f} m;"
+          f" the root geometry's simplification error {max(l['geometric_error_m'] for l in root['layers'].values()):.2f} m)")
     print(f"  plan area: buildings {a['buildings']/1e6:.2f} km2, root geometry {a['root_geometry']/1e6:.2f} km2,"
           f" BlockMap cells {a['blockmap_cells']/1e6:.2f} km2; root drops {root['features_dropped']:,} buildings,"
           f" {b['dropped_by_geometry_present']:,} of them in the BlockMap")

@@ -184,6 +184,49 @@ TEST_F(LodOneBlockMap, ColumnsAreTheExposedSidesAndDoNotOverlap) {
     EXPECT_EQ(overlaps, 0u);
 }
 
+TEST_F(LodOneBlockMap, ErrorIsWithinHalfAVoxelDiagonal) {
+    // B4, LOD1: flat roofs and vertical walls are within half a voxel's diagonal of the prisms.
+    const BlockMap& bm = *bm_;
+    const double q = (bm.z_hi - bm.origin.z) / 65535;
+    const double bound = 0.5 * std::sqrt(2 * bm.cell_m * bm.cell_m + q * q);
+    const BlockMapError e = measureBlockMapError(town_->scene.triangles, bm);
+    EXPECT_LE(e.hausdorff_m, bound + 1e-6) << "triangles -> prisms " << e.triangles_to_prisms_m << ", prisms -> triangles "
+                                           << e.prisms_to_triangles_m;
+    EXPECT_GT(e.hausdorff_m, 0.5 * bound) << "footprints off the grid leave a real error";
+    std::printf("LOD1 e_geo %.4f m (triangles -> prisms %.4f, prisms -> triangles %.4f), bound %.4f\n", e.hausdorff_m,
+                e.triangles_to_prisms_m, e.prisms_to_triangles_m, bound);
+}
+
+// A closed box's triangles (12), [x0, x1] x [y0, y1] x [z0, z1].
+std::vector<Triangle> boxTriangles(const Vec3d& lo, const Vec3d& hi) {
+    const Vec3d c[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {lo.x, hi.y, lo.z}, {hi.x, hi.y, lo.z},
+                        {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {lo.x, hi.y, hi.z}, {hi.x, hi.y, hi.z}};
+    const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                          {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+    std::vector<Triangle> out;
+    for (const auto& t : f) {
+        Triangle tri;
+        tri.position_local = {c[t[0]], c[t[1]], c[t[2]]};
+        out.push_back(tri);
+    }
+    return out;
+}
+
+TEST(BlockMap, ErrorOfABoxOffTheGridIsItsCornerOffset) {
+    // A 10 m box a quarter cell off the 1.25 m grid: its cells span [0, 10] where it spans
+    // [0.3125, 10.3125], so both one-sided distances are the corners' 0.3125 * sqrt(2).
+    const auto tris = boxTriangles({0.3125, 0.3125, 2}, {10.3125, 10.3125, 12});
+    BlockMap bm;
+    BlockMapParams p;
+    p.cell_m = 1.25;
+    ASSERT_TRUE(buildBlockMap(tris, p, &bm).ok());
+    ASSERT_EQ(bm.nx, 9);  // the grid starts at 0: the box's corner cell
+    const BlockMapError e = measureBlockMapError(tris, bm);
+    EXPECT_NEAR(e.triangles_to_prisms_m, 0.3125 * std::sqrt(2.0), 1e-9);
+    EXPECT_NEAR(e.prisms_to_triangles_m, 0.3125 * std::sqrt(2.0), 1e-9);
+    EXPECT_NEAR(e.hausdorff_m, 0.3125 * std::sqrt(2.0), 1e-9);
+}
+
 TEST_F(LodOneBlockMap, DistanceIsTheChebyshevDistanceToTheNearestBuilding) {
     const BlockMap& bm = *bm_;
     std::vector<std::pair<int, int>> occupied;

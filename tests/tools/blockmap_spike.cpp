@@ -61,8 +61,13 @@ json buildRootBlockMap(const Scene& scene, double s, format::BlockMap* out) {
     const atlas::SurfaceTables tables{scene.textures, scene.materials};
     atlas::BlockMapColourStats stats;
     if (Status st = atlas::buildBlockMap(scene.triangles, params, out, &tables, &stats); !st.ok()) throw std::runtime_error(st.error);
-    return {{"planes_s", secondsSince(t0)}, {"colour_rays", stats.rays}, {"colour_hits", stats.hits},
-            {"wall_texels_without_hit", stats.texels_without_hit}, {"unreadable_samples", stats.unreadable_samples}};
+    const double planes_s = secondsSince(t0);
+    const auto t1 = Clock::now();
+    const atlas::BlockMapError e = atlas::measureBlockMapError(scene.triangles, *out);
+    return {{"planes_s", planes_s}, {"colour_rays", stats.rays}, {"colour_hits", stats.hits},
+            {"wall_texels_without_hit", stats.texels_without_hit}, {"unreadable_samples", stats.unreadable_samples},
+            {"error_s", secondsSince(t1)}, {"hausdorff_m", e.hausdorff_m}, {"triangles_to_prisms_m", e.triangles_to_prisms_m},
+            {"prisms_to_triangles_m", e.prisms_to_triangles_m}};
 }
 
 // The column table as the GPU gets it (RGBA16UI: x, y, rows, base).
