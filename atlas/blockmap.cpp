@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <unordered_map>
 
@@ -49,23 +50,34 @@ double heightOn(const Triangle& t, double x, double y, double ray_z) {
 
 // Pass 1: top, base and building of every cell from two vertical rays
 // through its centre.
-void castCells(std::span<const Triangle> triangles, const RayCaster* caster, BlockMap* bm) {
+void castCells(std::span<const Triangle> triangles, const RayCaster* caster, BlockMapSample sample, BlockMap* bm) {
     const double above = bm->z_hi + 1, below = bm->origin.z - 1;
     std::vector<uint32_t> hit_feature(static_cast<size_t>(bm->nx) * static_cast<size_t>(bm->ny), kBlockMapNone);
     bm->cells.assign(hit_feature.size(), format::BlockMapCell{});
+    // Centre: one sample at the cell centre. Max: 4 x 4 over the cell; the
+    // highest top, the lowest base, the building of the highest top.
+    const int n = sample == BlockMapSample::Max ? 4 : 1;
     tbb::parallel_for(0, bm->ny, [&](int y) {
         for (int x = 0; x < bm->nx; ++x) {
-            const double cx = bm->origin.x + (x + 0.5) * bm->cell_m, cy = bm->origin.y + (y + 0.5) * bm->cell_m;
-            const RayHit down = caster->nearest({cx, cy, above}, {0, 0, -1});
-            if (!down.hit) continue;
-            const RayHit up = caster->nearest({cx, cy, below}, {0, 0, 1});
-            const double top = heightOn(triangles[down.triangle], cx, cy, above - down.distance);
-            const double base =
-                up.hit ? std::min(top, heightOn(triangles[up.triangle], cx, cy, below + up.distance)) : bm->origin.z;
+            double top = -std::numeric_limits<double>::infinity(), base = std::numeric_limits<double>::infinity();
+            uint32_t feature = kBlockMapNone;
+            for (int a = 0; a < n; ++a)
+                for (int b = 0; b < n; ++b) {
+                    const double cx = bm->origin.x + (x + (a + 0.5) / n) * bm->cell_m;
+                    const double cy = bm->origin.y + (y + (b + 0.5) / n) * bm->cell_m;
+                    const RayHit down = caster->nearest({cx, cy, above}, {0, 0, -1});
+                    if (!down.hit) continue;
+                    const RayHit up = caster->nearest({cx, cy, below}, {0, 0, 1});
+                    const double t = heightOn(triangles[down.triangle], cx, cy, above - down.distance);
+                    const double u = up.hit ? std::min(t, heightOn(triangles[up.triangle], cx, cy, below + up.distance)) : bm->origin.z;
+                    if (t > top) top = t, feature = triangles[down.triangle].feature;
+                    base = std::min(base, u);
+                }
+            if (feature == kBlockMapNone) continue;
             format::BlockMapCell& c = bm->cells[bm->index(x, y)];
             c.top = std::max<uint16_t>(1, bm->quantize(top));
             c.base = std::min(c.top, bm->quantize(base));
-            hit_feature[bm->index(x, y)] = triangles[down.triangle].feature;
+            hit_feature[bm->index(x, y)] = feature;
         }
     });
     // Local feature numbers in order of first cell (row-major): deterministic.
@@ -310,7 +322,7 @@ Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& 
     for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
     const auto caster = RayCaster::build(corners);
     placeGrid(triangles, params.cell_m, out);
-    castCells(triangles, caster.get(), out);
+    castCells(triangles, caster.get(), params.sample, out);
     makeColumns(params, out);
     distanceTransform(out);
     if (surfaces) colourPlanes(triangles, *caster, *surfaces, out, stats);

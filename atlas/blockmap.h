@@ -5,9 +5,10 @@
 /// ../shared/SEED-FEATURES.md §1.2 "Build algorithm", steps 1-3, 5 and 6).
 ///
 /// Passes:
-/// 1. **cells**: through every cell centre a vertical ray down from above
-///    the buildings (atlas/raycast.h: Embree's watertight test) gives the
-///    top and the building; one up from below gives the base;
+/// 1. **cells**: through every cell centre (or 4 x 4 points: BlockMapSample)
+///    a vertical ray down from above the buildings (atlas/raycast.h:
+///    Embree's watertight test) gives the top and the building; one up from
+///    below gives the base;
 /// 2. **columns**: one per exposed side (format/blockmap.h), its span from
 ///    the higher of the cell's base and the neighbour's top (the cell's base
 ///    when the neighbour stands higher) to the cell's top, `row_m` per texel; shelf-packed, tallest first, into the wall
@@ -50,8 +51,15 @@ struct BlockMapColourStats {
     uint64_t unreadable_samples = 0;    ///< texture reads that failed (grey)
 };
 
+/// How a cell's prism is sampled: at its centre (the paper's; a building
+/// smaller than a cell may hold no centre and be missing), or the highest of
+/// 4 x 4 samples over the cell (conservative: a building wider than a
+/// quarter cell both ways is present, silhouettes grow by up to a cell).
+enum class BlockMapSample : uint8_t { Centre, Max };
+
 struct BlockMapParams {
     double cell_m = 1;  ///< grid side
+    BlockMapSample sample = BlockMapSample::Centre;
     double row_m = 0;   ///< wall texel height; 0: cell_m
     int wall_width = 1024;  ///< the wall image's width (GL 3.3's least MAX_TEXTURE_SIZE)
 };

@@ -6,7 +6,8 @@
 # against the root's geometry and atlases in the built folder:
 #   - bytes (zstd planes + BC1 colour, as SEED-FEATURES §1.2 lays them out)
 #     and the BlockMap's build seconds (planes and colours from the town's
-#     textures), its measured Hausdorff error against the triangles;
+#     textures), its measured Hausdorff error against the triangles; the
+#     same for a BlockMap sampled 4 x 4 per cell (max: conservative);
 #   - plan-view built area kept: every building, the root geometry's
 #     buildings (it leaves out those smaller than its texel), the BlockMap's
 #     occupied cells;
@@ -84,6 +85,9 @@ for r in result["towns"]:
           f" ({b['build']['colour_rays']:,} colour rays), encode {b['build']['encode_s']:.2f} s;"
           f" measured error {b['build']['hausdorff_m']:.2f} m in {b['build']['error_s']:.1f} s (voxel bound {b['voxel_error_bound_m']:.2f} m;"
           f" the root geometry's simplification error {max(l['geometric_error_m'] for l in root['layers'].values()):.2f} m)")
+    m = r["blockmap_max"]
+    print(f"  max-sampled BlockMap: {m['features']:,} buildings, {m['bytes']['total']:,} bytes, measured error"
+          f" {m['build']['hausdorff_m']:.2f} m, plan area {m['plan_area_m2']/1e6:.2f} km2, planes {m['build']['planes_s']:.2f} s")
     print(f"  plan area: buildings {a['buildings']/1e6:.2f} km2, root geometry {a['root_geometry']/1e6:.2f} km2,"
           f" BlockMap cells {a['blockmap_cells']/1e6:.2f} km2; root drops {root['features_dropped']:,} buildings,"
           f" {b['dropped_by_geometry_present']:,} of them in the BlockMap")

@@ -54,13 +54,16 @@ size_t zstdBytes(const void* data, size_t n) {
 }
 
 // The root BlockMap of the whole scene (the root holds every building) at cell side s, coloured from the textures.
-json buildRootBlockMap(const Scene& scene, double s, format::BlockMap* out) {
+// `coloured`: also the colour planes (else their bytes are still counted: BC1 is fixed rate).
+json buildRootBlockMap(const Scene& scene, double s, atlas::BlockMapSample sample, bool coloured, format::BlockMap* out) {
     const auto t0 = Clock::now();
     atlas::BlockMapParams params;
     params.cell_m = s;
+    params.sample = sample;
     const atlas::SurfaceTables tables{scene.textures, scene.materials};
     atlas::BlockMapColourStats stats;
-    if (Status st = atlas::buildBlockMap(scene.triangles, params, out, &tables, &stats); !st.ok()) throw std::runtime_error(st.error);
+    if (Status st = atlas::buildBlockMap(scene.triangles, params, out, coloured ? &tables : nullptr, &stats); !st.ok())
+        throw std::runtime_error(st.error);
     const double planes_s = secondsSince(t0);
     const auto t1 = Clock::now();
     const atlas::BlockMapError e = atlas::measureBlockMapError(scene.triangles, *out);
@@ -251,16 +254,8 @@ int main(int argc, char** argv) {
         auto t0 = Clock::now();
         const Scene scene = synth::townToScene(synth::generateTown(settings), town_dir);
         const double scene_s = secondsSince(t0);
-        format::BlockMap bm;
-        t0 = Clock::now();
-        json timing = buildRootBlockMap(scene, texel, &bm);
-        double encode_s = 0;
-        json bytes = blockMapBytes(bm, &encode_s);
-        timing["encode_s"] = encode_s;
-        timing["total_s"] = secondsSince(t0);
-
         // Plan-view built area (the up-facing triangles projected): every
-        // building, those the root's geometry keeps, and the BlockMap's cells.
+        // building, and those the root's geometry keeps.
         std::vector<double> roof_area(scene.features.size(), 0);
         for (const Triangle& t : scene.triangles) {
             const Vec3d n = cross(t.position_local[1] - t.position_local[0], t.position_local[2] - t.position_local[0]);
@@ -269,11 +264,29 @@ int main(int argc, char** argv) {
         double built_m2 = 0, dropped_m2 = 0;
         for (double a : roof_area) built_m2 += a;
         for (uint32_t f : dropped) dropped_m2 += roof_area[f];
-        std::set<uint32_t> present(bm.features.begin(), bm.features.end());
-        size_t dropped_present = 0;
-        for (uint32_t f : dropped) dropped_present += present.count(f);
-        size_t occupied = 0;
-        for (uint8_t v : bm.dist) occupied += v == 0;
+        // A BlockMap of the whole town, described: sizes, buildings present, area, bytes, build.
+        auto describe = [&](atlas::BlockMapSample sample, bool coloured, format::BlockMap* bm) {
+            auto t = Clock::now();
+            json timing = buildRootBlockMap(scene, texel, sample, coloured, bm);
+            double encode_s = 0;
+            json bytes = blockMapBytes(*bm, &encode_s);
+            timing["encode_s"] = encode_s;
+            timing["total_s"] = secondsSince(t);
+            std::set<uint32_t> present(bm->features.begin(), bm->features.end());
+            size_t dropped_present = 0, occupied = 0;
+            for (uint32_t f : dropped) dropped_present += present.count(f);
+            for (uint8_t v : bm->dist) occupied += v == 0;
+            const double s = bm->cell_m;
+            return json{{"sample", sample == atlas::BlockMapSample::Max ? "max" : "centre"}, {"grid", {bm->nx, bm->ny}},
+                        {"cell_m", s}, {"z_range", {bm->origin.z, bm->z_hi}}, {"occupied_cells", occupied},
+                        {"columns", bm->columns.size()}, {"wall_px", {bm->wall_width, bm->wall_height}},
+                        {"features", bm->features.size()}, {"dropped_by_geometry_present", dropped_present},
+                        {"plan_area_m2", static_cast<double>(occupied) * s * s}, {"bytes", bytes}, {"build", timing},
+                        {"voxel_error_bound_m", 0.5 * std::sqrt(2 * s * s + std::pow((bm->z_hi - bm->origin.z) / 65535.0, 2))}};
+        };
+        format::BlockMap bm, bm_max;
+        const json centre = describe(atlas::BlockMapSample::Centre, true, &bm);
+        const json max = describe(atlas::BlockMapSample::Max, false, &bm_max);
         Box3d box;
         const double s = bm.cell_m;
         box.min = bm.origin;
@@ -286,13 +299,10 @@ int main(int argc, char** argv) {
         report["root"] = {{"folder", folder}, {"world_texel_m", texel}, {"min_distance_m", switch_m}, {"bytes", root_bytes},
                           {"layers", geometry_bytes}, {"features_drawn", extras["features"]["count"]},
                           {"features_dropped", dropped.size()}};
-        report["blockmap"] = {{"grid", {bm.nx, bm.ny}}, {"cell_m", s}, {"z_range", {bm.origin.z, bm.z_hi}},
-                              {"occupied_cells", occupied}, {"columns", bm.columns.size()},
-                              {"wall_px", {bm.wall_width, bm.wall_height}}, {"features", bm.features.size()},
-                              {"dropped_by_geometry_present", dropped_present}, {"bytes", bytes}, {"build", timing},
-                              {"voxel_error_bound_m", 0.5 * std::sqrt(2 * s * s + std::pow((bm.z_hi - bm.origin.z) / 65535.0, 2))}};
+        report["blockmap"] = centre;
+        report["blockmap_max"] = max;  // planes only (its colour bytes counted, not built)
         report["plan_area_m2"] = {{"buildings", built_m2}, {"root_geometry", built_m2 - dropped_m2},
-                                  {"blockmap_cells", static_cast<double>(occupied) * s * s}};
+                                  {"blockmap_cells", centre["plan_area_m2"]}, {"blockmap_max_cells", max["plan_area_m2"]}};
         report["render"] = renderBlockMap(bm, cams, width, height, frames, out_dir);
         report["render"]["size"] = {width, height};
         std::ofstream(out_dir + "/spike.json") << report.dump(1) << "\n";
