@@ -130,33 +130,6 @@ void makeColumns(const BlockMapParams& params, BlockMap* bm) {
     bm->wall_height = y + shelf;
 }
 
-// Pass 3: Chebyshev distance to the nearest occupied cell: a forward and a
-// backward pass over the 8-neighbourhood with unit steps is exact for it.
-void distanceTransform(BlockMap* bm) {
-    const int nx = bm->nx, ny = bm->ny;
-    std::vector<int> d(bm->cells.size());
-    for (size_t i = 0; i < d.size(); ++i) d[i] = bm->cells[i].occupied() ? 0 : 1 << 24;
-    auto relax = [&](int x, int y, int px, int py) {
-        if (px >= 0 && py >= 0 && px < nx && py < ny)
-            d[bm->index(x, y)] = std::min(d[bm->index(x, y)], d[bm->index(px, py)] + 1);
-    };
-    for (int y = 0; y < ny; ++y)
-        for (int x = 0; x < nx; ++x) {
-            relax(x, y, x - 1, y);
-            relax(x, y, x - 1, y - 1);
-            relax(x, y, x, y - 1);
-            relax(x, y, x + 1, y - 1);
-        }
-    for (int y = ny - 1; y >= 0; --y)
-        for (int x = nx - 1; x >= 0; --x) {
-            relax(x, y, x + 1, y);
-            relax(x, y, x + 1, y + 1);
-            relax(x, y, x, y + 1);
-            relax(x, y, x - 1, y + 1);
-        }
-    bm->dist.resize(d.size());
-    for (size_t i = 0; i < d.size(); ++i) bm->dist[i] = static_cast<uint8_t>(std::min(d[i], 255));
-}
 
 // Pass 4: the colour of what rays hit, averaged in linear light.
 class SurfaceColours {
@@ -324,7 +297,7 @@ Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& 
     placeGrid(triangles, params.cell_m, out);
     castCells(triangles, caster.get(), params.sample, out);
     makeColumns(params, out);
-    distanceTransform(out);
+    out->dist = format::chebyshevDistances(*out);
     if (surfaces) colourPlanes(triangles, *caster, *surfaces, out, stats);
     return Status::Ok();
 }

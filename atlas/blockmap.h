@@ -13,7 +13,7 @@
 ///    the higher of the cell's base and the neighbour's top (the cell's base
 ///    when the neighbour stands higher) to the cell's top, `row_m` per texel; shelf-packed, tallest first, into the wall
 ///    image;
-/// 3. **distance**: the exact Chebyshev distance transform (two passes),
+/// 3. **distance**: format::chebyshevDistances (exact, two passes),
 ///    clamped to 255.
 /// 4. **colours** (when the surfaces' textures and materials are given):
 ///    a cell's roof is the mean, in linear light, of 4 x 4 vertical rays

@@ -3,6 +3,7 @@
 
 find_package(PkgConfig REQUIRED)
 find_package(Threads REQUIRED)
+find_package(zstd CONFIG REQUIRED)  # Debian: libzstd-dev (BlockMap planes, format/blockmap_file.h)
 if(CITYATLAS_MIMALLOC)
   find_package(mimalloc CONFIG REQUIRED)  # Debian: libmimalloc-dev (mimalloc 2.0)
 endif()

@@ -34,4 +34,30 @@ uint32_t BlockMap::columnOf(int x, int y, int side) const {
     return cells[index(x, y)].first_column + before;
 }
 
+std::vector<uint8_t> chebyshevDistances(const BlockMap& bm) {
+    const int nx = bm.nx, ny = bm.ny;
+    std::vector<int> d(bm.cells.size());
+    for (size_t i = 0; i < d.size(); ++i) d[i] = bm.cells[i].occupied() ? 0 : 1 << 24;
+    auto relax = [&](int x, int y, int px, int py) {
+        if (px >= 0 && py >= 0 && px < nx && py < ny) d[bm.index(x, y)] = std::min(d[bm.index(x, y)], d[bm.index(px, py)] + 1);
+    };
+    for (int y = 0; y < ny; ++y)
+        for (int x = 0; x < nx; ++x) {
+            relax(x, y, x - 1, y);
+            relax(x, y, x - 1, y - 1);
+            relax(x, y, x, y - 1);
+            relax(x, y, x + 1, y - 1);
+        }
+    for (int y = ny - 1; y >= 0; --y)
+        for (int x = nx - 1; x >= 0; --x) {
+            relax(x, y, x + 1, y);
+            relax(x, y, x + 1, y + 1);
+            relax(x, y, x, y + 1);
+            relax(x, y, x - 1, y + 1);
+        }
+    std::vector<uint8_t> out(d.size());
+    for (size_t i = 0; i < d.size(); ++i) out[i] = static_cast<uint8_t>(std::min(d[i], 255));
+    return out;
+}
+
 }  // namespace cityatlas::format

@@ -91,4 +91,9 @@ struct BlockMap {
     uint32_t columnOf(int x, int y, int side) const;
 };
 
+/// The distance plane of `blockmap`'s cells: the exact Chebyshev distance
+/// to the nearest occupied cell (a forward and a backward pass over the
+/// 8-neighbourhood), clamped to 255; 255 everywhere without one.
+std::vector<uint8_t> chebyshevDistances(const BlockMap& blockmap);
+
 }  // namespace cityatlas::format

@@ -23,11 +23,17 @@ void slab(double o, double inv, double lo, double hi, double* tnear, double* tfa
     *tfar = std::max(a, b);
 }
 
+// floor(v) (or round(v) - shift) as a cell index clamped into [0, n), in
+// double first: no out-of-range conversion whatever v is (NaN: 0).
+int cellIndex(double v, int n) { return v >= 0 ? static_cast<int>(std::min(v, n - 1.0)) : 0; }
+
 }  // namespace
 
 BlockMapHit castBlockMapRay(const format::BlockMap& bm, const Vec3d& origin, const Vec3d& direction, bool leap) {
     BlockMapHit out;
     if (bm.nx <= 0 || bm.ny <= 0) return out;
+    for (double v : {origin.x, origin.y, origin.z, direction.x, direction.y, direction.z})
+        if (!std::isfinite(v)) return out;
     const double s = bm.cell_m;
     // Grid units; t is the same parameter as the caller's (the direction is scaled too).
     const Vec3d o = (1.0 / s) * (origin - bm.origin);
@@ -41,7 +47,7 @@ BlockMapHit castBlockMapRay(const format::BlockMap& bm, const Vec3d& origin, con
     slab(o.z, inv.z, 0, height, &nz0, &nz1);
     const double t_exit = std::min({nx1, ny1, nz1});
     double t = std::max({nx0, ny0, nz0, 0.0});
-    if (t >= t_exit) return out;
+    if (!(t < t_exit) || !std::isfinite(t)) return out;  // a miss (NaN from a degenerate grid too)
     // The face of the cell the ray enters through (as the shader's `face`).
     int face = kBlockMapRoof;
     if (t > 0) {
@@ -56,12 +62,12 @@ BlockMapHit castBlockMapRay(const format::BlockMap& bm, const Vec3d& origin, con
     // Cell of the point at t, the entered side deciding on a boundary.
     auto enter = [&](double at) {
         const double px = o.x + d.x * at, py = o.y + d.y * at;
-        cx = std::clamp(static_cast<int>(std::floor(px)), 0, bm.nx - 1);
-        cy = std::clamp(static_cast<int>(std::floor(py)), 0, bm.ny - 1);
-        if (face == format::kMinusX) cx = std::clamp(static_cast<int>(std::lround(px)), 0, bm.nx - 1);
-        if (face == format::kPlusX) cx = std::clamp(static_cast<int>(std::lround(px)) - 1, 0, bm.nx - 1);
-        if (face == format::kMinusY) cy = std::clamp(static_cast<int>(std::lround(py)), 0, bm.ny - 1);
-        if (face == format::kPlusY) cy = std::clamp(static_cast<int>(std::lround(py)) - 1, 0, bm.ny - 1);
+        cx = cellIndex(std::floor(px), bm.nx);
+        cy = cellIndex(std::floor(py), bm.ny);
+        if (face == format::kMinusX) cx = cellIndex(std::round(px), bm.nx);
+        if (face == format::kPlusX) cx = cellIndex(std::round(px) - 1, bm.nx);
+        if (face == format::kMinusY) cy = cellIndex(std::round(py), bm.ny);
+        if (face == format::kPlusY) cy = cellIndex(std::round(py) - 1, bm.ny);
         tmax_x = std::isinf(inv.x) ? kInf : (cx + (step_x > 0 ? 1 : 0) - o.x) * inv.x;
         tmax_y = std::isinf(inv.y) ? kInf : (cy + (step_y > 0 ? 1 : 0) - o.y) * inv.y;
     };
@@ -80,8 +86,8 @@ BlockMapHit castBlockMapRay(const format::BlockMap& bm, const Vec3d& origin, con
             face = tx < ty ? (d.x > 0 ? format::kMinusX : format::kPlusX) : (d.y > 0 ? format::kMinusY : format::kPlusY);
             t = tl;
             const double px = o.x + d.x * t, py = o.y + d.y * t;
-            if ((face == format::kMinusX && std::lround(px) >= bm.nx) || (face == format::kPlusX && std::lround(px) <= 0) ||
-                (face == format::kMinusY && std::lround(py) >= bm.ny) || (face == format::kPlusY && std::lround(py) <= 0))
+            if ((face == format::kMinusX && std::round(px) >= bm.nx) || (face == format::kPlusX && std::round(px) <= 0) ||
+                (face == format::kMinusY && std::round(py) >= bm.ny) || (face == format::kPlusY && std::round(py) <= 0))
                 return out;
             enter(t);
             continue;

@@ -146,5 +146,18 @@ TEST(BlockMapRay, AxisAlignedRaysAndAnEmptyMap) {
     EXPECT_FALSE(castBlockMapRay(BlockMap{}, {0, 0, 0}, {1, 0, 0}).hit);
 }
 
+TEST(BlockMapRay, NonFiniteRaysAndDegenerateGridsMiss) {
+    // fuzz_blockmap's regress-nan-ray: a cell size that made grid coordinates NaN (an int conversion of NaN).
+    std::mt19937_64 rng(9);
+    BlockMap bm = randomBlockMap(rng, 6, 5, 0.5);
+    const double inf = std::numeric_limits<double>::infinity();
+    EXPECT_FALSE(castBlockMapRay(bm, {std::nan(""), 0, 0}, {1, 0, 0}).hit);
+    EXPECT_FALSE(castBlockMapRay(bm, {0, 0, 0}, {inf, 1, 0}).hit);
+    bm.cell_m = 1e-300;
+    EXPECT_FALSE(castBlockMapRay(bm, {-5, -5, 50}, {1, 1, -1}).hit);
+    bm.cell_m = 1e300;
+    (void)castBlockMapRay(bm, {-5, -5, 50}, {1, 1, -1});  // any answer, no undefined behaviour (UBSan in fuzz builds)
+}
+
 }  // namespace
 }  // namespace cityatlas::render

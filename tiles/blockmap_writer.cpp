@@ -1,0 +1,35 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "tiles/blockmap_writer.h"
+
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "format/blockmap_file.h"
+
+namespace cityatlas::tiles {
+
+std::vector<uint8_t> blockMapFileBytes(const format::BlockMap& bm, BcQuality quality) {
+    std::vector<uint8_t> roof, walls;
+    if (!bm.roof.empty()) {
+        roof = encodeBc(format::Image8{bm.nx, bm.ny, 3, bm.roof}, quality);
+        if (bm.wall_height > 0) walls = encodeBc(format::Image8{bm.wall_width, bm.wall_height, 3, bm.walls}, quality);
+    }
+    return format::encodeBlockMapFile(bm, roof, walls);
+}
+
+Status writeBlockMapFile(const std::filesystem::path& path, const format::BlockMap& bm, BcQuality quality) {
+    const std::vector<uint8_t> bytes = blockMapFileBytes(bm, quality);
+    const std::filesystem::path tmp = path.string() + ".tmp";
+    {
+        std::ofstream f(tmp, std::ios::binary);
+        f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+        if (!f) return Status::Io(fmt::format("{}: cannot write", tmp.string()));
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) return Status::Io(fmt::format("{}: cannot rename into place: {}", path.string(), ec.message()));
+    return Status::Ok();
+}
+
+}  // namespace cityatlas::tiles

@@ -1,0 +1,20 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+/// \file
+/// Writing a BlockMap file (format/blockmap_file.h): the colour planes
+/// encoded as BC1 (texture_codec.h), the rest as the format says.
+
+#include <filesystem>
+
+#include "core/status.h"
+#include "format/blockmap.h"
+#include "tiles/texture_codec.h"
+
+namespace cityatlas::tiles {
+
+/// The file's bytes (colour planes, when the BlockMap has them, as BC1 at `quality`).
+std::vector<uint8_t> blockMapFileBytes(const format::BlockMap& blockmap, BcQuality quality);
+/// Writes them to `path` (through a temporary file and a rename).
+Status writeBlockMapFile(const std::filesystem::path& path, const format::BlockMap& blockmap, BcQuality quality);
+
+}  // namespace cityatlas::tiles
