@@ -79,14 +79,15 @@ print(f"frame {size}, {result['towns'][0]['render']['renderer']}")
 for r in result["towns"]:
     b, root, a = r["blockmap"], r["root"], r["plan_area_m2"]
     print(f"\n{r['town']['buildings']} buildings: root texel {root['world_texel_m']:.2f} m, switch {root['min_distance_m']:.0f} m")
-    print(f"  bytes: root geometry+atlases {root['bytes']:,}  BlockMap {b['bytes']['total']:,} (GPU {b['bytes']['gpu']:,})"
+    print(f"  bytes: root geometry+atlases {root['bytes']:,}  BlockMap file {b['bytes']['file']:,}"
+          f" (16-bit cell layout estimate {b['bytes']['total']:,}; GPU {b['bytes']['gpu']:,})"
           f"  grid {b['grid'][0]}x{b['grid'][1]}, {b['columns']:,} columns, {b['features']:,} buildings")
     print(f"  BlockMap build {b['build']['total_s']:.2f} s: planes and colours {b['build']['planes_s']:.2f} s"
           f" ({b['build']['colour_rays']:,} colour rays), encode {b['build']['encode_s']:.2f} s;"
           f" measured error {b['build']['hausdorff_m']:.2f} m in {b['build']['error_s']:.1f} s (voxel bound {b['voxel_error_bound_m']:.2f} m;"
           f" the root geometry's simplification error {max(l['geometric_error_m'] for l in root['layers'].values()):.2f} m)")
     m = r["blockmap_max"]
-    print(f"  max-sampled BlockMap: {m['features']:,} buildings, {m['bytes']['total']:,} bytes, measured error"
+    print(f"  max-sampled BlockMap: {m['features']:,} buildings, {m['bytes']['total']:,} bytes (16-bit layout estimate), measured error"
           f" {m['build']['hausdorff_m']:.2f} m, plan area {m['plan_area_m2']/1e6:.2f} km2, planes {m['build']['planes_s']:.2f} s")
     print(f"  plan area: buildings {a['buildings']/1e6:.2f} km2, root geometry {a['root_geometry']/1e6:.2f} km2,"
           f" BlockMap cells {a['blockmap_cells']/1e6:.2f} km2; root drops {root['features_dropped']:,} buildings,"

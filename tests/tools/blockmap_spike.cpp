@@ -36,6 +36,7 @@
 #include "atlas/raycast.h"
 #include "ingest/synth/town.h"
 #include "render/gl/blockmap_pass.h"
+#include "tiles/blockmap_writer.h"
 #include "render/gl/gl_context.h"
 #include "render/gl/gl_renderer.h"
 
@@ -107,6 +108,7 @@ json blockMapBytes(const format::BlockMap& bm, double* encode_s) {
     b["gpu"] = cells_raw + bm.dist.size() + coltab.size() * 2 + bm.features.size() * 4 + b["roof_bc1"].get<size_t>() +
                b["walls_bc1"].get<size_t>();
     b["cells_16_bit"] = narrow;
+    b["file"] = tiles::blockMapFileBytes(bm, tiles::BcQuality::Fast).size();  // the file as the tiles stage writes it
     *encode_s = secondsSince(t0);
     return b;
 }
