@@ -20,11 +20,13 @@
 #   - per level of the folder: buildings the geometry leaves out, and how
 #     many of them span 2 or more texels of their node (>= 2 px at its switch).
 # Writes out/benchmarks/blockmap-spike.json and prints a table.
-# Usage: benchmarks/blockmap_spike.sh [SIZE=1280x720] [FRAMES=10]
+# Usage: benchmarks/blockmap_spike.sh [SIZE=1280x720] [FRAMES=10] [docs]
+#   docs: also docs/blockmap-spike.png (the 10,000-building root at the
+#   `full` camera: its geometry and atlases, then its BlockMap).
 # Builds missing towns and folders with benchmarks/build_scale.sh (minutes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-SIZE="${1:-1280x720}"; FRAMES="${2:-10}"
+SIZE="${1:-1280x720}"; FRAMES="${2:-10}"; DOCS="${3:-}"
 ./scripts/build > /dev/null
 ninja -C build blockmap_spike > /dev/null
 TOWNS=("10000 400 512" "100000 2000 32")
@@ -39,11 +41,11 @@ for t in "${TOWNS[@]}"; do
   root_bytes=$(/usr/bin/python3 -c "import json; print(json.load(open('$work/spike.json'))['root']['bytes'])")
   pinned=$(du -cb "$folder"/features/bounds/*.bin | tail -1 | cut -f1)
   ./build/cli/cityatlas render "$folder" --path "$work/cameras.json" --size "$SIZE" --fade-s 0 -q \
-    --budget $((root_bytes + pinned + 4096)) -o "$work/root-frames" --every 40
+    --budget $((root_bytes + pinned + 4096)) -o "$work/root-frames" --every 20
 done
-/usr/bin/python3 - "$SIZE" <<'PY'
+/usr/bin/python3 - "$SIZE" "$DOCS" <<'PY'
 import json, os, statistics, struct, sys, collections
-size = sys.argv[1]
+size, docs = sys.argv[1], sys.argv[2] == "docs"
 def dropped_per_level(folder):
     widths, base = {}, 0
     bdir = os.path.join(folder, "features", "bounds")
@@ -99,4 +101,24 @@ for r in result["towns"]:
         if row["dropped"]:
             print(f"  level {lvl}: {row['dropped']:,} dropped in {row['nodes_dropping']} of {row['nodes']} nodes,"
                   f" {row['dropped_2_texels']} of them >= 2 texels wide")
+if docs:
+    from PIL import Image, ImageDraw
+    work = "out/benchmarks/blockmap-spike-10000"
+    frames = json.load(open(f"{work}/root-frames/report.json"))["frames"]
+    first_full = next(f["frame"] for f in frames if f["label"] == "full" and f["frame"] % 20 == 0)
+    # render --every 20 writes every 20th frame: one of the `full` ones; the BlockMap's own picture of that camera.
+    geometry = Image.open(f"{work}/root-frames/frame_{first_full:05d}.png").convert("RGB")
+    blockmap = Image.open(f"{work}/blockmap-full.png").convert("RGB")
+    w, h = geometry.size
+    box = (w // 5, h // 4, w - w // 5, h)
+    panels = [geometry.crop(box), blockmap.crop(box)]
+    out = Image.new("RGB", (2 * panels[0].width + 8, panels[0].height), "white")
+    r0 = result["towns"][0]
+    labels = [f"root: geometry + atlases ({r0['root']['bytes'] / 1e6:.2f} MB)",
+              f"root: BlockMap ({r0['blockmap']['bytes']['file'] / 1e6:.2f} MB)"]
+    for i, (p, label) in enumerate(zip(panels, labels)):
+        out.paste(p, (i * (p.width + 8), 0))
+        ImageDraw.Draw(out).text((i * (p.width + 8) + 10, 10), label, fill="black")
+    out.save("docs/blockmap-spike.png")
+    print("wrote docs/blockmap-spike.png")
 PY

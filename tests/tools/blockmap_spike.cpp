@@ -195,7 +195,7 @@ json renderBlockMap(const format::BlockMap& bm, const std::vector<NamedCamera>& 
         std::vector<double> ms;
         for (int f = 0; f < frames + 2; ++f) {
             const auto t0 = Clock::now();
-            glClearColor(0.3f, 0.45f, 0.75f, 1);
+            glClearColor(196 / 255.0f, 218 / 255.0f, 243 / 255.0f, 1);  // the client's sky, as bytes (no sRGB encoding at the clear)
             glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
             pass->draw(gpu, nc.camera);
             glFinish();
