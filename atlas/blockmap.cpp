@@ -25,16 +25,25 @@ using format::BlockMap;
 using format::kBlockMapNone;
 
 // The grid over the triangles' box: corner on multiples of the cell side.
-void placeGrid(std::span<const Triangle> triangles, double cell_m, BlockMap* bm) {
+// Fails for a box that is not finite or a grid the file could not hold.
+Status placeGrid(std::span<const Triangle> triangles, double cell_m, BlockMap* bm) {
     Box3d box;
     for (const Triangle& t : triangles)
         for (const Vec3d& p : t.position_local) box.extend(p);
+    for (double v : {box.min.x, box.min.y, box.min.z, box.max.x, box.max.y, box.max.z})
+        if (!std::isfinite(v)) return Status::Fail(StatusCode::kInvalidInput, "BlockMap: a triangle corner is not finite");
+    const double nx = std::max(1.0, std::ceil((box.max.x - std::floor(box.min.x / cell_m) * cell_m) / cell_m));
+    const double ny = std::max(1.0, std::ceil((box.max.y - std::floor(box.min.y / cell_m) * cell_m) / cell_m));
+    if (nx * ny > static_cast<double>(format::kBlockMapMaxCells))
+        return Status::Fail(StatusCode::kUnsupported,
+                            fmt::format("BlockMap: {:.0f} x {:.0f} cells of {} m exceed {} cells: a larger cell is needed", nx,
+                                        ny, cell_m, format::kBlockMapMaxCells));
     bm->cell_m = cell_m;
     bm->origin = {std::floor(box.min.x / cell_m) * cell_m, std::floor(box.min.y / cell_m) * cell_m, box.min.z};
-    bm->nx = std::max(1, static_cast<int>(std::ceil((box.max.x - bm->origin.x) / cell_m)));
-    bm->ny = std::max(1, static_cast<int>(std::ceil((box.max.y - bm->origin.y) / cell_m)));
+    bm->nx = static_cast<int>(nx), bm->ny = static_cast<int>(ny);
     // A flat scene still gets a range (heights are quantized over it).
     bm->z_hi = box.max.z > box.min.z ? box.max.z : box.min.z + 1;
+    return Status::Ok();
 }
 
 // Where the vertical line through (x, y) meets the plane of triangle `t`,
@@ -291,12 +300,16 @@ Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& 
                                          params.row_m, params.wall_width));
     *out = format::BlockMap{};
     if (triangles.empty()) return Status::Ok();
+    if (Status s = placeGrid(triangles, params.cell_m, out); !s.ok()) return s;
     std::vector<std::array<Vec3d, 3>> corners(triangles.size());
     for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
     const auto caster = RayCaster::build(corners);
-    placeGrid(triangles, params.cell_m, out);
     castCells(triangles, caster.get(), params.sample, out);
     makeColumns(params, out);
+    if (out->columns.size() > format::kBlockMapMaxColumns || out->wall_height > format::kBlockMapMaxWallHeight)
+        return Status::Fail(StatusCode::kUnsupported,
+                            fmt::format("BlockMap: {} wall columns, {} texels high, exceed the file's limits", out->columns.size(),
+                                        out->wall_height));
     out->dist = format::chebyshevDistances(*out);
     if (surfaces) colourPlanes(triangles, *caster, *surfaces, out, stats);
     return Status::Ok();

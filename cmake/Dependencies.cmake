@@ -3,7 +3,6 @@
 
 find_package(PkgConfig REQUIRED)
 find_package(Threads REQUIRED)
-find_package(zstd CONFIG REQUIRED)  # Debian: libzstd-dev (BlockMap planes, format/blockmap_file.h)
 if(CITYATLAS_MIMALLOC)
   find_package(mimalloc CONFIG REQUIRED)  # Debian: libmimalloc-dev (mimalloc 2.0)
 endif()
@@ -38,15 +37,18 @@ find_path(NOVA_INCLUDE_DIR libnova/solar.h REQUIRED)
 find_library(NOVA_LIBRARY nova REQUIRED)
 add_library(nova::nova UNKNOWN IMPORTED)
 set_target_properties(nova::nova PROPERTIES IMPORTED_LOCATION ${NOVA_LIBRARY} INTERFACE_INCLUDE_DIRECTORIES ${NOVA_INCLUDE_DIR})
-# tileset.json validation in `cityatlas inspect` (header-only), content hashes for `build`.
+# tileset.json validation in `cityatlas inspect` (header-only).
 find_package(valijson CONFIG REQUIRED)
-pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
 # The 3D Tiles export's WebP images: libwebp itself, in memory and at its default
 # effort (OpenImageIO's WebP writer works through a file at the slowest method, 6).
 pkg_check_modules(WEBP REQUIRED IMPORTED_TARGET libwebp)
 endif()
 
 # Both sides: JSON, messages, the command line.
+# Content hashes for `build`, the BlockMap file's checksum (format/blockmap_file.h).
+pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
+# BlockMap planes (format/blockmap_file.h). Debian: libzstd-dev.
+find_package(zstd CONFIG REQUIRED)
 find_package(nlohmann_json 3 CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(fmt CONFIG REQUIRED)

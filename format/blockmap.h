@@ -42,6 +42,11 @@
 namespace cityatlas::format {
 
 inline constexpr uint32_t kBlockMapNone = 0xFFFFFFFFu;
+/// The most cells, columns and wall rows a BlockMap may have (the file's
+/// limits): 4096 x 4096 cells, an atlas-sized node at its own texel.
+inline constexpr uint64_t kBlockMapMaxCells = uint64_t{1} << 24;
+inline constexpr uint64_t kBlockMapMaxColumns = uint64_t{1} << 24;
+inline constexpr int kBlockMapMaxWallHeight = 1 << 20;
 
 /// Cell sides, in the order a cell's columns follow each other.
 enum BlockMapSide : uint8_t { kPlusX = 0, kMinusX = 1, kPlusY = 2, kMinusY = 3 };

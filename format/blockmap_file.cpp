@@ -12,29 +12,13 @@
 #include <fmt/format.h>
 
 #include "format/dds.h"
+#include "format/little_endian.h"
 
 namespace cityatlas::format {
 namespace {
 
 constexpr char kMagic[4] = {'C', 'A', 'B', 'M'};
 constexpr size_t kHeaderBytes = 76;
-// Limits that keep a hostile header from asking for absurd memory.
-constexpr uint64_t kMaxCells = uint64_t{1} << 24;  // 4096 x 4096: an atlas-sized node at its own texel
-constexpr uint64_t kMaxColumns = uint64_t{1} << 24;
-constexpr uint32_t kMaxWallHeight = 1u << 20;
-
-// Writes v at `offset` of a buffer already sized (little-endian hosts only: the project's).
-template <typename T>
-void put(uint8_t* at, T v) {
-    std::memcpy(at, &v, sizeof(T));
-}
-
-template <typename T>
-T get(const uint8_t* p) {
-    T v;
-    std::memcpy(&v, p, sizeof(T));
-    return v;
-}
 
 // Appends a section: its byte count, then the bytes (zstd level 19 when `compress`).
 void putSection(std::vector<uint8_t>* out, std::span<const uint8_t> raw, bool compress) {
@@ -47,7 +31,7 @@ void putSection(std::vector<uint8_t>* out, std::span<const uint8_t> raw, bool co
     }
     const size_t at = out->size();
     out->resize(at + 8 + raw.size());
-    put<uint64_t>(out->data() + at, raw.size());
+    putLe<uint64_t>(out->data() + at, raw.size());
     if (!raw.empty()) std::memcpy(out->data() + at + 8, raw.data(), raw.size());
 }
 
@@ -57,7 +41,7 @@ public:
     Sections(std::span<const uint8_t> bytes, const std::string& where) : bytes_(bytes), where_(&where) {}
     Status next(const char* name, bool compressed, size_t expected, std::vector<uint8_t>* out) {
         if (bytes_.size() - at_ < 8) return fail(fmt::format("{}: truncated before its size", name));
-        const uint64_t n = get<uint64_t>(bytes_.data() + at_);
+        const uint64_t n = getLe<uint64_t>(bytes_.data() + at_);
         at_ += 8;
         if (n > bytes_.size() - at_) return fail(fmt::format("{}: {} bytes announced, {} left", name, n, bytes_.size() - at_));
         const std::span<const uint8_t> payload = bytes_.subspan(at_, n);
@@ -132,33 +116,33 @@ std::vector<uint8_t> encodeBlockMapFile(const BlockMap& bm, std::span<const uint
     std::vector<uint8_t> out(kHeaderBytes);
     uint8_t* h = out.data();
     std::memcpy(h, kMagic, 4);
-    put<uint32_t>(h + 4, kBlockMapFileVersion);
-    put<uint32_t>(h + 8, static_cast<uint32_t>(bm.nx));
-    put<uint32_t>(h + 12, static_cast<uint32_t>(bm.ny));
+    putLe<uint32_t>(h + 4, kBlockMapFileVersion);
+    putLe<uint32_t>(h + 8, static_cast<uint32_t>(bm.nx));
+    putLe<uint32_t>(h + 12, static_cast<uint32_t>(bm.ny));
     const double doubles[5] = {bm.cell_m, bm.origin.x, bm.origin.y, bm.origin.z, bm.z_hi};
-    for (size_t i = 0; i < 5; ++i) put<double>(h + 16 + 8 * i, doubles[i]);
-    put<uint32_t>(h + 56, static_cast<uint32_t>(bm.columns.size()));
-    put<uint32_t>(h + 60, static_cast<uint32_t>(bm.features.size()));
-    put<uint32_t>(h + 64, static_cast<uint32_t>(bm.wall_width));
-    put<uint32_t>(h + 68, static_cast<uint32_t>(bm.wall_height));
+    for (size_t i = 0; i < 5; ++i) putLe<double>(h + 16 + 8 * i, doubles[i]);
+    putLe<uint32_t>(h + 56, static_cast<uint32_t>(bm.columns.size()));
+    putLe<uint32_t>(h + 60, static_cast<uint32_t>(bm.features.size()));
+    putLe<uint32_t>(h + 64, static_cast<uint32_t>(bm.wall_width));
+    putLe<uint32_t>(h + 68, static_cast<uint32_t>(bm.wall_height));
     const bool coloured = !roof_bc1.empty();
-    put<uint32_t>(h + 72, coloured ? 1u : 0u);
+    putLe<uint32_t>(h + 72, coloured ? 1u : 0u);
     std::vector<uint8_t> raw(bm.cells.size() * kCellBytes);
     for (size_t i = 0; i < bm.cells.size(); ++i) {
         const BlockMapCell& c = bm.cells[i];
         uint8_t* p = raw.data() + i * kCellBytes;
-        put(p, c.top), put(p + 2, c.base), put(p + 4, c.feature), put(p + 8, c.first_column);
+        putLe(p, c.top), putLe(p + 2, c.base), putLe(p + 4, c.feature), putLe(p + 8, c.first_column);
     }
     putSection(&out, raw, true);
     raw.assign(bm.columns.size() * kColumnBytes, 0);
     for (size_t i = 0; i < bm.columns.size(); ++i) {
         const BlockMapColumn& c = bm.columns[i];
         uint8_t* p = raw.data() + i * kColumnBytes;
-        put(p, c.cell), put(p + 4, c.side), put(p + 6, c.base), put(p + 8, c.rows), put(p + 10, c.x), put(p + 12, c.y);
+        putLe(p, c.cell), putLe(p + 4, c.side), putLe(p + 6, c.base), putLe(p + 8, c.rows), putLe(p + 10, c.x), putLe(p + 12, c.y);
     }
     putSection(&out, raw, true);
     raw.assign(bm.features.size() * 4, 0);
-    for (size_t i = 0; i < bm.features.size(); ++i) put(raw.data() + i * 4, bm.features[i]);
+    for (size_t i = 0; i < bm.features.size(); ++i) putLe(raw.data() + i * 4, bm.features[i]);
     putSection(&out, raw, true);
     if (coloured) {
         putSection(&out, roof_bc1, false);
@@ -166,7 +150,7 @@ std::vector<uint8_t> encodeBlockMapFile(const BlockMap& bm, std::span<const uint
     }
     const size_t at = out.size();
     out.resize(at + 8);
-    put<uint64_t>(out.data() + at, XXH64(out.data(), at, 0));
+    putLe<uint64_t>(out.data() + at, XXH64(out.data(), at, 0));
     return out;
 }
 
@@ -175,26 +159,27 @@ Status decodeBlockMapFile(std::span<const uint8_t> bytes, const std::string& whe
     Sections s(bytes, where);
     if (bytes.size() < kHeaderBytes + 8 || std::memcmp(bytes.data(), kMagic, 4) != 0) return s.fail("not a BlockMap file (magic)");
     // The checksum first: a flipped bit in the colour blocks is a valid colour otherwise.
-    if (get<uint64_t>(bytes.data() + bytes.size() - 8) != XXH64(bytes.data(), bytes.size() - 8, 0))
+    if (getLe<uint64_t>(bytes.data() + bytes.size() - 8) != XXH64(bytes.data(), bytes.size() - 8, 0))
         return s.fail("checksum mismatch (a truncated or damaged file)");
     bytes = bytes.first(bytes.size() - 8);
     s = Sections(bytes, where);
     const uint8_t* h = bytes.data();
-    if (get<uint32_t>(h + 4) != kBlockMapFileVersion) return s.fail(fmt::format("version {}, this reader knows 1", get<uint32_t>(h + 4)));
-    const uint32_t nx = get<uint32_t>(h + 8), ny = get<uint32_t>(h + 12);
+    if (getLe<uint32_t>(h + 4) != kBlockMapFileVersion) return s.fail(fmt::format("version {}, this reader knows 1", getLe<uint32_t>(h + 4)));
+    const uint32_t nx = getLe<uint32_t>(h + 8), ny = getLe<uint32_t>(h + 12);
     BlockMap& bm = *out;
-    bm.cell_m = get<double>(h + 16);
-    bm.origin = {get<double>(h + 24), get<double>(h + 32), get<double>(h + 40)};
-    bm.z_hi = get<double>(h + 48);
-    const uint32_t columns = get<uint32_t>(h + 56), features = get<uint32_t>(h + 60);
-    const uint32_t wall_width = get<uint32_t>(h + 64), wall_height = get<uint32_t>(h + 68), flags = get<uint32_t>(h + 72);
-    if (nx == 0 || ny == 0 || static_cast<uint64_t>(nx) * ny > kMaxCells) return s.fail(fmt::format("grid {} x {}", nx, ny));
+    bm.cell_m = getLe<double>(h + 16);
+    bm.origin = {getLe<double>(h + 24), getLe<double>(h + 32), getLe<double>(h + 40)};
+    bm.z_hi = getLe<double>(h + 48);
+    const uint32_t columns = getLe<uint32_t>(h + 56), features = getLe<uint32_t>(h + 60);
+    const uint32_t wall_width = getLe<uint32_t>(h + 64), wall_height = getLe<uint32_t>(h + 68), flags = getLe<uint32_t>(h + 72);
+    // The limits (format/blockmap.h) also keep a hostile header from asking for absurd memory.
+    if (nx == 0 || ny == 0 || static_cast<uint64_t>(nx) * ny > kBlockMapMaxCells) return s.fail(fmt::format("grid {} x {}", nx, ny));
     // Local frames are metres within a city's or a state's reach: anything else is damage.
     const auto within = [](double v, double limit) { return std::isfinite(v) && std::abs(v) <= limit; };
     if (!(bm.cell_m >= 1e-3 && bm.cell_m <= 1e5) || !within(bm.origin.x, 1e7) || !within(bm.origin.y, 1e7) ||
         !within(bm.origin.z, 1e5) || !within(bm.z_hi, 1e5) || !(bm.z_hi > bm.origin.z))
         return s.fail("cell size, origin or height range out of range (cell 1 mm to 100 km, |origin| <= 10,000 km)");
-    if (columns > kMaxColumns || features > nx * ny || wall_width == 0 || wall_width > 65535 || wall_height > kMaxWallHeight ||
+    if (columns > kBlockMapMaxColumns || features > nx * ny || wall_width == 0 || wall_width > 65535 || wall_height > static_cast<uint32_t>(kBlockMapMaxWallHeight) ||
         (flags & ~1u) != 0)
         return s.fail(fmt::format("counts out of range (columns {}, buildings {}, wall {} x {}, flags {})", columns, features, wall_width,
                                   wall_height, flags));
@@ -207,17 +192,17 @@ Status decodeBlockMapFile(std::span<const uint8_t> bytes, const std::string& whe
     bm.cells.resize(n);
     for (size_t i = 0; i < n; ++i) {
         const uint8_t* p = raw.data() + i * kCellBytes;
-        bm.cells[i] = {get<uint16_t>(p), get<uint16_t>(p + 2), get<uint32_t>(p + 4), get<uint32_t>(p + 8)};
+        bm.cells[i] = {getLe<uint16_t>(p), getLe<uint16_t>(p + 2), getLe<uint32_t>(p + 4), getLe<uint32_t>(p + 8)};
     }
     if (Status st = s.next("columns", true, static_cast<size_t>(columns) * kColumnBytes, &raw); !st.ok()) return st;
     bm.columns.resize(columns);
     for (size_t i = 0; i < columns; ++i) {
         const uint8_t* p = raw.data() + i * kColumnBytes;
-        bm.columns[i] = {get<uint32_t>(p), p[4], get<uint16_t>(p + 6), get<uint16_t>(p + 8), get<uint16_t>(p + 10), get<uint16_t>(p + 12)};
+        bm.columns[i] = {getLe<uint32_t>(p), p[4], getLe<uint16_t>(p + 6), getLe<uint16_t>(p + 8), getLe<uint16_t>(p + 10), getLe<uint16_t>(p + 12)};
     }
     if (Status st = s.next("features", true, static_cast<size_t>(features) * 4, &raw); !st.ok()) return st;
     bm.features.resize(features);
-    for (size_t i = 0; i < features; ++i) bm.features[i] = get<uint32_t>(raw.data() + i * 4);
+    for (size_t i = 0; i < features; ++i) bm.features[i] = getLe<uint32_t>(raw.data() + i * 4);
     if (Status st = checkPlanes(bm, s); !st.ok()) return st;
     if (flags & 1u) {
         if (Status st = s.next("roof", false, bcBlockBytes(bm.nx, bm.ny, 3), &raw); !st.ok()) return st;

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -395,6 +396,15 @@ TEST(BlockMap, NothingToBuildAndBadParameters) {
         p.cell_m = cell;
         EXPECT_FALSE(buildBlockMap(std::span<const Triangle>(&t, 1), p, &bm).ok()) << cell;
     }
+    // A grid the file could not hold is refused before any memory is asked for; so is a corner at infinity.
+    std::vector<Triangle> far(2, t);
+    far[1].position_local = {Vec3d{1e5, 1e5, 0}, Vec3d{1e5 + 1, 1e5, 0}, Vec3d{1e5, 1e5 + 1, 0}};
+    BlockMapParams fine;
+    fine.cell_m = 0.01;
+    const Status big = buildBlockMap(far, fine, &bm);
+    EXPECT_EQ(big.code, StatusCode::kUnsupported) << big.error;
+    far[1].position_local[0].x = std::numeric_limits<double>::infinity();
+    EXPECT_EQ(buildBlockMap(far, BlockMapParams{}, &bm).code, StatusCode::kInvalidInput);
 }
 
 TEST(BlockMap, ExposedSidesFollowTheNeighboursHeights) {

@@ -13,7 +13,6 @@
 #include <epoxy/gl.h>
 
 #include <cmath>
-#include <cstdlib>
 
 #include "atlas/blockmap.h"
 #include "ingest/synth/town.h"
@@ -22,6 +21,7 @@
 #include "render/gl/blockmap_pass.h"
 #include "render/gl/gl_context.h"
 #include "render/gl/gl_renderer.h"
+#include "tests/render/gl/headless_gl_test.h"
 
 namespace cityatlas::render {
 namespace {
@@ -54,27 +54,7 @@ std::array<uint8_t, 3> colourOf(uint32_t k, uint32_t salt) {
     return {static_cast<uint8_t>(40 + (h & 0xAF)), static_cast<uint8_t>(40 + ((h >> 8) & 0xAF)), static_cast<uint8_t>(40 + ((h >> 16) & 0xAF))};
 }
 
-class BlockMapGl : public ::testing::Test {
-protected:
-    static void SetUpTestSuite() {
-        unsetenv("DISPLAY");
-        unsetenv("WAYLAND_DISPLAY");
-        Status status;
-        context_ = HeadlessContext::create(&status).release();
-        ASSERT_NE(context_, nullptr) << status.error;
-    }
-    static void TearDownTestSuite() {
-        delete context_;
-        context_ = nullptr;
-    }
-    void SetUp() override {
-        ASSERT_NE(context_, nullptr);
-        ASSERT_TRUE(context_->makeCurrent());
-    }
-    void TearDown() override { EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR)); }
-    static HeadlessContext* context_;
-};
-HeadlessContext* BlockMapGl::context_ = nullptr;
+using BlockMapGl = HeadlessGlTest;
 
 TEST_F(BlockMapGl, ShaderEqualsTheCppTraversalOnEveryPixel) {
     synth::TownSettings s;

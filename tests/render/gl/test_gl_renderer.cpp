@@ -32,6 +32,7 @@
 #include "render/loader/block_decoder.h"
 #include "tiles/texture_codec.h"
 #include "tiles/texture_tiles.h"
+#include "tests/render/gl/headless_gl_test.h"
 
 namespace cityatlas::render {
 namespace {
@@ -158,27 +159,8 @@ Camera frontCamera(int size_px, const Vec3d& position = {0, 0, 0}, double fov_de
     return c;
 }
 
-class GlTest : public ::testing::Test {
+class GlTest : public HeadlessGlTest {
 protected:
-    static void SetUpTestSuite() {
-        // The tests must not depend on a display: EGL surfaceless only.
-        unsetenv("DISPLAY");
-        unsetenv("WAYLAND_DISPLAY");
-        Status status;
-        context_ = HeadlessContext::create(&status).release();
-        ASSERT_NE(context_, nullptr) << status.error;
-        ASSERT_TRUE(status.ok());
-    }
-    static void TearDownTestSuite() {
-        delete context_;
-        context_ = nullptr;
-    }
-    void SetUp() override {
-        ASSERT_NE(context_, nullptr);
-        ASSERT_TRUE(context_->makeCurrent());
-    }
-    void TearDown() override { EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR)); }
-
     std::unique_ptr<GlRenderer> renderer(const std::vector<MaterialInfo>& materials = {},
                                          RendererOptions options = {}) {
         Status status;
@@ -193,10 +175,7 @@ protected:
         if (t) t->bind();
         return t;
     }
-
-    static HeadlessContext* context_;
 };
-HeadlessContext* GlTest::context_ = nullptr;
 
 // Renders `texture` on the viewport-filling quad (one layer) and reads back.
 std::vector<uint8_t> renderFullQuad(GlRenderer& r, OffscreenTarget& target, const GpuTexture& texture, int layer,
