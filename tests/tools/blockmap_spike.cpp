@@ -131,13 +131,6 @@ render::Camera lookingAt(const Vec3d& position, const Vec3d& target, int width, 
     return c;
 }
 
-double boxDistance(const Vec3d& p, const Box3d& b) {
-    const double dx = std::max({b.min.x - p.x, 0.0, p.x - b.max.x});
-    const double dy = std::max({b.min.y - p.y, 0.0, p.y - b.max.y});
-    const double dz = std::max({b.min.z - p.z, 0.0, p.z - b.max.z});
-    return std::sqrt(dx * dx + dy * dy + dz * dz);
-}
-
 // Largest |ndc x| or |ndc y| of the box's corners (the client's projection).
 double screenExtent(const render::Camera& cam, const Box3d& b) {
     const auto p = render::projection(cam), v = render::viewRotation(cam);
@@ -169,7 +162,7 @@ std::vector<NamedCamera> cameras(const Box3d& b, double switch_m, int width, int
         }
         return hi;
     };
-    const NamedCamera sw = at("switch", bisect([&](double r) { return boxDistance(centre + r * dir, b) < switch_m; }));
+    const NamedCamera sw = at("switch", bisect([&](double r) { return render::distanceToBox(centre + r * dir, b) < switch_m; }));
     const double full_r = bisect([&](double r) { return screenExtent(at("", r).camera, b) > 1.0; });
     const Vec3d away_target = sw.camera.position + (sw.camera.position - centre);
     return {sw, at("full", full_r), at("close", 0.35 * full_r),
