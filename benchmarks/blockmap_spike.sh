@@ -18,7 +18,10 @@
 #     fixed cost). The root's own frames come from `cityatlas render` with a
 #     budget that holds the root alone, so it draws the root at every camera;
 #   - per level of the folder: buildings the geometry leaves out, and how
-#     many of them span 2 or more texels of their node (>= 2 px at its switch).
+#     many of them span 2 or more texels of their node (>= 2 px at its switch);
+#   - the same for real data in ../shared/data (London, two NRW tiles,
+#     Berlin's textured export), each built at default settings; skipped
+#     with a message when the folder is absent.
 # Writes out/benchmarks/blockmap-spike.json and prints a table.
 # Usage: benchmarks/blockmap_spike.sh [SIZE=1280x720] [FRAMES=10] [docs]
 #   docs: also docs/blockmap-spike.png (the 10,000-building root at the
@@ -29,6 +32,15 @@ cd "$(dirname "$0")/.."
 SIZE="${1:-1280x720}"; FRAMES="${2:-10}"; DOCS="${3:-}"
 ./scripts/build > /dev/null
 ninja -C build blockmap_spike > /dev/null
+# The root's own frames: `cityatlas render` with a budget that holds the root alone.
+root_frames() {  # FOLDER WORK
+  local root_bytes pinned
+  root_bytes=$(/usr/bin/python3 -c "import json; print(json.load(open('$2/spike.json'))['root']['bytes'])")
+  pinned=$(du -cb "$1"/features/bounds/*.bin | tail -1 | cut -f1)
+  ./build/cli/cityatlas render "$1" --path "$2/cameras.json" --size "$SIZE" --fade-s 0 -q \
+    --budget $((root_bytes + pinned + 4096)) -o "$2/root-frames" --every 20
+}
+WORKS=()
 TOWNS=("10000 400 512" "100000 2000 32")
 for t in "${TOWNS[@]}"; do
   set -- $t
@@ -38,14 +50,30 @@ for t in "${TOWNS[@]}"; do
   work="out/benchmarks/blockmap-spike-$1"
   rm -rf "$work"; mkdir -p "$work"
   ./build/tests/tools/blockmap_spike "$1" "$3" "out/benchmarks/synth-$1-$3" "$folder" "$work" "$SIZE" "$FRAMES" > /dev/null
-  root_bytes=$(/usr/bin/python3 -c "import json; print(json.load(open('$work/spike.json'))['root']['bytes'])")
-  pinned=$(du -cb "$folder"/features/bounds/*.bin | tail -1 | cut -f1)
-  ./build/cli/cityatlas render "$folder" --path "$work/cameras.json" --size "$SIZE" --fade-s 0 -q \
-    --budget $((root_bytes + pinned + 4096)) -o "$work/root-frames" --every 20
+  root_frames "$folder" "$work"
+  WORKS+=("$work")
 done
-/usr/bin/python3 - "$SIZE" "$DOCS" <<'PY'
+# Real data (../shared/data), each built at default settings.
+SHARED="${CITYATLAS_SHARED:-../shared}/data"
+if [ -d "$SHARED" ]; then
+  for f in citygml2_lod2_london_vcs/London_LOD2.gml citygml1_lod2_nrw_tile/LoD2_32_330_5728_1_NW.gml \
+           citygml1_lod1_nrw_tile/LoD1_32_280_5657_1_NW.gml citygml2_textured_berlin_vcs_export/export.gml; do
+    name=$(dirname "$f")
+    folder="out/benchmarks/blockmap-real-$name-tiles"
+    work="out/benchmarks/blockmap-spike-$name"
+    ./build/cli/cityatlas build "$SHARED/$f" -o "$folder" --force --overwrite -q > /dev/null
+    rm -rf "$work"; mkdir -p "$work"
+    # Untextured roots have texels of millimetres: cells of at least 1 m there.
+    BLOCKMAP_MIN_CELL_M=1 ./build/tests/tools/blockmap_spike --citygml "$SHARED/$f" "$folder" "$work" "$SIZE" "$FRAMES" > /dev/null
+    root_frames "$folder" "$work"
+    WORKS+=("$work")
+  done
+else
+  echo "blockmap_spike: $SHARED not found: the real datasets are skipped" >&2
+fi
+/usr/bin/python3 - "$SIZE" "$DOCS" "${WORKS[@]}" <<'PY'
 import json, os, statistics, struct, sys, collections
-size, docs = sys.argv[1], sys.argv[2] == "docs"
+size, docs, works = sys.argv[1], sys.argv[2] == "docs", sys.argv[3:]
 def dropped_per_level(folder):
     widths, base = {}, 0
     bdir = os.path.join(folder, "features", "bounds")
@@ -65,8 +93,7 @@ def dropped_per_level(folder):
     walk(json.load(open(os.path.join(folder, "tileset.json")))["root"])
     return dict(sorted(levels.items()))
 result = {"size": size, "towns": []}
-for n in (10000, 100000):
-    work = f"out/benchmarks/blockmap-spike-{n}"
+for work in works:
     r = json.load(open(f"{work}/spike.json"))
     frames = json.load(open(f"{work}/root-frames/report.json"))["frames"]
     root_ms = {}
@@ -80,7 +107,8 @@ json.dump(result, open("out/benchmarks/blockmap-spike.json", "w"), indent=1)
 print(f"frame {size}, {result['towns'][0]['render']['renderer']}")
 for r in result["towns"]:
     b, root, a = r["blockmap"], r["root"], r["plan_area_m2"]
-    print(f"\n{r['town']['buildings']} buildings: root texel {root['world_texel_m']:.2f} m, switch {root['min_distance_m']:.0f} m")
+    print(f"\n{r['town']['source']}, {r['town']['buildings']} buildings: root texel {root['world_texel_m']:.3f} m,"
+          f" BlockMap cell {r['blockmap']['cell_m']:.2f} m, switch {root['min_distance_m']:.0f} m")
     print(f"  bytes: root geometry+atlases {root['bytes']:,}  BlockMap file {b['bytes']['file']:,}"
           f" (16-bit cell layout estimate {b['bytes']['total']:,}; GPU {b['bytes']['gpu']:,})"
           f"  grid {b['grid'][0]}x{b['grid'][1]}, {b['columns']:,} columns, {b['features']:,} buildings")

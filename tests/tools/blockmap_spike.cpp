@@ -10,6 +10,7 @@
 // render/gl/blockmap_pass.h on the current EGL device.
 //
 // Usage: blockmap_spike BUILDINGS TEXTURE_PX TOWN_DIR TILE_FOLDER OUT_DIR [WxH] [FRAMES]
+//        blockmap_spike --citygml FILE TILE_FOLDER OUT_DIR [WxH] [FRAMES]   (real data; FILE built into TILE_FOLDER)
 //   The town is synth --buildings BUILDINGS --texture-size TEXTURE_PX --lod 2
 //   --seed 1 in TOWN_DIR (benchmarks/build_scale.sh's), TILE_FOLDER its build. Writes
 //   OUT_DIR/spike.json, OUT_DIR/cameras.json (the same cameras as a camera
@@ -23,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <string>
@@ -34,6 +36,7 @@
 
 #include "atlas/blockmap.h"
 #include "atlas/raycast.h"
+#include "ingest/citygml/citygml_reader.h"
 #include "ingest/synth/town.h"
 #include "render/gl/blockmap_pass.h"
 #include "tiles/blockmap_writer.h"
@@ -127,7 +130,7 @@ render::Camera lookingAt(const Vec3d& position, const Vec3d& target, int width, 
     c.width_px = width, c.height_px = height;
     c.vertical_fov_deg = 60;
     const double d = length(target - position);
-    c.near_m = std::max(1.0, 0.01 * d), c.far_m = 4 * d;
+    c.near_m = std::max(1.0, 0.01 * d), c.far_m = 4 * d + 1e5;  // the whole town, also seen from close by
     return c;
 }
 
@@ -218,28 +221,39 @@ json renderBlockMap(const format::BlockMap& bm, const std::vector<NamedCamera>& 
 }  // namespace
 
 int main(int argc, char** argv) {
+    // Real data: --citygml FILE in place of the three town arguments.
+    const bool real = argc > 1 && std::string(argv[1]) == "--citygml";
     if (argc < 6) {
-        std::fprintf(stderr, "usage: blockmap_spike BUILDINGS TEXTURE_PX TOWN_DIR TILE_FOLDER OUT_DIR [WxH] [FRAMES]\n");
+        std::fprintf(stderr,
+                     "usage: blockmap_spike BUILDINGS TEXTURE_PX TOWN_DIR TILE_FOLDER OUT_DIR [WxH] [FRAMES]\n"
+                     "       blockmap_spike --citygml FILE TILE_FOLDER OUT_DIR [WxH] [FRAMES]\n");
         return 2;
     }
     try {
+        const int args = real ? 2 : 3;  // the town's arguments after the program name
         synth::TownSettings settings;
-        settings.buildings = static_cast<uint32_t>(std::stoul(argv[1]));
-        settings.texture_size_px = std::stoi(argv[2]);
-        settings.seed = 1;
-        const std::string town_dir = argv[3], folder = argv[4], out_dir = argv[5];
+        if (!real) {
+            settings.buildings = static_cast<uint32_t>(std::stoul(argv[1]));
+            settings.texture_size_px = std::stoi(argv[2]);
+            settings.seed = 1;
+        }
+        const std::string town = argv[args], folder = argv[args + 1], out_dir = argv[args + 2];
         int width = 1280, height = 720;
-        if (argc > 6) std::sscanf(argv[6], "%dx%d", &width, &height);
-        const int frames = argc > 7 ? std::stoi(argv[7]) : 10;
+        if (argc > args + 3) std::sscanf(argv[args + 3], "%dx%d", &width, &height);
+        const int frames = argc > args + 4 ? std::stoi(argv[args + 4]) : 10;
 
         const json tileset = json::parse(std::ifstream(folder + "/tileset.json"));
         const json& root = tileset["root"];
         const json& extras = root["extras"]["cityatlas"];
-        const double texel = extras["world_texel_m"], switch_m = extras["min_distance_m"];
+        const double switch_m = extras["min_distance_m"];
+        // An untextured root has a texel from its geometry alone (London: 9.5 mm): BLOCKMAP_MIN_CELL_M
+        // sets the smallest cell the spike uses (reported as cell_m beside the root's texel).
+        const char* min_cell = std::getenv("BLOCKMAP_MIN_CELL_M");
+        const double texel = std::max(extras["world_texel_m"].get<double>(), min_cell ? std::stod(min_cell) : 0.0);
         json geometry_bytes = json::object();
         size_t root_bytes = 0;
         for (const auto& [layer, l] : extras["layers"].items()) {
-            const size_t g = l["geometry"]["bytes"], a = l.contains("atlas") ? l["atlas"]["bytes"].get<size_t>() : 0;
+            const size_t g = l["geometry"]["bytes"], a = l.contains("atlas") && l["atlas"].is_object() ? l["atlas"]["bytes"].get<size_t>() : 0;
             geometry_bytes[layer] = {{"geometry", g}, {"atlas", a}, {"triangles", l["triangles"]},
                                      {"triangles_source", l["triangles_source"]}, {"geometric_error_m", l["geometric_error_m"]}};
             root_bytes += g + a;
@@ -247,7 +261,17 @@ int main(int argc, char** argv) {
         const std::vector<uint32_t> dropped = extras["features"]["dropped"];
 
         auto t0 = Clock::now();
-        const Scene scene = synth::townToScene(synth::generateTown(settings), town_dir);
+        Scene scene;
+        if (real) {
+            // Read as `build` reads it (default options): the same local frame as the folder.
+            SceneCollector collector;
+            IngestState state;
+            state.sink = &collector;
+            if (Status st = readCityGml(town, state); !st.ok()) throw std::runtime_error(st.error);
+            scene = std::move(collector.scene);
+        } else {
+            scene = synth::townToScene(synth::generateTown(settings), town);
+        }
         const double scene_s = secondsSince(t0);
         // Plan-view built area (the up-facing triangles projected): every
         // building, and those the root's geometry keeps.
@@ -289,9 +313,10 @@ int main(int argc, char** argv) {
         const auto cams = cameras(box, switch_m, width, height);
 
         json report;
-        report["town"] = {{"buildings", settings.buildings}, {"texture_px", settings.texture_size_px},
+        report["town"] = {{"source", real ? town : "synth"}, {"buildings", real ? scene.features.size() : settings.buildings},
+                          {"texture_px", settings.texture_size_px},
                           {"features", scene.features.size()}, {"triangles", scene.triangles.size()}, {"scene_s", scene_s}};
-        report["root"] = {{"folder", folder}, {"world_texel_m", texel}, {"min_distance_m", switch_m}, {"bytes", root_bytes},
+        report["root"] = {{"folder", folder}, {"world_texel_m", extras["world_texel_m"]}, {"min_distance_m", switch_m}, {"bytes", root_bytes},
                           {"layers", geometry_bytes}, {"features_drawn", extras["features"]["count"]},
                           {"features_dropped", dropped.size()}};
         report["blockmap"] = centre;
