@@ -59,7 +59,35 @@ double heightOn(const Triangle& t, double x, double y, double ray_z) {
 
 // Pass 1: top, base and building of every cell from two vertical rays
 // through its centre.
-void castCells(std::span<const Triangle> triangles, const RayCaster* caster, BlockMapSample sample, BlockMap* bm) {
+// A building no sample hit (narrower than a cell, between the centres) takes
+// the cell under its box's centre when no other building holds it: a prism of
+// its box's height. Buildings in ascending id claim cells first: deterministic.
+void keepSmallBuildings(std::span<const Triangle> triangles, BlockMap* bm, std::vector<uint32_t>* hit_feature) {
+    std::unordered_map<uint32_t, Box3d> missing;
+    {
+        std::vector<uint32_t> held(hit_feature->begin(), hit_feature->end());
+        std::sort(held.begin(), held.end());
+        for (const Triangle& t : triangles)
+            if (!std::binary_search(held.begin(), held.end(), t.feature))
+                for (const Vec3d& p : t.position_local) missing[t.feature].extend(p);
+    }
+    std::vector<uint32_t> order;
+    for (const auto& [f, box] : missing) order.push_back(f);
+    std::sort(order.begin(), order.end());
+    for (const uint32_t f : order) {
+        const Box3d& box = missing[f];
+        const int x = static_cast<int>(std::floor((0.5 * (box.min.x + box.max.x) - bm->origin.x) / bm->cell_m));
+        const int y = static_cast<int>(std::floor((0.5 * (box.min.y + box.max.y) - bm->origin.y) / bm->cell_m));
+        if (!bm->inside(x, y) || (*hit_feature)[bm->index(x, y)] != kBlockMapNone) continue;
+        format::BlockMapCell& c = bm->cells[bm->index(x, y)];
+        c.top = std::max<uint16_t>(1, bm->quantize(box.max.z));
+        c.base = std::min(c.top, bm->quantize(box.min.z));
+        (*hit_feature)[bm->index(x, y)] = f;
+    }
+}
+
+void castCells(std::span<const Triangle> triangles, const RayCaster* caster, BlockMapSample sample, bool keep_small,
+               BlockMap* bm) {
     const double above = bm->z_hi + 1, below = bm->origin.z - 1;
     std::vector<uint32_t> hit_feature(static_cast<size_t>(bm->nx) * static_cast<size_t>(bm->ny), kBlockMapNone);
     bm->cells.assign(hit_feature.size(), format::BlockMapCell{});
@@ -89,6 +117,7 @@ void castCells(std::span<const Triangle> triangles, const RayCaster* caster, Blo
             hit_feature[bm->index(x, y)] = feature;
         }
     });
+    if (keep_small) keepSmallBuildings(triangles, bm, &hit_feature);
     // Local feature numbers in order of first cell (row-major): deterministic.
     std::unordered_map<uint32_t, uint32_t> local;  // scene feature -> local
     for (size_t i = 0; i < hit_feature.size(); ++i) {
@@ -144,7 +173,11 @@ void makeColumns(const BlockMapParams& params, BlockMap* bm) {
 class SurfaceColours {
 public:
     SurfaceColours(std::span<const Triangle> triangles, const SurfaceTables& tables)
-        : triangles_(triangles), tables_(tables), cache_(OIIO::ImageCache::create(false)) {
+        // The process's shared cache: a private one destroyed while the pool's
+        // threads keep their per-thread records of it crashes the next one made
+        // (two BlockMaps built one after another, build --blockmaps). destroy()
+        // of the shared cache only empties it.
+        : triangles_(triangles), tables_(tables), cache_(OIIO::ImageCache::create(true)) {
         cache_->attribute("max_memory_MB", static_cast<float>(tables.cache_mb));
         cache_->attribute("autotile", 0);
     }
@@ -304,7 +337,7 @@ Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& 
     std::vector<std::array<Vec3d, 3>> corners(triangles.size());
     for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
     const auto caster = RayCaster::build(corners);
-    castCells(triangles, caster.get(), params.sample, out);
+    castCells(triangles, caster.get(), params.sample, params.keep_small, out);
     makeColumns(params, out);
     if (out->columns.size() > format::kBlockMapMaxColumns || out->wall_height > format::kBlockMapMaxWallHeight)
         return Status::Fail(StatusCode::kUnsupported,
@@ -313,6 +346,15 @@ Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& 
     out->dist = format::chebyshevDistances(*out);
     if (surfaces) colourPlanes(triangles, *caster, *surfaces, out, stats);
     return Status::Ok();
+}
+
+void colourBlockMap(std::span<const Triangle> triangles, const SurfaceTables& surfaces, BlockMap* bm,
+                    BlockMapColourStats* stats) {
+    if (triangles.empty() || bm->cells.empty()) return;
+    std::vector<std::array<Vec3d, 3>> corners(triangles.size());
+    for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
+    const auto caster = RayCaster::build(corners);
+    colourPlanes(triangles, *caster, surfaces, bm, stats);
 }
 
 }  // namespace cityatlas::atlas

@@ -8,7 +8,8 @@
 /// 1. **cells**: through every cell centre (or 4 x 4 points: BlockMapSample)
 ///    a vertical ray down from above the buildings (atlas/raycast.h:
 ///    Embree's watertight test) gives the top and the building; one up from
-///    below gives the base;
+///    below gives the base; a building no ray hit takes a free cell under
+///    its box (BlockMapParams::keep_small);
 /// 2. **columns**: one per exposed side (format/blockmap.h), its span from
 ///    the higher of the cell's base and the neighbour's top (the cell's base
 ///    when the neighbour stands higher) to the cell's top, `row_m` per texel; shelf-packed, tallest first, into the wall
@@ -62,6 +63,12 @@ struct BlockMapParams {
     BlockMapSample sample = BlockMapSample::Centre;
     double row_m = 0;   ///< wall texel height; 0: cell_m
     int wall_width = 1024;  ///< the wall image's width (GL 3.3's least MAX_TEXTURE_SIZE)
+    /// A building no sample hits (narrower than a cell) takes the cell under
+    /// its box's centre when no other building holds it, as a prism of its
+    /// box's height: no building vanishes from afar (issue 20) where a cell
+    /// is free, at the cost of up to a cell of silhouette (a pixel from the
+    /// node's distance). false: the samples alone (the paper).
+    bool keep_small = true;
 };
 
 /// The BlockMap of `triangles` (a node's buildings, in full) on the grid of
@@ -70,6 +77,12 @@ struct BlockMapParams {
 /// With `surfaces`, also the colour planes (pass 4).
 Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& params, format::BlockMap* out,
                      const SurfaceTables* surfaces = nullptr, BlockMapColourStats* stats = nullptr);
+
+/// Pass 4 alone, for planes built without `surfaces`: the colour planes of
+/// `blockmap` from the same `triangles` (the build weighs a BlockMap's bytes
+/// before paying for its colours).
+void colourBlockMap(std::span<const Triangle> triangles, const SurfaceTables& surfaces, format::BlockMap* blockmap,
+                    BlockMapColourStats* stats = nullptr);
 
 /// How far a BlockMap's prisms are from the triangles they stand for (B4):
 /// the farthest triangle point from the prisms as solids (0 inside one: a

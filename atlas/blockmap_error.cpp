@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <optional>
 
 #include "atlas/blockmap.h"
 
@@ -131,6 +132,12 @@ BlockMapError measureBlockMapError(std::span<const Triangle> triangles, const fo
         tbb::blocked_range<int>(0, bm.ny), 0.0,
         [&](const tbb::blocked_range<int>& rows, double worst) {
             std::vector<Face> faces;
+            // The last nearest point found: a point of the triangles, so its
+            // distance bounds the next sample's from above. A sample within
+            // `worst` of it cannot raise the maximum and needs no query (most
+            // do not: neighbouring samples have neighbouring nearest points);
+            // the others start the tree's search from it. The result is exact.
+            std::optional<K::Point_3> hint;
             for (int y = rows.begin(); y != rows.end(); ++y)
                 for (int x = 0; x < bm.nx; ++x) {
                     facesOf(bm, x, y, &faces);
@@ -138,7 +145,10 @@ BlockMapError measureBlockMapError(std::span<const Triangle> triangles, const fo
                         // The rectangle as two triangles, sampled like the originals.
                         for (const std::array<Vec3d, 3>& t : {std::array<Vec3d, 3>{f.a, f.b, f.c}, std::array<Vec3d, 3>{f.a, f.c, f.d}})
                             samplesOf(t, spacing, [&](const Vec3d& p) {
-                                worst = std::max(worst, std::sqrt(tree.squared_distance(K::Point_3(p.x, p.y, p.z))));
+                                const K::Point_3 q(p.x, p.y, p.z);
+                                if (hint && CGAL::squared_distance(q, *hint) <= worst * worst) return;
+                                hint = hint ? tree.closest_point(q, *hint) : tree.closest_point(q);
+                                worst = std::max(worst, std::sqrt(CGAL::squared_distance(q, *hint)));
                             });
                     }
                 }

@@ -45,6 +45,7 @@ struct BuildCliOptions {
     double position_error_mm = 2.0;
     std::string originals = "needed";
     std::string split_originals = "off";
+    std::string blockmaps = "off";           // --blockmaps off|complement
     std::string format = "native";          // native, 3dtiles or both
     std::string web_textures = "webp";
     tiles::Tiles3dParams tiles3d;
@@ -107,6 +108,7 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
                             t.draco.position_bits, t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality),
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
     if (t.split_originals) k.push_back("split_originals=on");
+    if (t.blockmaps != tiles::BlockMapMode::Off) k.push_back(fmt::format("blockmaps={}", tiles::blockMapModeName(t.blockmaps)));
     for (const atlas::ComputedSpec& c : opt.computed_specs) k.push_back("computed=" + atlas::computedSpecJson(c).dump());
     if (opt.procedural_facades) k.push_back(fmt::format("procedural_facades=on/{}", opt.input.storey_height_m));
     if (opt.facades != "photo") k.push_back("facades=" + opt.facades);
@@ -358,6 +360,15 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                         {"atlas_psnr_db_min", ts.atlas_psnr_min_db},
                         {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db},
                         {"atlas_files_exact", ts.atlas_files_exact}};
+    if (ts.blockmaps.tried)
+        report["blockmaps"] = {{"nodes_tried", ts.blockmaps.tried},
+                               {"built", ts.blockmaps.built},
+                               {"declined_larger", ts.blockmaps.declined_bytes},
+                               {"declined_grid", ts.blockmaps.declined_grid},
+                               {"bytes", ts.blockmaps.bytes},
+                               {"gpu_bytes", ts.blockmaps.gpu_bytes},
+                               {"unreadable_colour_samples", ts.blockmaps.unreadable_samples},
+                               {"seconds", ts.blockmaps.seconds}};
     report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
     report["encoding"] = {{"bc_quality", rec.bc_quality},
                           {"atlas_mpix_per_s", ts.atlas_encode_mpix_per_s},
@@ -438,6 +449,13 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                     : fmt::format(" ({} dropped below its geometric error; listed in tileset.json)",
                                   ts.root_features_dropped.size())
                           .c_str());
+    if (ts.blockmaps.tried)
+        std::printf("  BlockMaps: %llu of %llu nodes tried (%llu larger than their node, %llu beyond the grid limit), "
+                    "%s, %.1f s\n",
+                    static_cast<unsigned long long>(ts.blockmaps.built), static_cast<unsigned long long>(ts.blockmaps.tried),
+                    static_cast<unsigned long long>(ts.blockmaps.declined_bytes),
+                    static_cast<unsigned long long>(ts.blockmaps.declined_grid), humanBytes(ts.blockmaps.bytes).c_str(),
+                    ts.blockmaps.seconds);
     if (rec.format != "native")
         std::printf("  3D Tiles: %llu tiles (%llu with content, %llu of them leaves' originals: %s, sharing %llu "
                     "originals in textures/: %s), %s of GLB (images %s, "
@@ -474,6 +492,12 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.split_originals != "on" && opt.split_originals != "off")
         return cli::fail("build", Status::Usage(fmt::format("--split-originals {}: expected on or off", opt.split_originals)));
     opt.tiles.split_originals = opt.split_originals == "on";
+    if (opt.blockmaps != "off" && opt.blockmaps != "complement")
+        return cli::fail("build", Status::Usage(fmt::format("--blockmaps {}: expected off or complement", opt.blockmaps)));
+    opt.tiles.blockmaps = opt.blockmaps == "complement" ? tiles::BlockMapMode::Complement : tiles::BlockMapMode::Off;
+    if (opt.tiles.blockmaps != tiles::BlockMapMode::Off && (opt.slurm || !opt.computed.empty()))
+        return cli::fail("build", Status::Usage("--blockmaps: not with --slurm or --computed yet (a sharded build does "
+                                                "not build BlockMaps yet)"));
     for (const std::string& c : opt.computed) {
         atlas::ComputedSpec spec;
         if (Status s = atlas::parseComputedSpec(c, &spec); !s.ok()) return cli::fail("build", s);
@@ -610,6 +634,11 @@ int runBuild(const BuildCliOptions& opt_in) {
     // Computed textures are made by the shards (their occluders come with the
     // plan), so a build with them is a plan, shards and a merge even at one shard.
     const bool sharded = shard_plan.shards() > 1 || opt.slurm || !opt.computed_specs.empty();
+    if (sharded && opt.tiles.blockmaps != tiles::BlockMapMode::Off)
+        return abandon(Status::Unsupported(fmt::format(
+            "--blockmaps: this input has {} triangles, more than --shard-triangles {}, and a sharded build does not "
+            "build BlockMaps yet: raise --shard-triangles to build it in one process",
+            scene_triangles, opt.shard_triangles)));
     // What the end of the build needs, here or in the merge job (`merge`).
     auto buildRecord = [&] {
         BuildRecord rec = recordOf(opt, target, tmp, build_hash, inputs_key, param_key, input_digests);
@@ -989,6 +1018,15 @@ RunFn addBuildCommand(CLI::App& app) {
                     "their own resolution; the rest the atlases hold exactly) or all (every used texture, listed by "
                     "every leaf that uses it: for reference renderings and other clients)")
         ->default_val("needed")
+        ->group(g);
+    cmd->add_option("--blockmaps", opt->blockmaps,
+                    "complement: also a BlockMap per upper node (blockmap/<node>.bin; papers/002): its buildings, in "
+                    "full, as prisms on a grid of the node's texel, with heights, bases, wall columns and colours, for "
+                    "the far field (the root's keeps every building its geometry leaves out); built top-down while "
+                    "one is no larger than the node's geometry and atlases or the node left buildings out. "
+                    "cityatlas' own client does not draw them yet; other clients ignore them. One-process builds "
+                    "only (at most --shard-triangles triangles) for now. off: none")
+        ->default_val("off")
         ->group(g);
     cmd->add_option("--split-originals", opt->split_originals,
                     "on: an original of more than two atlases of texels (an orthophoto, a long facade) becomes "

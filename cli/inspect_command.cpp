@@ -104,6 +104,9 @@ void printSummary(const std::string& folder, const tiles::InspectResult& r, doub
     if (!r.computed.empty())
         fmt::print("  computed  {:>10} in {} files: {} (BC4; not in the total)\n", humanBytes(r.bytes_computed),
                    r.computed_files, fmt::join(r.computed, ", "));
+    if (r.blockmap_files)
+        fmt::print("  blockmaps {:>10} in {} files (the far field; not in the total)\n", humanBytes(r.bytes_blockmaps),
+                   r.blockmap_files);
     fmt::print("  total     {:>10}\n",
                humanBytes(r.bytes_geometry + r.bytes_atlases + r.bytes_textures + r.bytes_features));
 }

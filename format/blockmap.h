@@ -94,6 +94,14 @@ struct BlockMap {
     uint8_t exposedSides(int x, int y) const;
     /// The column of side `side` of cell (x, y); kBlockMapNone when that side is not exposed.
     uint32_t columnOf(int x, int y, int side) const;
+    /// Bytes of the planes as the client uploads them (render/gl/blockmap_pass.h:
+    /// cells 16 B and distance 1 B a cell, columns 8 B, ids 4 B; with colour,
+    /// roof and walls as RGB8).
+    uint64_t gpuBytes(bool coloured) const {
+        const uint64_t cells_n = static_cast<uint64_t>(nx) * static_cast<uint64_t>(ny);
+        const uint64_t colour = coloured ? 3 * (cells_n + static_cast<uint64_t>(wall_width) * static_cast<uint64_t>(wall_height)) : 0;
+        return 17 * cells_n + 8 * columns.size() + 4 * features.size() + colour;
+    }
 };
 
 /// The distance plane of `blockmap`'s cells: the exact Chebyshev distance

@@ -256,6 +256,7 @@ BuildEntry readBuild(const json& build) {
     b.node_triangles = optCount(build, "node_triangles", w);
     b.geometry_encoder = optText(build, "geometry_encoder", w);
     b.texture_encoder = optText(build, "texture_encoder", w);
+    b.blockmaps = optText(build, "blockmaps", w, "off");
     return b;
 }
 
@@ -301,9 +302,34 @@ TotalsEntry readTotals(const json& t) {
         s.bytes_textures = optCount(*b, "textures", bw);
         s.bytes_features = optCount(*b, "features", bw);
         s.bytes_originals_as_bc = optCount(*b, "originals_as_bc", bw);
+        s.bytes_blockmaps = optCount(*b, "blockmaps", bw);
     }
     s.texture_ratio = optNumber(t, "texture_ratio", w, 0);
     return s;
+}
+
+BlockMapEntry readBlockMap(const json& b, const std::string& w) {
+    BlockMapEntry e;
+    e.file = {uri(b, w), count(b, "bytes", w)};
+    e.gpu_bytes = optCount(b, "gpu_bytes", w);
+    for (size_t k = 0; k < 2; ++k) {
+        const json& grid = arrayMember(b, "grid", w);
+        const json& wall = arrayMember(b, "wall_px", w);
+        if (grid.size() != 2 || wall.size() != 2) fail(w + ": grid and wall_px are not two integers");
+        e.grid[k] = integerOf(grid[k], "grid", w, 1, int64_t{1} << 24);
+        e.wall_px[k] = integerOf(wall[k], "wall_px", w, 0, int64_t{1} << 24);
+    }
+    e.texel_m = number(b, "texel_m", w);
+    if (!(e.texel_m > 0)) fail(w + ": \"texel_m\" is not positive");
+    e.origin = vec3(member(b, "origin", w), "origin", w);
+    e.z_top_m = number(b, "z_top_m", w);
+    e.columns = count(b, "columns", w);
+    e.hausdorff_m = optNumber(b, "hausdorff_m", w, 0);
+    e.voxel_bound_m = optNumber(b, "voxel_bound_m", w, 0);
+    e.min_distance_m = number(b, "min_distance_m", w);
+    e.features = count(b, "features", w);
+    e.features_missing = indices<uint32_t>(find(b, "features_missing", w), "features_missing", w);
+    return e;
 }
 
 void readTileInto(const json& tile, const std::string& w, TileEntry& n) {
@@ -337,6 +363,7 @@ void readTileInto(const json& tile, const std::string& w, TileEntry& n) {
     }
     n.texture_blocks = indices<int64_t>(find(ca, "texture_blocks", w), "texture_blocks", w);
     n.bytes = optCount(ca, "bytes", w);
+    if (const json* b = find(ca, "blockmap", w)) n.blockmap = readBlockMap(*b, w + " blockmap");
 }
 
 void readTree(const json& tile, int32_t parent, int depth, TilesetDocument& doc) {
@@ -406,6 +433,24 @@ json layerJson(const LayerEntry& l) {
 // The long arrays are written into the dump where these stand (format/json_splice.h).
 constexpr const char* kSplicePrefix = "cityatlas-splice-";
 std::string droppedPlaceholder(int32_t tile) { return fmt::format("{}dropped-{}", kSplicePrefix, tile); }
+std::string missingPlaceholder(int32_t tile) { return fmt::format("{}missing-{}", kSplicePrefix, tile); }
+
+json blockMapJson(const BlockMapEntry& b, int32_t tile) {
+    return {{"uri", b.file.uri},
+            {"bytes", b.file.bytes},
+            {"gpu_bytes", b.gpu_bytes},
+            {"grid", json(b.grid)},
+            {"texel_m", b.texel_m},
+            {"origin", xyz(b.origin)},
+            {"z_top_m", b.z_top_m},
+            {"columns", b.columns},
+            {"wall_px", json(b.wall_px)},
+            {"hausdorff_m", b.hausdorff_m},
+            {"voxel_bound_m", b.voxel_bound_m},
+            {"min_distance_m", b.min_distance_m},
+            {"features", b.features},
+            {"features_missing", b.features_missing.empty() ? json::array() : json(missingPlaceholder(tile))}};
+}
 
 json tileJson(const TilesetDocument& doc, int32_t id) {
     const TileEntry& n = doc.tiles[static_cast<size_t>(id)];
@@ -425,6 +470,7 @@ json tileJson(const TilesetDocument& doc, int32_t id) {
                              {"tables", json(n.feature_tables)}}},
                {"texture_blocks", json(n.texture_blocks)},
                {"bytes", n.bytes}};
+    if (n.blockmap) ca["blockmap"] = blockMapJson(*n.blockmap, id);
     json t = json::object();
     t["boundingVolume"] = {{"box", json(n.box)}};
     t["geometricError"] = n.geometric_error;
@@ -467,6 +513,7 @@ json buildJson(const BuildEntry& b) {
             {"geometry_encoder", b.geometry_encoder},
             {"texture_encoder", b.texture_encoder}};
     if (b.unique_charts) j["unique_charts"] = true;  // written only when on: default folders keep their bytes
+    if (b.blockmaps != "off") j["blockmaps"] = b.blockmaps;
     return j;
 }
 
@@ -600,6 +647,7 @@ void writeTilesetDocument(const TilesetDocument& doc, std::ostream& os) {
                                       {"features", s.bytes_features},
                                       {"originals_as_bc", s.bytes_originals_as_bc}}},
                            {"texture_ratio", s.texture_ratio}}}};
+    if (s.bytes_blockmaps) ca["totals"]["bytes"]["blockmaps"] = s.bytes_blockmaps;  // only when built: default folders keep their bytes
     if (!doc.computed.empty()) {
         json computed = json::array();
         for (const ComputedTextureEntry& c : doc.computed)
@@ -629,6 +677,9 @@ void writeTilesetDocument(const TilesetDocument& doc, std::ostream& os) {
         if (!dropped.empty())
             arrays.push_back({droppedPlaceholder(static_cast<int32_t>(id)), dropped.size(),
                               [&dropped](size_t i) { return std::to_string(dropped[i]); }});
+        if (const auto& b = doc.tiles[id].blockmap; b && !b->features_missing.empty())
+            arrays.push_back({missingPlaceholder(static_cast<int32_t>(id)), b->features_missing.size(),
+                              [&b](size_t i) { return std::to_string(b->features_missing[i]); }});
     }
     spliceArrays(tileset.dump(1, ' ', false, json::error_handler_t::replace), 1, kSplicePrefix, arrays, os);
     os << '\n';

@@ -66,6 +66,27 @@ struct LayerEntry {
     std::vector<ComputedFileEntry> computed;
 };
 
+/// A node's BlockMap (issue 20; format/blockmap_file.h): its buildings, in
+/// full, as prisms on a grid of the node's own texel size, for the client to
+/// ray-cast from `min_distance_m` on instead of the node's geometry.
+struct BlockMapEntry {
+    FileEntry file;                    ///< blockmap/<node>.bin
+    uint64_t gpu_bytes = 0;            ///< its planes as uploaded (cells 16 B, columns 16 B, ids 4 B, colour RGB8)
+    std::array<int64_t, 2> grid{};     ///< cells along x and y
+    double texel_m = 0;                ///< the cell's side
+    Vec3d origin;                      ///< local frame: the grid's corner (x, y) and the bottom of the height range
+    double z_top_m = 0;                ///< top of the height range (local frame)
+    uint64_t columns = 0;              ///< wall columns (one per exposed side)
+    std::array<int64_t, 2> wall_px{};  ///< the wall image
+    double hausdorff_m = 0;            ///< measured two-sided distance to the buildings it holds (a quarter-cell sampling)
+    double voxel_bound_m = 0;          ///< half the diagonal of a cell and a height quantum: the error of flat prisms
+    double min_distance_m = 0;         ///< drawn from this distance on (the node's own)
+    uint64_t features = 0;             ///< buildings holding at least one cell
+    /// The node's buildings holding no cell (smaller than a cell, or covered
+    /// by a neighbour): below a pixel from min_distance_m on.
+    std::vector<uint32_t> features_missing;
+};
+
 /// One tile (= one atlas-tree node); tiles are stored in depth-first preorder.
 struct TileEntry {
     // 3D Tiles
@@ -87,6 +108,7 @@ struct TileEntry {
     std::vector<uint32_t> feature_tables;    ///< indices of the tables holding its features
     std::vector<int64_t> texture_blocks;     ///< leaves: texture block indices
     uint64_t bytes = 0;                      ///< geometry + atlases of both layers
+    std::optional<BlockMapEntry> blockmap;   ///< absent: none (build --blockmaps off, or the node's rule said no)
     bool leaf() const { return children.empty(); }
 };
 
@@ -126,6 +148,7 @@ struct BuildEntry {
     std::string bc_quality, originals, d_min_chosen_by;
     uint64_t node_triangles = 0;
     std::string geometry_encoder, texture_encoder;
+    std::string blockmaps = "off";  ///< --blockmaps: "off" (absent from the file) or "complement"
 };
 
 /// A computed texture the folder carries (`build --computed`): its model and
@@ -145,6 +168,7 @@ struct TotalsEntry {
     uint64_t nodes = 0, leaves = 0, depth = 0;
     uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0, bytes_originals_as_bc = 0;
     double texture_ratio = 0;
+    uint64_t bytes_blockmaps = 0;  ///< absent from the file when 0
 };
 
 struct TilesetDocument {

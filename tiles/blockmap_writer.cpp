@@ -18,6 +18,15 @@ std::vector<uint8_t> blockMapFileBytes(const format::BlockMap& bm, BcQuality qua
     return format::encodeBlockMapFile(bm, roof, walls);
 }
 
+uint64_t blockMapFileSize(const format::BlockMap& bm, bool coloured) {
+    std::vector<uint8_t> roof, walls;  // zeros of the BC1 planes' sizes: the encoder reads no colour of `bm`
+    if (coloured) {
+        roof.resize(format::bcBlockBytes(bm.nx, bm.ny, 3));
+        if (bm.wall_height > 0) walls.resize(format::bcBlockBytes(bm.wall_width, bm.wall_height, 3));
+    }
+    return format::encodeBlockMapFile(bm, roof, walls).size();
+}
+
 Status writeBlockMapFile(const std::filesystem::path& path, const format::BlockMap& bm, BcQuality quality) {
     const std::vector<uint8_t> bytes = blockMapFileBytes(bm, quality);
     const std::filesystem::path tmp = path.string() + ".tmp";

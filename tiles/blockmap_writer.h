@@ -14,6 +14,10 @@ namespace cityatlas::tiles {
 
 /// The file's bytes (colour planes, when the BlockMap has them, as BC1 at `quality`).
 std::vector<uint8_t> blockMapFileBytes(const format::BlockMap& blockmap, BcQuality quality);
+/// The size of that file once the colour planes are made (`coloured`) or
+/// without them, from the geometry planes alone: BC1's size depends on the
+/// image's size only.
+uint64_t blockMapFileSize(const format::BlockMap& blockmap, bool coloured);
 /// Writes them to `path` (through a temporary file and a rename).
 Status writeBlockMapFile(const std::filesystem::path& path, const format::BlockMap& blockmap, BcQuality quality);
 

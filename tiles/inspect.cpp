@@ -31,6 +31,7 @@
 #include <valijson/validation_results.hpp>
 #include <valijson/validator.hpp>
 
+#include "format/blockmap_file.h"
 #include "format/feature_bounds.h"
 #include "format/tileset_document_json.h"
 #include "format/tileset_index.h"
@@ -297,6 +298,7 @@ struct Node {
     std::vector<Layer> layers;
     std::vector<std::string> contents;
     std::vector<int64_t> texture_blocks, feature_tables, dropped;
+    std::optional<format::BlockMapEntry> blockmap;
     std::string where() const { return fmt::format("tileset.json: {} (node {})", pointer, id); }
 };
 
@@ -349,6 +351,7 @@ void readNode(const json& tile, Node& n) {
     n.feature_count = static_cast<int64_t>(t.feature_count);
     n.feature_tables.assign(t.feature_tables.begin(), t.feature_tables.end());
     n.dropped.assign(t.features_dropped.begin(), t.features_dropped.end());
+    n.blockmap = std::move(t.blockmap);
     n.usable = true;
 }
 
@@ -564,6 +567,54 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
 // --- Files of a node -------------------------------------------------------------
 
 // The geometry (decoded and compared with the index) and atlases (DDS headers) of one node.
+// A node's BlockMap (format/blockmap_file.h): the decoder checks every
+// index the ray caster follows; here, that the file says what the index says,
+// and that it holds the node's buildings: those of its geometry and those its
+// geometry dropped, each either in a cell or listed as missing.
+void checkBlockMap(const Node& n, const format::BlockMapEntry& e, const Index& ix, Folder& folder,
+                   const std::set<uint32_t>& geometry_features, bool geometry_decoded, Defects& d) {
+    auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", e.file.uri, what)); };
+    if (!folder.check(e.file.uri, static_cast<int64_t>(e.file.bytes), d)) return;
+    format::BlockMap bm;
+    if (Status st = format::decodeBlockMapFile(readBytes(folder.path(e.file.uri), 0, e.file.bytes), e.file.uri, &bm);
+        !st.ok()) {
+        d.push_back(st.error);
+        return;
+    }
+    if (bm.nx != e.grid[0] || bm.ny != e.grid[1])
+        bad(fmt::format("{} x {} cells, tileset.json says {} x {}", bm.nx, bm.ny, e.grid[0], e.grid[1]));
+    if (!near(bm.cell_m, e.texel_m) || !near(bm.origin.x, e.origin.x) || !near(bm.origin.y, e.origin.y) ||
+        !near(bm.origin.z, e.origin.z) || !near(bm.z_hi, e.z_top_m))
+        bad("its grid (cell, origin, height range) is not the one tileset.json gives");
+    if (bm.columns.size() != e.columns || bm.wall_width != e.wall_px[0] || bm.wall_height != e.wall_px[1])
+        bad(fmt::format("{} columns in {} x {} wall texels, tileset.json says {} in {} x {}", bm.columns.size(),
+                        bm.wall_width, bm.wall_height, e.columns, e.wall_px[0], e.wall_px[1]));
+    if (bm.gpuBytes(!bm.roof.empty()) != e.gpu_bytes)
+        bad(fmt::format("{} bytes on the GPU, tileset.json says {}", bm.gpuBytes(!bm.roof.empty()), e.gpu_bytes));
+    if (bm.features.size() != e.features)
+        bad(fmt::format("{} buildings, tileset.json says {}", bm.features.size(), e.features));
+    if (!near(e.min_distance_m, n.min_distance_m))
+        bad(fmt::format("min_distance_m {}, its node's is {}", e.min_distance_m, n.min_distance_m));
+    std::set<uint32_t> held(bm.features.begin(), bm.features.end());
+    for (const uint32_t f : bm.features)
+        if (f >= static_cast<uint64_t>(ix.feature_count)) {
+            bad(fmt::format("feature id {}, there are {} features", f, ix.feature_count));
+            return;
+        }
+    for (const uint32_t f : e.features_missing)
+        if (held.count(f)) {
+            bad(fmt::format("feature {} is listed as missing but holds cells", f));
+            return;
+        }
+    if (!geometry_decoded) return;
+    std::set<uint32_t> node_features = geometry_features;
+    node_features.insert(n.dropped.begin(), n.dropped.end());
+    held.insert(e.features_missing.begin(), e.features_missing.end());
+    if (held != node_features)
+        bad(fmt::format("holds or lists as missing {} buildings, its node has {} (in its geometry or dropped)",
+                        held.size(), node_features.size()));
+}
+
 void checkNodeFiles(const Node& n, const Index& ix, Folder& folder, Defects& d) {
     std::set<uint32_t> features;
     std::set<int64_t> blocks_used;
@@ -620,6 +671,7 @@ void checkNodeFiles(const Node& n, const Index& ix, Folder& folder, Defects& d) 
             if (!c.file.uri.empty() && folder.check(c.file.uri, static_cast<int64_t>(c.file.bytes), d))
                 checkDds(folder.path(c.file.uri), c.file.uri, 0, "", 1, c.width_px, c.height_px, c.mips, c.file.bytes, d);
     }
+    if (n.blockmap) checkBlockMap(n, *n.blockmap, ix, folder, features, decoded_all, d);
     if (!decoded_all) return;  // the comparisons below need every layer
     auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", n.where(), what)); };
     if (static_cast<int64_t>(features.size()) != n.feature_count)
@@ -788,6 +840,7 @@ void summarise(const std::vector<Node>& nodes, InspectResult& r) {
             for (const format::ComputedFileEntry& c : l.computed)
                 if (!c.file.uri.empty()) ++r.computed_files, r.bytes_computed += c.file.bytes;
         }
+        if (n.blockmap) ++r.blockmap_files, r.bytes_blockmaps += n.blockmap->file.bytes;
     }
     for (const InspectLevel& L : r.levels) {
         r.nodes += L.nodes;
@@ -992,6 +1045,7 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
         total("bytes/textures", r.bytes_textures, count(bytes, "textures"));
         total("bytes/features", r.bytes_features, count(bytes, "features"));
         total("bytes/originals_as_bc", r.bytes_originals_bc, count(bytes, "originals_as_bc"));
+        total("bytes/blockmaps", r.bytes_blockmaps, bytes.contains("blockmaps") ? count(bytes, "blockmaps") : 0);
         if (r.bytes_originals_bc > 0)
             r.texture_ratio = static_cast<double>(r.bytes_atlases + r.bytes_textures) / static_cast<double>(r.bytes_originals_bc);
         if (!near(number(totals, "texture_ratio"), r.texture_ratio))

@@ -56,6 +56,7 @@ struct InspectResult {
     /// Computed textures (issue 19): names in the index's order, their files and bytes.
     std::vector<std::string> computed;
     uint64_t computed_files = 0, bytes_computed = 0;
+    uint64_t blockmap_files = 0, bytes_blockmaps = 0;  ///< build --blockmaps
     bool ok() const { return defects.empty(); }
 };
 

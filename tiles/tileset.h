@@ -18,6 +18,8 @@
 ///   features/<table>.json        feature attributes, `block_size` consecutive ids per table
 ///   features/bounds/<table>.bin  the same features' boxes, base heights and longest-wall azimuths,
 ///                                32 bytes each (format/feature_bounds.h)
+///   blockmap/<node>.bin          with build --blockmaps: the node's buildings as a BlockMap
+///                                (tiles/node_blockmaps.h, format/blockmap_file.h)
 ///   build_report.json            written by `cityatlas build` (schemas/build_report.schema.json)
 /// <layer> is "opaque" or "alpha"; <node> the node index (depth-first preorder).
 ///
@@ -63,6 +65,7 @@
 #include "format/feature_bounds.h"
 #include "format/tileset_document.h"
 #include "tiles/glb_writer.h"
+#include "tiles/node_blockmaps.h"
 #include "tiles/node_geometry.h"
 #include "tiles/texture_blocks.h"
 #include "tiles/texture_codec.h"
@@ -103,6 +106,9 @@ struct TilesParams {
     /// Tiles export embeds (`build --format 3dtiles|both`), a sharded build's
     /// shards and merge included.
     bool atlas_png = false;
+    /// BlockMaps for the far field (tiles/node_blockmaps.h): single-process
+    /// builds only for now (a sharded build refuses them).
+    BlockMapMode blockmaps = BlockMapMode::Off;
 };
 
 struct TilesStepStats {
@@ -133,6 +139,7 @@ struct TilesStats {
     double atlas_psnr_min_db = 0, atlas_psnr_mean_db = 0;  ///< BC level 0 vs the atlas PNG, RGB, over inexact atlases
     uint64_t atlas_files_exact = 0;  ///< atlases whose BC level 0 equals the PNG (infinite PSNR, psnr_db null)
     double atlas_encode_mpix_per_s = 0;    ///< BC encoding of atlas mip chains (all levels), per second of encoding
+    NodeBlockMapStats blockmaps;           ///< with TilesParams::blockmaps
     std::vector<TilesStepStats> steps;
 };
 
@@ -148,9 +155,6 @@ Status readBytes(const std::filesystem::path& path, std::vector<uint8_t>* out);
 
 using TilesProgressFn = std::function<void(const char* step, uint64_t done, uint64_t total)>;
 
-/// Writes the folder for `tree` (built from `scene`, its atlas PNGs under
-/// `atlas_dir/atlas/<layer>/<node>.png`) into `out_dir` (which must exist;
-/// files are created inside it). `build_hash` (16 hex digits) becomes
 /// One node layer's atlas as written: a DDS with its full mip chain.
 struct EncodedAtlas {
     std::string uri;            ///< atlas/<layer>/<node>.dds, relative to the output folder; empty: none
@@ -286,6 +290,9 @@ struct BuiltSubtrees {
     std::vector<std::array<std::vector<format::ComputedFileEntry>, atlas::kLayerCount>> computed_files;
 };
 
+/// Writes the folder for `tree` (built from `scene`, its atlas PNGs under
+/// `atlas_dir/atlas/<layer>/<node>.png`) into `out_dir` (which must exist;
+/// files are created inside it). `build_hash` (16 hex digits) becomes
 /// asset.tilesetVersion. An original texture that cannot be read is a counted
 /// warning (its entry gets block -1); any write failure is an error naming the
 /// file. Deterministic for any thread count.

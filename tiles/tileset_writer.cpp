@@ -566,6 +566,25 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     if (!tex_status.ok()) return tex_status;
     endStep("geometry, atlases and textures");
 
+    // --- BlockMaps (tiles/node_blockmaps.h), weighed against the node files just written.
+    std::vector<std::optional<format::BlockMapEntry>> blockmaps;
+    if (params.blockmaps != BlockMapMode::Off) {
+        if (built) return Status::Unsupported("tiles: BlockMaps are not built by sharded builds yet");
+        std::vector<NodeCost> costs(n_nodes);
+        for (size_t i = 0; i < n_nodes; ++i) {
+            for (const LayerRecord& l : records[i].layers) costs[i].bytes += l.geometry_bytes + l.atlas_bytes;
+            costs[i].dropped = !records[i].dropped.empty();
+        }
+        Status blockmap_status = Status::Ok();
+        arena.execute([&] {
+            blockmap_status = writeNodeBlockMaps(
+                scene, tree, costs, params.bc_quality, static_cast<size_t>(tree.params.cache_mb), out_dir,
+                [&](uint64_t d, uint64_t t) { report("tiles: blockmaps", d, t); }, &blockmaps, &stats.blockmaps);
+        });
+        if (!blockmap_status.ok()) return blockmap_status;
+        endStep("blockmaps");
+    }
+
     // --- Feature tables (the caller may have written them already: a
     // sharded build's plan does, and `build` from what its read gathered).
     format::TilesetDocument doc;
@@ -690,6 +709,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         t.feature_count = rec.features.size();
         t.features_dropped = rec.dropped;
         for (const uint32_t b : blocks.node_blocks[static_cast<size_t>(id)]) t.texture_blocks.push_back(b);
+        if (!blockmaps.empty()) t.blockmap = std::move(blockmaps[static_cast<size_t>(id)]);
         doc.tiles.push_back(std::move(t));
         for (size_t q = 0; q < 4; ++q)
             if (node.children[q] >= 0) {
@@ -764,6 +784,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     doc.totals = {stats.nodes,          stats.leaves,        stats.depth,
                   stats.bytes_geometry, stats.bytes_atlases, stats.bytes_textures,
                   stats.bytes_features, stats.bytes_originals_bc, textureRatio(stats)};
+    doc.totals.bytes_blockmaps = stats.blockmaps.bytes;
+    doc.build.blockmaps = std::string(blockMapModeName(params.blockmaps));
     doc.generator = fmt::format("cityatlas {}", kCityAtlasVersion);
     doc.tileset_version = build_hash;
     doc.geometric_error = 2.0 * tree.nodes[0].min_distance_m / focal;

@@ -231,7 +231,7 @@ GpuBlockMap BlockMapPass::upload(const format::BlockMap& bm, std::span<const uin
     for (const format::BlockMapColumn& c : bm.columns) columns.insert(columns.end(), {c.x, c.y, c.rows, c.base});
     makeBufferTexture(GL_RGBA16UI, columns, &g.columns_buffer, &g.columns);
     makeBufferTexture(GL_R32UI, bm.features, &g.features_buffer, &g.features);
-    g.gpu_bytes = packed.size() * 4 + bm.dist.size() + columns.size() * 2 + bm.features.size() * 4 + roof.size() + walls.size();
+    g.gpu_bytes = bm.gpuBytes(!roof.empty());
     return g;
 }
 

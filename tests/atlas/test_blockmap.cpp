@@ -364,6 +364,7 @@ TEST(BlockMap, MaxSamplingKeepsEveryBuildingAndCoversTheCentreCells) {
     BlockMap centre, max;
     BlockMapParams p;
     p.cell_m = 6;
+    p.keep_small = false;
     ASSERT_TRUE(buildBlockMap(t.scene.triangles, p, &centre).ok());
     p.sample = BlockMapSample::Max;
     ASSERT_TRUE(buildBlockMap(t.scene.triangles, p, &max).ok());
@@ -381,6 +382,56 @@ TEST(BlockMap, MaxSamplingKeepsEveryBuildingAndCoversTheCentreCells) {
         EXPECT_LE(max.cells[c].base, centre.cells[c].base);
     }
     EXPECT_GT(grown, 0u);
+}
+
+TEST(BlockMap, BuildingsNoCentreHitsTakeTheFreeCellUnderTheirBox) {
+    // keep_small (the default) against the samples alone, at 6 m cells: the
+    // cells the samples fill are the same; each building they miss holds
+    // exactly the cell under its box's centre, at its box's top and base,
+    // unless another building holds that cell (or one missed building
+    // with a lower id claimed it first).
+    const LodOneTown t = lodOneTown(150, 7);
+    BlockMapParams p;
+    p.cell_m = 6;
+    p.keep_small = false;
+    BlockMap plain, kept;
+    ASSERT_TRUE(buildBlockMap(t.scene.triangles, p, &plain).ok());
+    p.keep_small = true;
+    ASSERT_TRUE(buildBlockMap(t.scene.triangles, p, &kept).ok());
+    ASSERT_EQ(plain.cells.size(), kept.cells.size());
+    std::map<uint32_t, Box3d> box;
+    for (const Triangle& tri : t.scene.triangles)
+        for (const Vec3d& q : tri.position_local) box[tri.feature].extend(q);
+    const std::set<uint32_t> held(plain.features.begin(), plain.features.end());
+    std::map<size_t, uint32_t> expected;  // cell -> the missed building that should hold it
+    for (const auto& [f, b] : box) {
+        if (held.count(f)) continue;
+        const int x = static_cast<int>(std::floor((0.5 * (b.min.x + b.max.x) - plain.origin.x) / p.cell_m));
+        const int y = static_cast<int>(std::floor((0.5 * (b.min.y + b.max.y) - plain.origin.y) / p.cell_m));
+        ASSERT_TRUE(plain.inside(x, y));
+        const size_t c = plain.index(x, y);
+        if (!plain.cells[c].occupied() && !expected.count(c)) expected[c] = f;  // ascending ids: the first claims it
+    }
+    ASSERT_GT(expected.size(), 0u) << "the test needs buildings that centres miss";
+    for (size_t c = 0; c < kept.cells.size(); ++c) {
+        const format::BlockMapCell& k = kept.cells[c];
+        if (plain.cells[c].occupied()) {
+            ASSERT_TRUE(k.occupied());
+            EXPECT_EQ(kept.features[k.feature], plain.features[plain.cells[c].feature]);
+            EXPECT_EQ(k.top, plain.cells[c].top);
+            EXPECT_EQ(k.base, plain.cells[c].base);
+            continue;
+        }
+        const auto it = expected.find(c);
+        ASSERT_EQ(k.occupied(), it != expected.end()) << "cell " << c;
+        if (it == expected.end()) continue;
+        EXPECT_EQ(kept.features[k.feature], it->second);
+        EXPECT_EQ(k.top, kept.quantize(box[it->second].max.z));
+        EXPECT_EQ(k.base, kept.quantize(box[it->second].min.z));
+    }
+    EXPECT_EQ(kept.features.size(), plain.features.size() + expected.size());
+    std::printf("centres hold %zu of %zu buildings; %zu more take a free cell\n", plain.features.size(), box.size(),
+                expected.size());
 }
 
 TEST(BlockMap, NothingToBuildAndBadParameters) {
