@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <numeric>
 #include <unordered_map>
 
@@ -170,6 +171,102 @@ void makeColumns(const BlockMapParams& params, BlockMap* bm) {
 
 
 // Pass 4: the colour of what rays hit, averaged in linear light.
+
+// A texel index inside [0, n): repeated, mirrored or clamped as the texture wraps.
+int wrapIndex(int i, int n, WrapMode mode) {
+    if (mode == WrapMode::Wrap) return ((i % n) + n) % n;
+    if (mode == WrapMode::Mirror) {
+        const int m = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return m < n ? m : 2 * n - 1 - m;
+    }
+    return std::clamp(i, 0, n - 1);
+}
+
+}  // namespace
+
+class ReducedTextures {
+public:
+    static constexpr int kLargest = 32;  ///< texels a side of the largest level kept
+    struct Levels {
+        bool readable = false;
+        int first = 0;  ///< levels[k] is mip level first + k of the full image (level 0)
+        std::vector<int> width, height;
+        std::vector<std::vector<std::array<float, 3>>> texels;  ///< linear RGB, rows top-down
+    };
+    explicit ReducedTextures(size_t textures) : entries_(textures) {}
+
+    /// The reduced levels of texture `t` (decoded on first use through `cache`).
+    const Levels& levels(size_t t, const TextureRef& ref, OIIO::ImageCache* cache) {
+        Entry& e = entries_[t];
+        std::call_once(e.once, [&] { e.levels = reduce(ref, cache); });
+        return e.levels;
+    }
+
+private:
+    struct Entry {
+        std::once_flag once;
+        Levels levels;
+    };
+    static Levels reduce(const TextureRef& ref, OIIO::ImageCache* cache) {
+        Levels out;
+        const OIIO::ustring name(ref.path);
+        const OIIO::ImageSpec* spec = cache->imagespec(name);
+        if (!spec || spec->width <= 0 || spec->height <= 0) {
+            (void)cache->geterror();
+            return out;
+        }
+        int w = spec->width, h = spec->height;
+        const int nc = std::min(spec->nchannels, 3);
+        // 8 bits a channel (the textures' own; 16-bit ones are rounded) through
+        // a table: a pow per texel would cost more than the decoding.
+        std::vector<uint8_t> raw(static_cast<size_t>(w) * static_cast<size_t>(h) * static_cast<size_t>(nc));
+        if (!cache->get_pixels(name, 0, 0, 0, w, 0, h, 0, 1, 0, nc, OIIO::TypeUInt8, raw.data())) {
+            (void)cache->geterror();
+            return out;
+        }
+        static const std::array<float, 256> kLinear = [] {
+            std::array<float, 256> t{};
+            for (int i = 0; i < 256; ++i) t[static_cast<size_t>(i)] = static_cast<float>(linearFromSrgb(i / 255.0));
+            return t;
+        }();
+        std::vector<std::array<float, 3>> level(static_cast<size_t>(w) * static_cast<size_t>(h));
+        for (size_t i = 0; i < level.size(); ++i)
+            for (size_t k = 0; k < 3; ++k)
+                level[i][k] = kLinear[raw[i * static_cast<size_t>(nc) + std::min<size_t>(k, static_cast<size_t>(nc) - 1)]];
+        // Halve (a 2 x 2 box; an odd last row or column averaged with itself)
+        // until the level is small enough to keep, then keep it and the rest.
+        int lvl = 0;
+        out.readable = true;
+        for (;;) {
+            if (std::max(w, h) <= kLargest) {
+                if (out.texels.empty()) out.first = lvl;
+                out.width.push_back(w), out.height.push_back(h), out.texels.push_back(level);
+            }
+            if (w == 1 && h == 1) break;
+            const int w2 = std::max(1, (w + 1) / 2), h2 = std::max(1, (h + 1) / 2);
+            std::vector<std::array<float, 3>> next(static_cast<size_t>(w2) * static_cast<size_t>(h2));
+            for (int y = 0; y < h2; ++y)
+                for (int x = 0; x < w2; ++x) {
+                    const int x0 = std::min(2 * x, w - 1), x1 = std::min(2 * x + 1, w - 1);
+                    const int y0 = std::min(2 * y, h - 1), y1 = std::min(2 * y + 1, h - 1);
+                    for (size_t k = 0; k < 3; ++k)
+                        next[static_cast<size_t>(y * w2 + x)][k] =
+                            0.25f * (level[static_cast<size_t>(y0 * w + x0)][k] + level[static_cast<size_t>(y0 * w + x1)][k] +
+                                     level[static_cast<size_t>(y1 * w + x0)][k] + level[static_cast<size_t>(y1 * w + x1)][k]);
+                }
+            level = std::move(next), w = w2, h = h2, ++lvl;
+        }
+        return out;
+    }
+    std::vector<Entry> entries_;
+};
+
+std::shared_ptr<ReducedTextures> makeReducedTextures(size_t textures) {
+    return std::make_shared<ReducedTextures>(textures);
+}
+
+namespace {
+
 class SurfaceColours {
 public:
     SurfaceColours(std::span<const Triangle> triangles, const SurfaceTables& tables)
@@ -185,12 +282,30 @@ public:
     SurfaceColours(const SurfaceColours&) = delete;
     SurfaceColours& operator=(const SurfaceColours&) = delete;
 
-    /// Linear RGB of triangle `index` at point `p` on it.
-    std::array<double, 3> at(uint32_t index, const Vec3d& p, std::atomic<uint64_t>* unreadable) const {
+    /// Linear RGB of triangle `index` at point `p` on it, for samples `spacing_m` apart.
+    std::array<double, 3> at(uint32_t index, const Vec3d& p, double spacing_m, std::atomic<uint64_t>* unreadable,
+                             uint64_t* reduced) const {
         const Triangle& t = triangles_[index];
         if (t.texture >= 0 && static_cast<size_t>(t.texture) < tables_.textures.size()) {
             const TextureRef& ref = tables_.textures[static_cast<size_t>(t.texture)];
             const Vec2d uv = uvAt(t, p);
+            if (tables_.reduced) {
+                // The mip level whose texel is the samples' spacing: a reduced one when it is small enough.
+                const ReducedTextures::Levels& r = tables_.reduced->levels(static_cast<size_t>(t.texture), ref, cache_);
+                if (r.readable) {
+                    const double footprint = spacing_m * texelsPerMetre(t, r.width[0] << r.first, r.height[0] << r.first);
+                    const int level = footprint >= 1 ? static_cast<int>(std::floor(std::log2(footprint))) : 0;
+                    if (level >= r.first) {
+                        const size_t k = std::min(static_cast<size_t>(level - r.first), r.texels.size() - 1);
+                        const int w = r.width[k], h = r.height[k];
+                        const int x = wrapIndex(static_cast<int>(std::floor(uv.x * w)), w, ref.wrap);
+                        const int y = wrapIndex(static_cast<int>(std::floor((1 - uv.y) * h)), h, ref.wrap);
+                        const auto& c = r.texels[k][static_cast<size_t>(y * w + x)];
+                        ++*reduced;
+                        return {c[0], c[1], c[2]};
+                    }
+                }
+            }
             float rgb[4] = {0, 0, 0, 0};
             const OIIO::ImageSpec* spec = cache_->imagespec(OIIO::ustring(ref.path));
             if (spec && spec->width > 0 && spec->height > 0) {
@@ -214,6 +329,16 @@ public:
     }
 
 private:
+    // Texels of a w x h texture per metre of triangle t (the square root of
+    // their areas' ratio); 0 for a degenerate triangle or uv triangle.
+    static double texelsPerMetre(const Triangle& t, int w, int h) {
+        const auto& q = t.position_local;
+        const double world = length(cross(q[1] - q[0], q[2] - q[0]));
+        const double ax = t.uv[1].x - t.uv[0].x, ay = t.uv[1].y - t.uv[0].y;
+        const double bx = t.uv[2].x - t.uv[0].x, by = t.uv[2].y - t.uv[0].y;
+        const double texels = std::abs(ax * by - ay * bx) * w * h;
+        return world > 0 ? std::sqrt(texels / world) : 0;
+    }
     // The uv at p from its barycentric coordinates (in double).
     static Vec2d uvAt(const Triangle& t, const Vec3d& p) {
         const auto& q = t.position_local;
@@ -224,16 +349,6 @@ private:
         const double b0 = 1 - b1 - b2;
         return {b0 * t.uv[0].x + b1 * t.uv[1].x + b2 * t.uv[2].x, b0 * t.uv[0].y + b1 * t.uv[1].y + b2 * t.uv[2].y};
     }
-    // A texel index inside [0, n): repeated, mirrored or clamped as the texture wraps.
-    static int wrapIndex(int i, int n, WrapMode mode) {
-        if (mode == WrapMode::Wrap) return ((i % n) + n) % n;
-        if (mode == WrapMode::Mirror) {
-            const int m = ((i % (2 * n)) + 2 * n) % (2 * n);
-            return m < n ? m : 2 * n - 1 - m;
-        }
-        return std::clamp(i, 0, n - 1);
-    }
-
     std::span<const Triangle> triangles_;
     const SurfaceTables& tables_;
     OIIO::ImageCache* cache_;
@@ -258,12 +373,12 @@ std::array<uint8_t, 3> srgb8(const std::array<double, 3>& linear) {
 void colourPlanes(std::span<const Triangle> triangles, const RayCaster& caster, const SurfaceTables& tables, BlockMap* bm,
                   BlockMapColourStats* stats) {
     const SurfaceColours colours(triangles, tables);
-    std::atomic<uint64_t> rays{0}, hits{0}, without{0}, unreadable{0};
+    std::atomic<uint64_t> rays{0}, hits{0}, without{0}, unreadable{0}, reduced{0};
     const double s = bm->cell_m, above = bm->z_hi + 1;
     bm->roof.assign(bm->cells.size() * 3, 0);
     std::vector<std::array<double, 3>> roof_linear(bm->cells.size(), {0.7, 0.7, 0.7});
     tbb::parallel_for(0, bm->ny, [&](int y) {
-        uint64_t r = 0, h = 0;
+        uint64_t r = 0, h = 0, reduced_here = 0;
         for (int x = 0; x < bm->nx; ++x) {
             const size_t c = bm->index(x, y);
             if (!bm->cells[c].occupied()) continue;
@@ -275,7 +390,7 @@ void colourPlanes(std::span<const Triangle> triangles, const RayCaster& caster, 
                                   bm->origin.y + (y + (b + jitter(c, a, b, 1)) / 4) * s, above};
                     const RayHit hit = caster.nearest(o, {0, 0, -1});
                     if (!hit.hit) continue;
-                    const auto rgb = colours.at(hit.triangle, o + hit.distance * Vec3d{0, 0, -1}, &unreadable);
+                    const auto rgb = colours.at(hit.triangle, o + hit.distance * Vec3d{0, 0, -1}, s / 4, &unreadable, &reduced_here);
                     for (size_t k = 0; k < 3; ++k) sum[k] += rgb[k];
                     ++n, ++h;
                 }
@@ -283,7 +398,7 @@ void colourPlanes(std::span<const Triangle> triangles, const RayCaster& caster, 
             const auto out = srgb8(roof_linear[c]);
             std::copy(out.begin(), out.end(), bm->roof.begin() + static_cast<long>(c * 3));
         }
-        rays += r, hits += h;
+        rays += r, hits += h, reduced += reduced_here;
     });
     bm->walls.assign(static_cast<size_t>(bm->wall_width) * static_cast<size_t>(bm->wall_height) * 3, 0);
     tbb::parallel_for(size_t{0}, bm->columns.size(), [&](size_t i) {
@@ -295,7 +410,7 @@ void colourPlanes(std::span<const Triangle> triangles, const RayCaster& caster, 
         const Vec3d inward{-static_cast<double>(dx), -static_cast<double>(dy), 0};
         // Half a cell outside the side, across its width.
         const double ex = bm->origin.x + (x + 0.5 + dx) * s, ey = bm->origin.y + (y + 0.5 + dy) * s;
-        uint64_t r = 0, h = 0;
+        uint64_t r = 0, h = 0, reduced_here = 0;
         for (int row = 0; row < col.rows; ++row) {
             std::array<double, 3> sum{0, 0, 0};
             int n = 0;
@@ -307,7 +422,7 @@ void colourPlanes(std::span<const Triangle> triangles, const RayCaster& caster, 
                     const Vec3d o{ex + along * s * std::abs(dy), ey + along * s * std::abs(dx), z};
                     const RayHit hit = caster.nearest(o, inward, 0, 1.5 * s);
                     if (!hit.hit) continue;
-                    const auto rgb = colours.at(hit.triangle, o + hit.distance * inward, &unreadable);
+                    const auto rgb = colours.at(hit.triangle, o + hit.distance * inward, s / 4, &unreadable, &reduced_here);
                     for (size_t k = 0; k < 3; ++k) sum[k] += rgb[k];
                     ++n, ++h;
                 }
@@ -318,9 +433,9 @@ void colourPlanes(std::span<const Triangle> triangles, const RayCaster& caster, 
             std::copy(out.begin(), out.end(),
                       bm->walls.begin() + static_cast<long>(((col.y + row) * static_cast<size_t>(bm->wall_width) + col.x) * 3));
         }
-        rays += r, hits += h;
+        rays += r, hits += h, reduced += reduced_here;
     });
-    if (stats) *stats = {rays.load(), hits.load(), without.load(), unreadable.load()};
+    if (stats) *stats = {rays.load(), hits.load(), without.load(), unreadable.load(), reduced.load()};
 }
 
 }  // namespace

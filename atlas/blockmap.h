@@ -22,14 +22,17 @@
 ///    with periodic textures); a wall texel the mean of 4 x 4 horizontal rays
 ///    into its side from half a cell outside, the first hit within 1.5
 ///    cells (none: the cell's roof colour). A hit's colour is its texture's
-///    texel at the hit's uv (nearest, at full resolution, wrapped as the
-///    texture says; read through an OpenImageIO ImageCache), else its
+///    texel at the hit's uv (nearest, wrapped as the texture says, at the
+///    mip level whose texel matches the samples' spacing when that level is
+///    a reduced one (ReducedTextures), else at full resolution through an
+///    OpenImageIO ImageCache), else its
 ///    material's diffuse colour, else grey 0.7; alpha is ignored (the
 ///    texel's colour counts as opaque).
 ///
 /// Deterministic: the planes depend on the triangles and the parameters
 /// only (the ray caster's answers do not depend on threads).
 
+#include <memory>
 #include <span>
 
 #include "core/status.h"
@@ -38,11 +41,23 @@
 
 namespace cityatlas::atlas {
 
+/// Textures reduced to their small mip levels (32 texels a side and less,
+/// box-filtered in linear light), each decoded once and kept for every
+/// BlockMap of a build: an upper node's samples are tens of texels apart,
+/// so they read a reduced level instead of decoding the full image again
+/// (10,000 facades of 512 px: each decoded once instead of once a level).
+/// Thread-safe. About 4 kB a texture.
+class ReducedTextures;
+std::shared_ptr<ReducedTextures> makeReducedTextures(size_t textures);
+
 /// What the colour pass needs of the scene (Scene::textures, ::materials).
 struct SurfaceTables {
     std::span<const TextureRef> textures;
     std::span<const Material> materials;
     size_t cache_mb = 256;  ///< decoded textures kept (OpenImageIO ImageCache)
+    /// Small mip levels kept across BlockMaps (makeReducedTextures over the
+    /// same textures); null: every sample reads the full image.
+    ReducedTextures* reduced = nullptr;
 };
 
 /// What the colour pass saw.
@@ -50,6 +65,7 @@ struct BlockMapColourStats {
     uint64_t rays = 0, hits = 0;
     uint64_t texels_without_hit = 0;    ///< wall texels given their cell's roof colour
     uint64_t unreadable_samples = 0;    ///< texture reads that failed (grey)
+    uint64_t reduced_samples = 0;       ///< texture reads from reduced mip levels (ReducedTextures)
 };
 
 /// How a cell's prism is sampled: at its centre (the paper's; a building
@@ -96,7 +112,11 @@ struct BlockMapError {
     double prisms_to_triangles_m = 0;
     double hausdorff_m = 0;  ///< the larger of the two
 };
-/// spacing_m <= 0: a quarter cell (../shared/SEED-FEATURES.md §1.2 step 7).
+/// spacing_m <= 0: a quarter cell (../shared/SEED-FEATURES.md §1.2 step 7),
+/// or coarser where the triangles' area would take more than
+/// kMaxErrorSamples points at that spacing (the time is bounded; the
+/// result's slack, up to spacing / sqrt 2, grows).
+inline constexpr uint64_t kMaxErrorSamples = 500'000;
 BlockMapError measureBlockMapError(std::span<const Triangle> triangles, const format::BlockMap& blockmap,
                                    double spacing_m = 0);
 

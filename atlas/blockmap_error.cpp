@@ -107,7 +107,18 @@ void samplesOf(const std::array<Vec3d, 3>& t, double spacing, const std::functio
 BlockMapError measureBlockMapError(std::span<const Triangle> triangles, const format::BlockMap& bm, double spacing_m) {
     BlockMapError e;
     if (triangles.empty() || bm.nx <= 0) return e;
-    const double spacing = spacing_m > 0 ? spacing_m : bm.cell_m / 4;
+    double spacing = spacing_m;
+    if (!(spacing > 0)) {
+        // A quarter cell, or coarser where that would take more than
+        // kMaxErrorSamples points of the triangles (a fine node of a large
+        // textured building: the cost grows with area over spacing squared).
+        double area = 0;
+        for (const Triangle& t : triangles) {
+            const auto& q = t.position_local;
+            area += 0.5 * length(cross(q[1] - q[0], q[2] - q[0]));
+        }
+        spacing = std::max(bm.cell_m / 4, std::sqrt(area / static_cast<double>(kMaxErrorSamples)));
+    }
     // Triangles -> prisms.
     e.triangles_to_prisms_m = tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, triangles.size()), 0.0,

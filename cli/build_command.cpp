@@ -368,7 +368,11 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                                {"bytes", ts.blockmaps.bytes},
                                {"gpu_bytes", ts.blockmaps.gpu_bytes},
                                {"unreadable_colour_samples", ts.blockmaps.unreadable_samples},
-                               {"seconds", ts.blockmaps.seconds}};
+                               {"seconds", ts.blockmaps.seconds},
+                               {"seconds_by_pass", {{"planes", ts.blockmaps.seconds_planes},
+                                                    {"colours", ts.blockmaps.seconds_colours},
+                                                    {"error", ts.blockmaps.seconds_error},
+                                                    {"encode", ts.blockmaps.seconds_encode}}}};
     report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
     report["encoding"] = {{"bc_quality", rec.bc_quality},
                           {"atlas_mpix_per_s", ts.atlas_encode_mpix_per_s},
@@ -1022,7 +1026,8 @@ RunFn addBuildCommand(CLI::App& app) {
     cmd->add_option("--blockmaps", opt->blockmaps,
                     "complement: also a BlockMap per upper node (blockmap/<node>.bin; papers/002): its buildings, in "
                     "full, as prisms on a grid of the node's texel, with heights, bases, wall columns and colours, for "
-                    "the far field (the root's keeps every building its geometry leaves out); built top-down while "
+                    "the far field (a building narrower than a cell takes a free cell, so the root's keeps what its "
+                    "geometry leaves out); built top-down while "
                     "one is no larger than the node's geometry and atlases or the node left buildings out. "
                     "cityatlas' own client does not draw them yet; other clients ignore them. One-process builds "
                     "only (at most --shard-triangles triangles) for now. off: none")

@@ -79,7 +79,10 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
     if (tree.nodes.empty()) return Status::Ok();
     if (costs.size() != tree.nodes.size()) return Status::Io("blockmaps: node costs do not match the tree");
     const TrianglesByFeature by_feature(tree, scene.features.size());
-    const atlas::SurfaceTables surfaces{scene.textures, scene.materials, cache_mb};
+    // Reduced textures are kept for every BlockMap of the build: the upper
+    // nodes' samples read small mip levels, each texture decoded once.
+    const std::shared_ptr<atlas::ReducedTextures> reduced = atlas::makeReducedTextures(scene.textures.size());
+    const atlas::SurfaceTables surfaces{scene.textures, scene.materials, cache_mb, reduced.get()};
     const double ppm = tree.projection.pixelsPerMetreAt1m();
     std::error_code ec;
     fs::create_directories(out_dir / "blockmap", ec);
@@ -93,6 +96,12 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
         const int32_t id = queue[q];
         const atlas::AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
         ++stats->tried;
+        auto lap = std::chrono::steady_clock::now();
+        auto split = [&lap](double* into) {
+            const auto now = std::chrono::steady_clock::now();
+            *into += std::chrono::duration<double>(now - lap).count();
+            lap = now;
+        };
         // Passes 1 and 2: the buildings and their planes.
         gatherNode(tree, node, by_feature, &features, &triangles);
         if (triangles.empty()) continue;
@@ -107,8 +116,10 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
         }
         format::BlockMap bm;
         // A grid beyond the file's limits is refused before any memory is asked for.
-        if (Status s = atlas::buildBlockMap(triangles, params, &bm); !s.ok()) {
-            if (s.code != StatusCode::kUnsupported) return s.within(fmt::format("node {}: ", id));
+        const Status planes = atlas::buildBlockMap(triangles, params, &bm);
+        split(&stats->seconds_planes);
+        if (!planes.ok()) {
+            if (planes.code != StatusCode::kUnsupported) return planes.within(fmt::format("node {}: ", id));
             ++stats->declined_grid;
             continue;
         }
@@ -121,12 +132,16 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
         atlas::BlockMapColourStats colour;
         atlas::colourBlockMap(triangles, surfaces, &bm, &colour);
         stats->unreadable_samples += colour.unreadable_samples;
+        split(&stats->seconds_colours);
         const std::vector<uint8_t> bytes = blockMapFileBytes(bm, quality);
+        split(&stats->seconds_encode);
         // Pass 6: the measured error, over the buildings it holds and the ones it misses alike.
         const atlas::BlockMapError error = atlas::measureBlockMapError(triangles, bm);
+        split(&stats->seconds_error);
         format::BlockMapEntry e;
         e.file = {fmt::format("blockmap/{}.bin", id), bytes.size()};
         if (Status s = writeBytes(out_dir / e.file.uri, bytes.data(), bytes.size()); !s.ok()) return s;
+        split(&stats->seconds_encode);
         e.gpu_bytes = bm.gpuBytes(!bm.roof.empty());
         e.grid = {bm.nx, bm.ny};
         e.texel_m = bm.cell_m;

@@ -62,6 +62,8 @@ struct NodeBlockMapStats {
     uint64_t bytes = 0, gpu_bytes = 0;
     uint64_t unreadable_samples = 0;  ///< colour samples of textures that could not be read (grey)
     double seconds = 0;
+    /// Of which: gathering and planes (all nodes tried), colours, measured error, encoding and writing.
+    double seconds_planes = 0, seconds_colours = 0, seconds_error = 0, seconds_encode = 0;
 };
 
 using BlockMapProgressFn = std::function<void(uint64_t done, uint64_t total)>;

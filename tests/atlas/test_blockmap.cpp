@@ -24,6 +24,7 @@
 #include <set>
 
 #include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
 
 #include "core/srgb.h"
 #include "ingest/synth/town.h"
@@ -271,20 +272,23 @@ LinearImage readLinear(const std::string& path) {
     return img;
 }
 
-TEST(BlockMap, WallAndRoofColoursAreTheBuildingsTextureMeans) {
+// B6 at `cell_m` over textures of `texture_px`; with `reduced`, the samples
+// read the textures' reduced mip levels where their spacing allows.
+void expectColourMeans(double cell_m, int texture_px, bool reduced, double min_roof_cells) {
     synth::TownSettings settings;
     settings.buildings = 40;
     settings.seed = 11;
     settings.lod = 1;
-    settings.texture_size_px = 64;
+    settings.texture_size_px = texture_px;
     const synth::Town town = synth::generateTown(settings);
-    const auto dir = test::scratchPath("cityatlas_test_blockmap", "town");
+    const auto dir = test::scratchPath("cityatlas_test_blockmap", fmt::format("town{}", texture_px));
     ASSERT_TRUE(synth::writeTextures(town, dir, {}).ok());
     const Scene scene = synth::townToScene(town, dir);
     BlockMap bm;
     BlockMapParams params;
-    params.cell_m = 1.25;
-    SurfaceTables tables{scene.textures, scene.materials};
+    params.cell_m = cell_m;
+    const std::shared_ptr<ReducedTextures> kept = makeReducedTextures(scene.textures.size());
+    SurfaceTables tables{scene.textures, scene.materials, 256, reduced ? kept.get() : nullptr};
     BlockMapColourStats stats;
     ASSERT_TRUE(buildBlockMap(scene.triangles, params, &bm, &tables, &stats).ok());
     EXPECT_EQ(stats.unreadable_samples, 0u);
@@ -341,7 +345,7 @@ TEST(BlockMap, WallAndRoofColoursAreTheBuildingsTextureMeans) {
     double worst_wall = 0, worst_roof = 0;
     size_t compared = 0;
     for (const auto& [f, got] : got_wall) {
-        if (got.weight < 40 * bm.cell_m * bm.cell_m || got_roof[f].weight < 40) continue;  // small ones are noisy
+        if (got.weight < 40 * bm.cell_m * bm.cell_m || got_roof[f].weight < min_roof_cells) continue;  // small ones are noisy
         ++compared;
         for (size_t k = 0; k < 3; ++k) {
             worst_wall = std::max(worst_wall, std::abs(got.mean()[k] - want_wall[f].mean()[k]));
@@ -351,10 +355,19 @@ TEST(BlockMap, WallAndRoofColoursAreTheBuildingsTextureMeans) {
     EXPECT_GT(compared, bm.features.size() / 2);
     EXPECT_LE(worst_wall, 0.02) << "linear, per channel";
     EXPECT_LE(worst_roof, 0.02);
-    std::printf("buildings compared %zu of %zu, worst wall %.4f, worst roof %.4f, rays %llu, hits %llu\n", compared,
-                bm.features.size(), worst_wall, worst_roof, static_cast<unsigned long long>(stats.rays),
-                static_cast<unsigned long long>(stats.hits));
+    EXPECT_EQ(stats.reduced_samples > 0, reduced);
+    std::printf("cell %.2f m, %d px textures, reduced levels %s: buildings compared %zu of %zu, worst wall %.4f, "
+                "worst roof %.4f, rays %llu, hits %llu (%llu from reduced levels)\n",
+                cell_m, texture_px, reduced ? "on" : "off", compared, bm.features.size(), worst_wall, worst_roof,
+                static_cast<unsigned long long>(stats.rays), static_cast<unsigned long long>(stats.hits),
+                static_cast<unsigned long long>(stats.reduced_samples));
 }
+
+TEST(BlockMap, WallAndRoofColoursAreTheBuildingsTextureMeans) { expectColourMeans(1.25, 64, false, 40); }
+
+// An upper node's cell: 2.5 m over 256 px facades puts the samples 10 texels
+// apart, so they read the 32 px level; the means hold as at full resolution.
+TEST(BlockMap, ColoursFromReducedLevelsAreTheTextureMeansToo) { expectColourMeans(2.5, 256, true, 10); }
 
 TEST(BlockMap, MaxSamplingKeepsEveryBuildingAndCoversTheCentreCells) {
     // At 6 m cells some of the town's buildings hold no cell centre; with 4 x 4
