@@ -26,6 +26,13 @@ using format::BlockMap;
 using format::kBlockMapNone;
 
 // The grid over the triangles' box: corner on multiples of the cell side.
+// Cells along x and y of the grid aligned to multiples of cell_m from the
+// local origin that covers `box` (at least one each way).
+std::array<double, 2> gridSizeOver(const Box3d& box, double cell_m) {
+    return {std::max(1.0, std::ceil((box.max.x - std::floor(box.min.x / cell_m) * cell_m) / cell_m)),
+            std::max(1.0, std::ceil((box.max.y - std::floor(box.min.y / cell_m) * cell_m) / cell_m))};
+}
+
 // Fails for a box that is not finite or a grid the file could not hold.
 Status placeGrid(std::span<const Triangle> triangles, double cell_m, BlockMap* bm) {
     Box3d box;
@@ -33,8 +40,7 @@ Status placeGrid(std::span<const Triangle> triangles, double cell_m, BlockMap* b
         for (const Vec3d& p : t.position_local) box.extend(p);
     for (double v : {box.min.x, box.min.y, box.min.z, box.max.x, box.max.y, box.max.z})
         if (!std::isfinite(v)) return Status::Fail(StatusCode::kInvalidInput, "BlockMap: a triangle corner is not finite");
-    const double nx = std::max(1.0, std::ceil((box.max.x - std::floor(box.min.x / cell_m) * cell_m) / cell_m));
-    const double ny = std::max(1.0, std::ceil((box.max.y - std::floor(box.min.y / cell_m) * cell_m) / cell_m));
+    const auto [nx, ny] = gridSizeOver(box, cell_m);
     if (nx * ny > static_cast<double>(format::kBlockMapMaxCells))
         return Status::Fail(StatusCode::kUnsupported,
                             fmt::format("BlockMap: {:.0f} x {:.0f} cells of {} m exceed {} cells: a larger cell is needed", nx,
@@ -461,6 +467,13 @@ Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& 
     out->dist = format::chebyshevDistances(*out);
     if (surfaces) colourPlanes(triangles, *caster, *surfaces, out, stats);
     return Status::Ok();
+}
+
+std::array<double, 2> blockMapGridSize(std::span<const Triangle> triangles, double cell_m) {
+    Box3d box;
+    for (const Triangle& t : triangles)
+        for (const Vec3d& p : t.position_local) box.extend(p);
+    return gridSizeOver(box, cell_m);
 }
 
 void colourBlockMap(std::span<const Triangle> triangles, const SurfaceTables& surfaces, BlockMap* bm,

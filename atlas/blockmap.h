@@ -32,6 +32,7 @@
 /// Deterministic: the planes depend on the triangles and the parameters
 /// only (the ray caster's answers do not depend on threads).
 
+#include <array>
 #include <memory>
 #include <span>
 
@@ -86,6 +87,10 @@ struct BlockMapParams {
     /// node's distance). false: the samples alone (the paper).
     bool keep_small = true;
 };
+
+/// The grid buildBlockMap lays over `triangles` at `cell_m`: its cells
+/// along x and y (as doubles: a grid too large for the file is still counted).
+std::array<double, 2> blockMapGridSize(std::span<const Triangle> triangles, double cell_m);
 
 /// The BlockMap of `triangles` (a node's buildings, in full) on the grid of
 /// side params.cell_m aligned to multiples of it from the local origin. No

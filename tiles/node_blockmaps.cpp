@@ -55,11 +55,7 @@ void gatherNode(const atlas::AtlasTree& tree, const atlas::AtlasNode& node, cons
 // The BC1 roof plane's bytes of the grid buildBlockMap lays over `triangles`
 // (format/dds.h); saturates for grids no file could hold.
 uint64_t roofBytesAtLeast(const std::vector<Triangle>& triangles, double cell_m) {
-    Box3d box;
-    for (const Triangle& t : triangles)
-        for (const Vec3d& p : t.position_local) box.extend(p);
-    const double nx = std::ceil((box.max.x - std::floor(box.min.x / cell_m) * cell_m) / cell_m);
-    const double ny = std::ceil((box.max.y - std::floor(box.min.y / cell_m) * cell_m) / cell_m);
+    const auto [nx, ny] = atlas::blockMapGridSize(triangles, cell_m);
     if (!(nx * ny <= static_cast<double>(format::kBlockMapMaxCells))) return UINT64_MAX;
     return format::bcBlockBytes(std::max(1, static_cast<int>(nx)), std::max(1, static_cast<int>(ny)), 3);
 }
@@ -84,9 +80,6 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
     const std::shared_ptr<atlas::ReducedTextures> reduced = atlas::makeReducedTextures(scene.textures.size());
     const atlas::SurfaceTables surfaces{scene.textures, scene.materials, cache_mb, reduced.get()};
     const double ppm = tree.projection.pixelsPerMetreAt1m();
-    std::error_code ec;
-    fs::create_directories(out_dir / "blockmap", ec);
-    if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "blockmap").string(), ec.message()));
 
     std::vector<int32_t> queue{0};  // top-down, breadth first: a branch stops at its first "no"
     std::vector<uint32_t> features;
@@ -140,6 +133,11 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
         split(&stats->seconds_error);
         format::BlockMapEntry e;
         e.file = {fmt::format("blockmap/{}.bin", id), bytes.size()};
+        if (stats->built == 0) {  // the folder only when there is a BlockMap to put in it
+            std::error_code ec;
+            fs::create_directories(out_dir / "blockmap", ec);
+            if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "blockmap").string(), ec.message()));
+        }
         if (Status s = writeBytes(out_dir / e.file.uri, bytes.data(), bytes.size()); !s.ok()) return s;
         split(&stats->seconds_encode);
         e.gpu_bytes = bm.gpuBytes(!bm.roof.empty());

@@ -27,6 +27,7 @@
 #include "ingest/synth/town.h"
 #include "ingest/synth/write_town.h"
 #include "render/core/blockmap_ray.h"
+#include "render/core/view.h"
 
 namespace cityatlas::render {
 namespace {
@@ -53,13 +54,6 @@ View lookAt(const Vec3d& eye, const Vec3d& target, double focal) {
     v.right = normalize(cross(v.forward, Vec3d{0, 0, 1}));
     v.up = cross(v.right, v.forward);
     return v;
-}
-
-double boxDistance(const Box3d& b, const Vec3d& p) {
-    const double dx = std::max({b.min.x - p.x, 0.0, p.x - b.max.x});
-    const double dy = std::max({b.min.y - p.y, 0.0, p.y - b.max.y});
-    const double dz = std::max({b.min.z - p.z, 0.0, p.z - b.max.z});
-    return std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
 struct Image {
@@ -159,7 +153,7 @@ protected:
             double lo = 0, hi = distance + length(box_.max - box_.min);
             for (int i = 0; i < 100; ++i) {
                 const double mid = 0.5 * (lo + hi);
-                (boxDistance(box_, centre + mid * dir) < distance ? lo : hi) = mid;
+                (distanceToBox(centre + mid * dir, box_) < distance ? lo : hi) = mid;
             }
             const Vec3d eye = centre + hi * dir;
             View v = lookAt(eye, centre, focal_);
