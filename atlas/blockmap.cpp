@@ -26,6 +26,13 @@ using format::BlockMap;
 using format::kBlockMapNone;
 
 // The grid over the triangles' box: corner on multiples of the cell side.
+// Embree's tree over the triangles' corners (the rays of passes 1 and 4).
+std::unique_ptr<RayCaster> casterOver(std::span<const Triangle> triangles) {
+    std::vector<std::array<Vec3d, 3>> corners(triangles.size());
+    for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
+    return RayCaster::build(corners);
+}
+
 // Cells along x and y of the grid aligned to multiples of cell_m from the
 // local origin that covers `box` (at least one each way).
 std::array<double, 2> gridSizeOver(const Box3d& box, double cell_m) {
@@ -455,9 +462,7 @@ Status buildBlockMap(std::span<const Triangle> triangles, const BlockMapParams& 
     *out = format::BlockMap{};
     if (triangles.empty()) return Status::Ok();
     if (Status s = placeGrid(triangles, params.cell_m, out); !s.ok()) return s;
-    std::vector<std::array<Vec3d, 3>> corners(triangles.size());
-    for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
-    const auto caster = RayCaster::build(corners);
+    const auto caster = casterOver(triangles);
     castCells(triangles, caster.get(), params.sample, params.keep_small, out);
     makeColumns(params, out);
     if (out->columns.size() > format::kBlockMapMaxColumns || out->wall_height > format::kBlockMapMaxWallHeight)
@@ -479,9 +484,7 @@ std::array<double, 2> blockMapGridSize(std::span<const Triangle> triangles, doub
 void colourBlockMap(std::span<const Triangle> triangles, const SurfaceTables& surfaces, BlockMap* bm,
                     BlockMapColourStats* stats) {
     if (triangles.empty() || bm->cells.empty()) return;
-    std::vector<std::array<Vec3d, 3>> corners(triangles.size());
-    for (size_t i = 0; i < triangles.size(); ++i) corners[i] = triangles[i].position_local;
-    const auto caster = RayCaster::build(corners);
+    const auto caster = casterOver(triangles);
     colourPlanes(triangles, *caster, surfaces, bm, stats);
 }
 

@@ -312,10 +312,10 @@ BlockMapEntry readBlockMap(const json& b, const std::string& w) {
     BlockMapEntry e;
     e.file = {uri(b, w), count(b, "bytes", w)};
     e.gpu_bytes = optCount(b, "gpu_bytes", w);
+    const json& grid = arrayMember(b, "grid", w);
+    const json& wall = arrayMember(b, "wall_px", w);
+    if (grid.size() != 2 || wall.size() != 2) fail(w + ": grid and wall_px are not two integers");
     for (size_t k = 0; k < 2; ++k) {
-        const json& grid = arrayMember(b, "grid", w);
-        const json& wall = arrayMember(b, "wall_px", w);
-        if (grid.size() != 2 || wall.size() != 2) fail(w + ": grid and wall_px are not two integers");
         e.grid[k] = integerOf(grid[k], "grid", w, 1, int64_t{1} << 24);
         e.wall_px[k] = integerOf(wall[k], "wall_px", w, 0, int64_t{1} << 24);
     }

@@ -1,10 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "tiles/blockmap_writer.h"
 
-#include <fstream>
-
-#include <fmt/format.h>
-
 #include "format/blockmap_file.h"
 
 namespace cityatlas::tiles {
@@ -25,20 +21,6 @@ uint64_t blockMapFileSize(const format::BlockMap& bm, bool coloured) {
         if (bm.wall_height > 0) walls.resize(format::bcBlockBytes(bm.wall_width, bm.wall_height, 3));
     }
     return format::encodeBlockMapFile(bm, roof, walls).size();
-}
-
-Status writeBlockMapFile(const std::filesystem::path& path, const format::BlockMap& bm, BcQuality quality) {
-    const std::vector<uint8_t> bytes = blockMapFileBytes(bm, quality);
-    const std::filesystem::path tmp = path.string() + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-        if (!f) return Status::Io(fmt::format("{}: cannot write", tmp.string()));
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) return Status::Io(fmt::format("{}: cannot rename into place: {}", path.string(), ec.message()));
-    return Status::Ok();
 }
 
 }  // namespace cityatlas::tiles

@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 /// \file
-/// Writing a BlockMap file (format/blockmap_file.h): the colour planes
-/// encoded as BC1 (texture_codec.h), the rest as the format says.
+/// A BlockMap file's bytes (format/blockmap_file.h): the colour planes
+/// encoded as BC1 (texture_codec.h), the rest as the format says. The build
+/// writes them with tiles::writeBytes (tiles/node_blockmaps.h).
 
-#include <filesystem>
+#include <cstdint>
+#include <vector>
 
-#include "core/status.h"
 #include "format/blockmap.h"
 #include "tiles/texture_codec.h"
 
@@ -18,7 +19,5 @@ std::vector<uint8_t> blockMapFileBytes(const format::BlockMap& blockmap, BcQuali
 /// without them, from the geometry planes alone: BC1's size depends on the
 /// image's size only.
 uint64_t blockMapFileSize(const format::BlockMap& blockmap, bool coloured);
-/// Writes them to `path` (through a temporary file and a rename).
-Status writeBlockMapFile(const std::filesystem::path& path, const format::BlockMap& blockmap, BcQuality quality);
 
 }  // namespace cityatlas::tiles
