@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // `cityatlas build`: city data -> a streamable tile folder, in one run:
 // read (ingest) -> atlas tree -> tiles, atomically, skipped when up to date.
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -46,6 +47,7 @@ struct BuildCliOptions {
     std::string originals = "needed";
     std::string split_originals = "off";
     std::string blockmaps = "off";           // --blockmaps off|complement
+    std::string blockmap_levels = "3";       // --blockmap-levels K|all
     std::string format = "native";          // native, 3dtiles or both
     std::string web_textures = "webp";
     tiles::Tiles3dParams tiles3d;
@@ -108,7 +110,8 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
                             t.draco.position_bits, t.draco.uv_bits, t.draco.speed, tiles::bcQualityName(t.bc_quality),
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
     if (t.split_originals) k.push_back("split_originals=on");
-    if (t.blockmaps != tiles::BlockMapMode::Off) k.push_back(fmt::format("blockmaps={}", tiles::blockMapModeName(t.blockmaps)));
+    if (t.blockmaps != tiles::BlockMapMode::Off)
+        k.push_back(fmt::format("blockmaps={} levels={}", tiles::blockMapModeName(t.blockmaps), t.blockmap_levels));
     for (const atlas::ComputedSpec& c : opt.computed_specs) k.push_back("computed=" + atlas::computedSpecJson(c).dump());
     if (opt.procedural_facades) k.push_back(fmt::format("procedural_facades=on/{}", opt.input.storey_height_m));
     if (opt.facades != "photo") k.push_back("facades=" + opt.facades);
@@ -200,6 +203,7 @@ struct BuildRecord {
     int web_quality = 90;  ///< --web-quality (Tiles3dParams::jpeg_quality)
     int position_bits = 14, uv_bits = 12;
     double position_error_mm = 2.0;
+    int blockmap_levels = -1;  ///< --blockmap-levels (-1: all)
     uint64_t features = 0, triangles = 0, textured_triangles = 0, textures = 0;
     double started_unix = 0;
     ordered_json shards;
@@ -226,6 +230,7 @@ BuildRecord recordOf(const BuildCliOptions& opt, const fs::path& target, const f
     r.position_bits = opt.tiles.draco.position_bits;
     r.uv_bits = opt.tiles.draco.uv_bits;
     r.position_error_mm = opt.position_error_mm;
+    r.blockmap_levels = opt.tiles.blockmap_levels;
     return r;
 }
 
@@ -360,7 +365,15 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                         {"atlas_psnr_db_min", ts.atlas_psnr_min_db},
                         {"atlas_psnr_db_mean", ts.atlas_psnr_mean_db},
                         {"atlas_files_exact", ts.atlas_files_exact}};
-    if (ts.blockmaps.tried)
+    if (ts.blockmaps.tried) {
+        ordered_json levels = ordered_json::array();
+        for (const tiles::BlockMapLevelStats& l : ts.blockmaps.levels)
+            levels.push_back({{"tried", l.tried},
+                              {"built", l.built},
+                              {"bytes", l.bytes},
+                              {"node_bytes", l.node_bytes},
+                              {"hausdorff_m_max", l.worst_hausdorff_m},
+                              {"features_missing", l.missing}});
         report["blockmaps"] = {{"nodes_tried", ts.blockmaps.tried},
                                {"built", ts.blockmaps.built},
                                {"declined_larger", ts.blockmaps.declined_bytes},
@@ -372,7 +385,10 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                                {"seconds_by_pass", {{"planes", ts.blockmaps.seconds_planes},
                                                     {"colours", ts.blockmaps.seconds_colours},
                                                     {"error", ts.blockmaps.seconds_error},
-                                                    {"encode", ts.blockmaps.seconds_encode}}}};
+                                                    {"encode", ts.blockmaps.seconds_encode}}},
+                               {"deepest_level", rec.blockmap_levels},
+                               {"by_level", std::move(levels)}};
+    }
     report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
     report["encoding"] = {{"bc_quality", rec.bc_quality},
                           {"atlas_mpix_per_s", ts.atlas_encode_mpix_per_s},
@@ -499,6 +515,17 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.blockmaps != "off" && opt.blockmaps != "complement")
         return cli::fail("build", Status::Usage(fmt::format("--blockmaps {}: expected off or complement", opt.blockmaps)));
     opt.tiles.blockmaps = opt.blockmaps == "complement" ? tiles::BlockMapMode::Complement : tiles::BlockMapMode::Off;
+    if (opt.blockmap_levels == "all") {
+        opt.tiles.blockmap_levels = -1;
+    } else {
+        int k = -1;
+        const char* end = opt.blockmap_levels.data() + opt.blockmap_levels.size();
+        if (std::from_chars(opt.blockmap_levels.data(), end, k).ptr != end || k < 0)
+            return cli::fail("build", Status::Usage(fmt::format(
+                                          "--blockmap-levels {}: expected a level (0 = the root only) or all",
+                                          opt.blockmap_levels)));
+        opt.tiles.blockmap_levels = k;
+    }
     if (opt.tiles.blockmaps != tiles::BlockMapMode::Off && (opt.slurm || !opt.computed.empty()))
         return cli::fail("build", Status::Usage("--blockmaps: not with --slurm or --computed yet (a sharded build does "
                                                 "not build BlockMaps yet)"));
@@ -1028,10 +1055,17 @@ RunFn addBuildCommand(CLI::App& app) {
                     "full, as prisms on a grid of the node's texel, with heights, bases, wall columns and colours, for "
                     "the far field (a building narrower than a cell takes a free cell, so the root's keeps what its "
                     "geometry leaves out); built top-down while "
-                    "one is no larger than the node's geometry and atlases or the node left buildings out. "
+                    "one is no larger than the node's geometry and atlases or the node left buildings out, down to "
+                    "--blockmap-levels. "
                     "cityatlas' own client does not draw them yet; other clients ignore them. One-process builds "
                     "only (at most --shard-triangles triangles) for now. off: none")
         ->default_val("off")
+        ->group(g);
+    cmd->add_option("--blockmap-levels", opt->blockmap_levels,
+                    "With --blockmaps: the deepest tree level that gets BlockMaps (0 = the root only), or all. Each "
+                    "level holds up to four times the BlockMaps of the one above, at about the same size each; where "
+                    "facades are small a BlockMap stays smaller than its node far down the tree")
+        ->default_val("3")
         ->group(g);
     cmd->add_option("--split-originals", opt->split_originals,
                     "on: an original of more than two atlases of texels (an orthophoto, a long facade) becomes "

@@ -109,6 +109,7 @@ struct TilesParams {
     /// BlockMaps for the far field (tiles/node_blockmaps.h): single-process
     /// builds only for now (a sharded build refuses them).
     BlockMapMode blockmaps = BlockMapMode::Off;
+    int blockmap_levels = kDefaultBlockMapLevels;  ///< the deepest level tried (-1: all)
 };
 
 struct TilesStepStats {

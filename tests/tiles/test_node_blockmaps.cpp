@@ -2,6 +2,7 @@
 // build --blockmaps complement in-process (tiles/node_blockmaps.h): which
 // nodes get a BlockMap, what the root's holds (B5: every building its
 // geometry leaves out), what tileset.json says of them, and inspect (B7).
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -102,18 +103,35 @@ TEST_F(BuiltBlockMaps, RootHoldsTheBuildingsItsGeometryDrops) {
     EXPECT_GE(present * 10, root.features_dropped.size() * 9) << "fewer than 90 % of the dropped buildings kept";
 }
 
-// The rule, top-down: a node has a BlockMap only below a node that has one;
-// each is no larger than its node or its node dropped buildings; the stats
-// account for every node tried.
+// The rule, top-down: a node has a BlockMap only below a node that has one,
+// down to the level cap (kDefaultBlockMapLevels); each is no larger than its
+// node or its node dropped buildings; the stats account for every node
+// tried, level by level.
 TEST_F(BuiltBlockMaps, NodesFollowTheRuleTopDown) {
     const NodeBlockMapStats& s = built_->stats.blockmaps;
     EXPECT_EQ(s.tried, s.built + s.declined_bytes + s.declined_grid);
+    std::vector<int> level(doc_->tiles.size(), 0);
+    for (const format::TileEntry& t : doc_->tiles)  // preorder: the parent first
+        if (t.parent >= 0) level[static_cast<size_t>(t.id)] = level[static_cast<size_t>(t.parent)] + 1;
+    ASSERT_GT(*std::max_element(level.begin(), level.end()), kDefaultBlockMapLevels) << "the town does not test the cap";
     uint64_t built = 0, bytes = 0, tried = 1;
+    std::vector<BlockMapLevelStats> by_level(s.levels.size());
+    if (!by_level.empty()) by_level[0].tried = 1;
     for (const format::TileEntry& t : doc_->tiles) {
         if (!t.blockmap) continue;
+        const int l = level[static_cast<size_t>(t.id)];
+        EXPECT_LE(l, kDefaultBlockMapLevels) << "node " << t.id;
         ++built;
         bytes += t.blockmap->file.bytes;
-        tried += t.children.size();
+        if (static_cast<size_t>(l) < by_level.size()) {
+            ++by_level[static_cast<size_t>(l)].built;
+            by_level[static_cast<size_t>(l)].bytes += t.blockmap->file.bytes;
+            by_level[static_cast<size_t>(l)].node_bytes += t.bytes;
+        }
+        if (l < kDefaultBlockMapLevels) {
+            tried += t.children.size();
+            if (static_cast<size_t>(l + 1) < by_level.size()) by_level[static_cast<size_t>(l + 1)].tried += t.children.size();
+        }
         if (t.parent >= 0) {
             EXPECT_TRUE(doc_->tiles[static_cast<size_t>(t.parent)].blockmap) << "node " << t.id;
         }
@@ -130,6 +148,13 @@ TEST_F(BuiltBlockMaps, NodesFollowTheRuleTopDown) {
     }
     EXPECT_EQ(built, s.built);
     EXPECT_EQ(tried, s.tried);
+    ASSERT_LE(s.levels.size(), static_cast<size_t>(kDefaultBlockMapLevels + 1));
+    for (size_t l = 0; l < s.levels.size(); ++l) {
+        EXPECT_EQ(s.levels[l].tried, by_level[l].tried) << "level " << l;
+        EXPECT_EQ(s.levels[l].built, by_level[l].built) << "level " << l;
+        EXPECT_EQ(s.levels[l].bytes, by_level[l].bytes) << "level " << l;
+        EXPECT_EQ(s.levels[l].node_bytes, by_level[l].node_bytes) << "level " << l;
+    }
     EXPECT_EQ(bytes, s.bytes);
     EXPECT_EQ(doc_->totals.bytes_blockmaps, s.bytes);
     EXPECT_EQ(doc_->build.blockmaps, "complement");
