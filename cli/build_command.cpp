@@ -373,7 +373,8 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                               {"bytes", l.bytes},
                               {"node_bytes", l.node_bytes},
                               {"hausdorff_m_max", l.worst_hausdorff_m},
-                              {"features_missing", l.missing}});
+                              {"features_missing", l.missing},
+                              {"seconds", l.seconds}});
         report["blockmaps"] = {{"nodes_tried", ts.blockmaps.tried},
                                {"built", ts.blockmaps.built},
                                {"declined_larger", ts.blockmaps.declined_bytes},

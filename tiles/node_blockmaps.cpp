@@ -177,12 +177,14 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
     std::vector<int32_t> level_nodes{0};
     uint64_t done = 0, queued = 1;
     for (int level = 0; !level_nodes.empty() && (max_level < 0 || level <= max_level); ++level) {
+        const auto level_start = std::chrono::steady_clock::now();
         std::vector<NodeOutcome> outcomes(level_nodes.size());
         tbb::parallel_for(size_t{0}, level_nodes.size(), [&](size_t k) {
             const auto id = static_cast<size_t>(level_nodes[k]);
             outcomes[k] = buildNodeBlockMap(tree, level_nodes[k], costs[id], by_feature, surfaces, quality, out_dir);
         });
         BlockMapLevelStats& ls = stats->levels.emplace_back();
+        ls.seconds = secondsSince(level_start);
         std::vector<int32_t> next;
         for (size_t k = 0; k < level_nodes.size(); ++k) {
             NodeOutcome& o = outcomes[k];

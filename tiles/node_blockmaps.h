@@ -74,6 +74,7 @@ struct BlockMapLevelStats {
     uint64_t node_bytes = 0;   ///< the geometry and atlases of the nodes that got one
     double worst_hausdorff_m = 0;
     uint64_t missing = 0;      ///< buildings no BlockMap of the level holds (features_missing)
+    double seconds = 0;        ///< wall time of the level
 };
 
 struct NodeBlockMapStats {
