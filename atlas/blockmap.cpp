@@ -302,13 +302,18 @@ public:
     SurfaceColours(std::span<const Triangle> triangles, const SurfaceTables& tables)
         // The process's shared cache: a private one destroyed while the pool's
         // threads keep their per-thread records of it crashes the next one made
-        // (two BlockMaps built one after another, build --blockmaps). destroy()
-        // of the shared cache only empties it.
+        // (two BlockMaps built one after another, build --blockmaps). It is
+        // set up once and never emptied here: the BlockMaps of one tree level
+        // are built at once, and destroy() (which empties the shared cache)
+        // or a new attribute under another's reads aborted OpenImageIO
+        // ("levelinfo: m_subimages.size() > subimage").
         : triangles_(triangles), tables_(tables), cache_(OIIO::ImageCache::create(true)) {
-        cache_->attribute("max_memory_MB", static_cast<float>(tables.cache_mb));
-        cache_->attribute("autotile", 0);
+        static std::once_flag configured;
+        std::call_once(configured, [&] {
+            cache_->attribute("max_memory_MB", static_cast<float>(tables.cache_mb));
+            cache_->attribute("autotile", 0);
+        });
     }
-    ~SurfaceColours() { OIIO::ImageCache::destroy(cache_); }
     SurfaceColours(const SurfaceColours&) = delete;
     SurfaceColours& operator=(const SurfaceColours&) = delete;
 
