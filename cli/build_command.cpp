@@ -1058,7 +1058,7 @@ RunFn addBuildCommand(CLI::App& app) {
                     "geometry leaves out); built top-down while "
                     "one is no larger than the node's geometry and atlases or the node left buildings out, down to "
                     "--blockmap-levels. "
-                    "cityatlas' own client does not draw them yet; other clients ignore them. One-process builds "
+                    "cityatlas render and view draw them from each node's distance on; other clients ignore them. One-process builds "
                     "only (at most --shard-triangles triangles) for now. off: none")
         ->default_val("off")
         ->group(g);

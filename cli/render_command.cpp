@@ -51,6 +51,7 @@ struct RenderCliOptions {
     std::string report;
     std::string mode = "atlas";
     std::string priority = "distance";
+    std::string blockmaps = "on";
     bool wait = false;
     double wait_timeout_s = 300;
     int every = 1;
@@ -152,7 +153,8 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"ideal_set_complete", wait_complete},
             {"upload_ms", r.upload_ms},
             {"uploads", r.uploads},
-            {"nodes_drawn", {{"atlas", r.nodes_atlas}, {"originals", r.nodes_originals}, {"coarse", r.nodes_coarse}}},
+            {"nodes_drawn",
+             {{"atlas", r.nodes_atlas}, {"originals", r.nodes_originals}, {"blockmap", r.nodes_blockmap}, {"coarse", r.nodes_coarse}}},
             {"draw_calls", r.draw_calls},
             {"texture_binds", r.texture_binds},
             {"triangles", r.triangles},
@@ -174,7 +176,7 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
             {"fading", r.fading},
             {"wasted_bytes", r.wasted_bytes},
             {"requests", {{"geometry", r.requests[0]}, {"atlas", r.requests[1]}, {"textures", r.requests[2]},
-                          {"computed", r.requests[3]}}},
+                          {"computed", r.requests[3]}, {"blockmap", r.requests[4]}}},
             {"computed_missing_draws", r.computed_missing_draws},
             {"gpu_bytes", r.gpu_bytes},
             {"bytes_loaded", r.bytes_loaded},
@@ -183,7 +185,8 @@ json frameJson(size_t i, const render::CameraSample& s, double wall_s, double wa
                             {"ideal_blocks_by_kind", {{"geometry", r.ideal_blocks_by_kind[0]},
                                                       {"atlas", r.ideal_blocks_by_kind[1]},
                                                       {"textures", r.ideal_blocks_by_kind[2]},
-                                                      {"computed", r.ideal_blocks_by_kind[3]}}},
+                                                      {"computed", r.ideal_blocks_by_kind[3]},
+                                                      {"blockmap", r.ideal_blocks_by_kind[4]}}},
                             {"ideal_missing", r.ideal_missing},
                             {"needed_missing", r.needed_missing},
                             {"ideal_cut_by_budget", r.ideal_cut}}},
@@ -296,6 +299,7 @@ int runRender(const RenderCliOptions& opt) {
     co.upload_ms_per_frame = opt.upload_ms;
     co.selection.tau = opt.tau;
     co.selection.priority = opt.priority == "view" ? render::PriorityMode::ViewWeighted : render::PriorityMode::Distance;
+    co.selection.blockmaps = opt.blockmaps == "on";
     co.mode = opt.mode == "original" ? render::TextureMode::Original
               : opt.mode == "dummy"  ? render::TextureMode::Dummy
                                      : render::TextureMode::AtlasTree;
@@ -514,7 +518,8 @@ int runRender(const RenderCliOptions& opt) {
                                 {"bytes", client->index().bytes_total},
                                 {"bytes_geometry", client->index().bytes_by_kind[0]},
                                 {"bytes_atlases", client->index().bytes_by_kind[1]},
-                                {"bytes_textures", client->index().bytes_by_kind[2]}}},
+                                {"bytes_textures", client->index().bytes_by_kind[2]},
+                                {"bytes_blockmaps", client->index().bytes_by_kind[4]}}},
                    {"summary", summary},
                    {"frames", frame_list}};
     if (!picks.empty()) report["picks"] = pick_list;
@@ -612,6 +617,10 @@ RunFn addRenderCommand(CLI::App& app) {
     cmd->add_option("--wait-timeout", opt->wait_timeout_s, "Seconds to wait for the root / an ideal set")->default_val(300);
     cmd->add_option("--tau", opt->tau, "Pixels per texel accepted (> 1: coarser, fewer loads)")->default_val(1.0)
         ->check(CLI::Range(0.1, 64.0));
+    cmd->add_option("--blockmaps", opt->blockmaps,
+                    "Draw the folder's BlockMaps (build --blockmaps) where a node's distance allows: on, or off (its geometry and atlases only)")
+        ->default_val("on")
+        ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--priority", opt->priority, "Order within a usage category: distance (the papers) or view "
                                                  "(cesium-native's distance x (1 - cos angle to the view direction))")
         ->default_val("distance")

@@ -36,6 +36,7 @@ struct ViewCliOptions {
     double tau = 1;
     std::string mode = "atlas";
     std::string priority = "distance";
+    std::string blockmaps = "on";
     bool no_vsync = false;
     int frames = 0;
     std::string computed;               // shown from the start; empty: the photo
@@ -78,6 +79,7 @@ int runView(const ViewCliOptions& opt) {
         opt.ram_budget_mb < 0 ? 2 * co.budget_bytes : static_cast<uint64_t>(opt.ram_budget_mb * 1024 * 1024);
     co.selection.tau = opt.tau;
     co.selection.priority = opt.priority == "view" ? render::PriorityMode::ViewWeighted : render::PriorityMode::Distance;
+    co.selection.blockmaps = opt.blockmaps == "on";
     co.mode = opt.mode == "original" ? render::TextureMode::Original
               : opt.mode == "dummy"  ? render::TextureMode::Dummy
                                      : render::TextureMode::AtlasTree;
@@ -232,7 +234,8 @@ int runView(const ViewCliOptions& opt) {
         ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
         ImGui::Begin("cityatlas");
         ImGui::Text("%.1f fps, frame %.1f ms", fps, rec.frame_ms);
-        ImGui::Text("nodes %u atlas, %u originals, %u coarse", rec.nodes_atlas, rec.nodes_originals, rec.nodes_coarse);
+        ImGui::Text("nodes %u atlas, %u originals, %u blockmap, %u coarse", rec.nodes_atlas, rec.nodes_originals,
+                    rec.nodes_blockmap, rec.nodes_coarse);
         ImGui::Text("texture binds %u, draw calls %u, %u triangles", rec.texture_binds, rec.draw_calls, rec.triangles);
         ImGui::Text("resident %s + %s bounds of %s (GPU %s)", humanBytes(rec.resident_bytes).c_str(),
                     humanBytes(rec.pinned_bytes).c_str(), humanBytes(rec.budget_bytes).c_str(), humanBytes(rec.gpu_bytes).c_str());
@@ -367,6 +370,10 @@ RunFn addViewCommand(CLI::App& app) {
     cmd->add_option("--tau", opt->tau, "Pixels per texel accepted")->default_val(1.0)->check(CLI::Range(0.1, 64.0));
     cmd->add_option("--mode", opt->mode, "atlas, original or dummy")->default_val("atlas")
         ->check(CLI::IsMember({"atlas", "original", "dummy"}));
+    cmd->add_option("--blockmaps", opt->blockmaps,
+                    "on or off: draw the folder's BlockMaps (build --blockmaps)")
+        ->default_val("on")
+        ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--priority", opt->priority, "distance or view")->default_val("distance")
         ->check(CLI::IsMember({"distance", "view"}));
     cmd->add_option("--computed", opt->computed,

@@ -103,6 +103,14 @@ TilesetIndex indexOf(const TilesetDocument& doc) {
                                                       l->computed[k].file.uri, l->computed[k].file.bytes});
         }
         for (const int64_t b : e.texture_blocks) n.texture_blocks.push_back(index.texture_block_ids[static_cast<size_t>(b)]);
+        if (e.blockmap) {
+            const BlockMapEntry& bm = *e.blockmap;
+            n.blockmap = addBlock(index, {BlockKind::BlockMap, n.id, -1, -1, bm.file.uri, bm.file.bytes});
+            n.blockmap_min_distance_m = bm.min_distance_m;
+            n.blockmap_bounds.extend(bm.origin);
+            n.blockmap_bounds.extend({bm.origin.x + static_cast<double>(bm.grid[0]) * bm.texel_m,
+                                      bm.origin.y + static_cast<double>(bm.grid[1]) * bm.texel_m, bm.z_top_m});
+        }
         index.depth = std::max(index.depth, n.level);
     }
     return index;
@@ -118,6 +126,7 @@ const char* blockKindName(BlockKind kind) {
         case BlockKind::Atlas: return "atlas";
         case BlockKind::Textures: return "textures";
         case BlockKind::Computed: return "computed";
+        case BlockKind::BlockMap: return "blockmap";
     }
     return "?";
 }

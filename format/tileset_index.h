@@ -10,9 +10,10 @@
 /// (geometry/<layer>/<node>.glb), a node layer's atlas (atlas/<layer>/<node>.dds)
 /// a texture block of leaves' original textures (textures/<k>.bin), and a
 /// node layer's computed texture (computed/<k>/<layer>/<node>.dds, BC4; issue
-/// 19). A node is drawable when the geometry and atlas of each of its layers
-/// are resident; computed textures draw where resident (the photo stands in
-/// until they are).
+/// 19) and a node's BlockMap (blockmap/<node>.bin, build --blockmaps; issue
+/// 20). A node is drawable when the geometry and atlas of each of its layers
+/// are resident, or, from its BlockMap's distance on, its BlockMap; computed
+/// textures draw where resident (the photo stands in until they are).
 
 #include <array>
 #include <cstdint>
@@ -29,16 +30,16 @@ namespace cityatlas::format {
 inline constexpr int kLayerCount = 2;  ///< 0: opaque (BC1 atlas), 1: alpha (BC3 atlas, blended)
 const char* layerName(int layer);      ///< "opaque", "alpha"
 
-enum class BlockKind : uint8_t { Geometry, Atlas, Textures, Computed };
-inline constexpr int kBlockKinds = 4;
-const char* blockKindName(BlockKind kind);  ///< "geometry", "atlas", "textures", "computed"
+enum class BlockKind : uint8_t { Geometry, Atlas, Textures, Computed, BlockMap };
+inline constexpr int kBlockKinds = 5;
+const char* blockKindName(BlockKind kind);  ///< "geometry", "atlas", "textures", "computed", "blockmap"
 
 using BlockId = uint32_t;  ///< index into TilesetIndex::blocks
 inline constexpr BlockId kNoBlock = std::numeric_limits<BlockId>::max();
 
 struct BlockInfo {
     BlockKind kind = BlockKind::Geometry;
-    int32_t node = -1;           ///< Geometry, Atlas: the node; Textures: -1
+    int32_t node = -1;           ///< Geometry, Atlas, Computed, BlockMap: the node; Textures: -1
     int layer = -1;              ///< Geometry, Atlas: 0 opaque, 1 alpha
     int32_t texture_block = -1;  ///< Textures: index of textures/<k>.bin; Computed: which computed texture
     std::string uri;             ///< relative to the folder / base URL
@@ -69,6 +70,12 @@ struct TileNode {
     std::array<NodeLayer, kLayerCount> layers;
     std::vector<BlockId> texture_blocks;  ///< leaves: the blocks holding their original textures
     uint64_t features = 0;
+    /// The node's BlockMap (kNoBlock: none), drawn instead of its geometry
+    /// from blockmap_min_distance_m on (scaled as min_distance_m is), over
+    /// blockmap_bounds (its buildings in full: may reach past `bounds`).
+    BlockId blockmap = kNoBlock;
+    double blockmap_min_distance_m = 0;
+    Box3d blockmap_bounds;
     bool leaf() const { return children.empty(); }
 };
 
@@ -119,7 +126,7 @@ struct TilesetIndex {
     std::optional<std::array<double, 16>> local_to_ecef;  ///< column-major; absent: no georeference
     std::string source_crs;
     uint64_t bytes_total = 0;          ///< every block
-    uint64_t bytes_by_kind[kBlockKinds] = {0, 0, 0, 0};  ///< indexed by BlockKind
+    uint64_t bytes_by_kind[kBlockKinds] = {0, 0, 0, 0, 0};  ///< indexed by BlockKind
     std::vector<std::string> computed;  ///< the computed textures' names (extras.cityatlas.computed)
     int depth = 0;                     ///< deepest level
 };

@@ -50,6 +50,8 @@ struct StreamingClient::Resident {
     std::vector<GpuMesh> meshes;        ///< per block (Geometry)
     std::vector<MeshData> cpu_meshes;   ///< per block (Geometry): positions, indices, feature ids for picking
     std::vector<GpuTexture> atlases;    ///< per block (Atlas, Computed)
+    std::vector<GpuBlockMap> blockmaps;             ///< per block (BlockMap)
+    std::vector<format::BlockMap> cpu_blockmaps;    ///< per block (BlockMap): what picking casts rays into (no colours)
     std::unordered_map<BlockId, std::vector<std::pair<int32_t, GpuTexture>>> textures;  ///< Textures blocks
     std::vector<const GpuTexture*> original;  ///< per tileset texture: resident or nullptr
     uint64_t gpu_bytes = 0;
@@ -97,6 +99,8 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
     c->resident_->meshes.resize(c->index_.blocks.size());
     c->resident_->cpu_meshes.resize(c->index_.blocks.size());
     c->resident_->atlases.resize(c->index_.blocks.size());
+    c->resident_->blockmaps.resize(c->index_.blocks.size());
+    c->resident_->cpu_blockmaps.resize(c->index_.blocks.size());
     c->resident_->original.assign(c->index_.textures.size(), nullptr);
     c->drawn_.assign(c->index_.blocks.size(), 0);
     c->texture_use_.assign(c->index_.blocks.size(), TextureUse{});
@@ -376,6 +380,24 @@ uint32_t StreamingClient::upload(double budget_ms, double* spent_ms) {
                     }
                     break;
                 }
+                case BlockKind::BlockMap: {
+                    if (!blockmap_pass_) blockmap_pass_ = BlockMapPass::create(&st);
+                    if (!blockmap_pass_) {
+                        ok = false;
+                        break;
+                    }
+                    format::BlockMap& bm = r.block.blockmap;
+                    GpuBlockMap g = blockmap_pass_->upload(bm, bm.roof, bm.walls, &st);
+                    ok = st.ok() && g.valid();
+                    if (ok) {
+                        resident_->gpu_bytes += g.gpu_bytes;
+                        resident_->blockmaps[r.id] = g;
+                        bm.roof = {};
+                        bm.walls = {};
+                        resident_->cpu_blockmaps[r.id] = std::move(bm);
+                    }
+                    break;
+                }
                 case BlockKind::Textures: {
                     std::vector<std::pair<int32_t, GpuTexture>>& list = resident_->textures[r.id];
                     for (const auto& [texture, data] : r.block.textures) {
@@ -437,6 +459,11 @@ void StreamingClient::release(BlockId id) {
         gl_->release(&r.meshes[id]);
         r.meshes[id] = GpuMesh{};
         r.cpu_meshes[id] = MeshData{};
+    }
+    if (r.blockmaps[id].valid()) {
+        r.gpu_bytes -= std::min(r.gpu_bytes, r.blockmaps[id].gpu_bytes);
+        blockmap_pass_->release(&r.blockmaps[id]);
+        r.cpu_blockmaps[id] = format::BlockMap{};
     }
     if (r.atlases[id].valid()) {
         r.gpu_bytes -= std::min(r.gpu_bytes, r.atlases[id].gpu_bytes);
@@ -566,6 +593,13 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     };
     auto drawItem = [&](const DrawItem& d) {
         const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
+        if (d.mode == DrawMode::BlockMap) {
+            // Drawn now (ray-cast, depth written): the meshes queued for
+            // endFrame are depth-tested against it.
+            drawn_[n.blockmap] = 1;
+            blockmap_pass_->draw(r.blockmaps[n.blockmap], camera);
+            return;
+        }
         for (const NodeLayer& l : n.layers) {
             if (!l.present) continue;
             drawn_[l.geometry] = 1;
@@ -617,13 +651,14 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
         gl_->setFade(in != fades.end() ? 1 : 0, in != fades.end() ? in->progress : 0.0F);
         rec.fading += in != fades.end() ? 1 : 0;
         drawItem(d);
-        (d.mode == DrawMode::Originals ? rec.nodes_originals : rec.nodes_atlas) += 1;
+        (d.mode == DrawMode::Originals  ? rec.nodes_originals
+         : d.mode == DrawMode::BlockMap ? rec.nodes_blockmap
+                                        : rec.nodes_atlas) += 1;
         rec.nodes_coarse += d.coarse ? 1 : 0;
         if (d.coarse && (rec.coarse_level_min < 0 || n.level < rec.coarse_level_min)) rec.coarse_level_min = n.level;
     }
     gl_->setFade(0, 0);
-    last_drawn_.clear();
-    for (const DrawItem& d : sel.draws) last_drawn_.push_back(d.node);
+    last_drawn_ = sel.draws;
     const FrameStats fs = gl_->endFrame();
     if (edges_.enabled && edge_target_ != nullptr)
         if (Status es = gl_->applyEdges(*edge_target_, edges_); !es.ok()) {
@@ -672,13 +707,18 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
 
 PickHit StreamingClient::pick(const Camera& camera, double px, double py) const {
     std::vector<PickMesh> meshes;
-    for (const int32_t node : last_drawn_) {
-        const TileNode& n = index_.nodes[static_cast<size_t>(node)];
+    std::vector<PickBlockMap> blockmaps;
+    for (const DrawItem& d : last_drawn_) {
+        const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
+        if (d.mode == DrawMode::BlockMap) {
+            if (manager_->resident(n.blockmap)) blockmaps.push_back({d.node, &resident_->cpu_blockmaps[n.blockmap]});
+            continue;
+        }
         for (const NodeLayer& l : n.layers)
             if (l.present && manager_->resident(l.geometry))
-                meshes.push_back({node, &resident_->cpu_meshes[l.geometry], n.centre});
+                meshes.push_back({d.node, &resident_->cpu_meshes[l.geometry], n.centre});
     }
-    return pickRay(camera.position, pixelRay(camera, px, py), meshes);
+    return pickRay(camera.position, pixelRay(camera, px, py), meshes, blockmaps);
 }
 
 Status StreamingClient::featureRecord(uint32_t feature, std::string* json_text) {

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "render/gl/blockmap_pass.h"
 #include "render/gl/edge_pass.h"
 #include "render/core/block_manager.h"
 #include "render/core/computed_ramp.h"
@@ -95,6 +96,7 @@ struct FrameRecord {
     double upload_ms = 0;
     uint32_t uploads = 0;
     uint32_t nodes_atlas = 0, nodes_originals = 0, nodes_coarse = 0;
+    uint32_t nodes_blockmap = 0;  ///< nodes drawn by their BlockMap (issue 20)
     int coarse_level_min = -1;   ///< the lowest level drawn coarse (its refinement not possible yet); -1: none
     uint32_t lens_occluders = 0; ///< buildings the lenses styled away from normal (occluders, or all but the solo one)
     std::vector<uint32_t> lens_occluder_ids;  ///< the occlusion lens's occluders, ascending (none listed with solo)
@@ -245,12 +247,13 @@ private:
     std::unique_ptr<Loader> loader_;
     std::unique_ptr<BlockManager> manager_;
     std::unique_ptr<GlRenderer> gl_;
+    std::unique_ptr<BlockMapPass> blockmap_pass_;  ///< made on the first BlockMap block
     EdgeStyle edges_;
     const OffscreenTarget* edge_target_ = nullptr;
     std::unique_ptr<Resident> resident_;
     std::vector<LoadResult> arrived_;  ///< finished loads waiting for their upload
     std::vector<std::string> errors_;
-    std::vector<int32_t> last_drawn_;                    ///< nodes of the last frame
+    std::vector<DrawItem> last_drawn_;                   ///< what the last frame drew
     std::map<size_t, std::string> feature_tables_;       ///< fetched tables by index
     std::vector<format::FeatureBoundsRecord> feature_bounds_;
     uint64_t pinned_bytes_ = 0;

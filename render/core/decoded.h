@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "format/blockmap.h"
 #include "render/core/tileset_index.h"
 
 namespace cityatlas::render {
@@ -56,6 +57,8 @@ struct DecodedBlock {
     CompressedTexture atlas;       ///< Atlas, Computed (BC4)
     /// Textures: (tileset texture index, texture) for every texture of the block.
     std::vector<std::pair<int32_t, CompressedTexture>> textures;
+    /// BlockMap: its planes, the distance plane computed and the colours decoded (sRGB RGB8).
+    format::BlockMap blockmap;
     uint64_t bytes_read = 0;       ///< bytes fetched (the file size)
 };
 

@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include "render/core/blockmap_ray.h"
+
 namespace cityatlas::render {
 
 Vec3d pixelRay(const Camera& camera, double px, double py) {
@@ -17,7 +19,8 @@ Vec3d pixelRay(const Camera& camera, double px, double py) {
     return normalized(forward + x * right + y * up);
 }
 
-PickHit pickRay(const Vec3d& origin, const Vec3d& dir, const std::vector<PickMesh>& meshes) {
+PickHit pickRay(const Vec3d& origin, const Vec3d& dir, const std::vector<PickMesh>& meshes,
+                const std::vector<PickBlockMap>& blockmaps) {
     PickHit best;
     for (const PickMesh& pm : meshes) {
         const MeshData& m = *pm.mesh;
@@ -46,6 +49,18 @@ PickHit pickRay(const Vec3d& origin, const Vec3d& dir, const std::vector<PickMes
             best.feature = m.feature_id.empty() ? 0 : m.feature_id[m.indices[t]];
             best.point = origin + d * dir;
         }
+    }
+    for (const PickBlockMap& pb : blockmaps) {
+        const format::BlockMap& bm = *pb.blockmap;
+        const BlockMapHit h = castBlockMapRay(bm, origin, dir);
+        if (!h.hit || (best.hit && h.t >= best.distance_m)) continue;
+        const format::BlockMapCell& cell = bm.cells[bm.index(h.x, h.y)];
+        if (!cell.occupied() || cell.feature >= bm.features.size()) continue;
+        best.hit = true;
+        best.distance_m = h.t;
+        best.node = pb.node;
+        best.feature = bm.features[cell.feature];
+        best.point = origin + h.t * dir;
     }
     return best;
 }

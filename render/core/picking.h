@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "format/blockmap.h"
 #include "render/core/decoded.h"
 #include "render/core/view.h"
 
@@ -24,6 +25,12 @@ struct PickMesh {
     Vec3d centre;
 };
 
+/// A BlockMap drawn in the frame (its grid in the local frame).
+struct PickBlockMap {
+    int32_t node = -1;
+    const format::BlockMap* blockmap = nullptr;
+};
+
 struct PickHit {
     bool hit = false;
     double distance_m = 0;
@@ -32,7 +39,10 @@ struct PickHit {
     Vec3d point;
 };
 
-/// The nearest triangle hit by the ray (Moller-Trumbore in double; both faces).
-PickHit pickRay(const Vec3d& origin, const Vec3d& direction, const std::vector<PickMesh>& meshes);
+/// The nearest triangle hit by the ray (Moller-Trumbore in double; both
+/// faces), or the nearest prism of a BlockMap (render/core/blockmap_ray.h,
+/// as its shader draws it) when that is nearer.
+PickHit pickRay(const Vec3d& origin, const Vec3d& direction, const std::vector<PickMesh>& meshes,
+                const std::vector<PickBlockMap>& blockmaps = {});
 
 }  // namespace cityatlas::render

@@ -39,6 +39,13 @@ void forEachNodeBlock(const TileNode& node, Fn&& fn, int computed = -1) {
     }
 }
 
+bool hasBlockMap(const TileNode& n, const SelectionParams& params) { return params.blockmaps && n.blockmap != kNoBlock; }
+
+// The node's BlockMap is what it is drawn by at distance d (scale: distanceScale).
+bool blockMapDistance(const TileNode& n, const SelectionParams& params, double d, double scale) {
+    return hasBlockMap(n, params) && d >= n.blockmap_min_distance_m * scale;
+}
+
 // A leaf's texture blocks with the box each is sampled over; false while
 // that is not known (a layer's geometry not decoded yet).
 bool leafBlockBoxes(const TileNode& n, const SelectionParams& params, std::vector<BlockBox>* out) {
@@ -124,11 +131,22 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         const TileNode& n = index.nodes[i];
         forEachNodeBlock(n, [&](BlockId b) { mark(b, Usage::Unused, key[i], n.level); }, params.computed);
         for (const BlockId b : n.texture_blocks) mark(b, Usage::Unused, key[i], n.level + 1);
+        if (n.blockmap != kNoBlock) mark(n.blockmap, Usage::Unused, key[i], n.level);
     }
 
     auto markNode = [&](int32_t id, Usage usage) {
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
         forEachNodeBlock(n, [&](BlockId b) { mark(b, usage, key[static_cast<size_t>(id)], n.level); }, params.computed);
+    };
+    // What stands for a node that is not drawn by its own atlas at this
+    // distance (a fallback on the path, or the next step prefetched): its
+    // BlockMap where it has one, else its geometry and atlas.
+    auto markStandIn = [&](int32_t id, Usage usage) {
+        const TileNode& n = index.nodes[static_cast<size_t>(id)];
+        if (hasBlockMap(n, params))
+            mark(n.blockmap, usage, key[static_cast<size_t>(id)], n.level);
+        else
+            markNode(id, usage);
     };
     // A leaf's originals: where it is known which blocks its triangles
     // sample where, each block by its own box (`prefetch_only`: the leaf is
@@ -155,9 +173,24 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         const int32_t id = stack.back();
         stack.pop_back();
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
-        markNode(id, Usage::Needed);
         ++c.nodes_needed;
-        const bool sharp = distance[static_cast<size_t>(id)] >= n.min_distance_m * scale;
+        const double d = distance[static_cast<size_t>(id)];
+        const bool sharp = d >= n.min_distance_m * scale;
+        if (blockMapDistance(n, params, d, scale)) {
+            // Drawn by its BlockMap: the next step is prefetched as it would be drawn.
+            mark(n.blockmap, Usage::Needed, key[static_cast<size_t>(id)], n.level);
+            for (const int32_t ch : n.children) {
+                markStandIn(ch, Usage::ParentNeeded);
+                ++c.nodes_parent_needed;
+            }
+            continue;
+        }
+        // An inner node refined past keeps its BlockMap as the fallback; a
+        // leaf is drawn with its own geometry whatever its distance.
+        if (sharp || n.leaf())
+            markNode(id, Usage::Needed);
+        else
+            markStandIn(id, Usage::Needed);
         if (sharp) {
             // Drawn with its own atlas: the next refinement step is prefetched.
             // A leaf's next step is its originals, one octave of distance
@@ -170,7 +203,7 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
                     markTextures(id, Usage::ParentNeeded, true);
             } else {
                 for (const int32_t ch : n.children) {
-                    markNode(ch, Usage::ParentNeeded);
+                    markStandIn(ch, Usage::ParentNeeded);
                     ++c.nodes_parent_needed;
                 }
             }
@@ -185,7 +218,7 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
             (outsideFrustum(frustum, index.nodes[static_cast<size_t>(ch)].bounds) ? culled : visible).push_back(ch);
         if (!visible.empty()) {
             for (const int32_t ch : culled) {
-                markNode(ch, Usage::Culled);
+                markStandIn(ch, Usage::Culled);
                 ++c.nodes_culled;
             }
         }
@@ -201,6 +234,9 @@ void orderCandidates(const TilesetIndex& index, Classification* c) {
     if (index.nodes.empty()) return;
     std::vector<BlockId> root_blocks;
     forEachNodeBlock(index.nodes[0], [&](BlockId b) { root_blocks.push_back(b); });
+    // The root's BlockMap where the selection uses it (Unused: BlockMaps off).
+    if (const BlockId b = index.nodes[0].blockmap; b != kNoBlock && c->priority[b].usage != Usage::Unused)
+        root_blocks.push_back(b);
     std::sort(root_blocks.begin(), root_blocks.end());
     for (BlockId b = 0; b < index.blocks.size(); ++b)
         if (c->priority[b].usage != Usage::Unused && !std::binary_search(root_blocks.begin(), root_blocks.end(), b))
@@ -217,14 +253,15 @@ bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<b
 }
 
 bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& frustum,
-                        const std::function<bool(BlockId)>& resident) {
+                        const std::function<bool(BlockId)>& resident, bool blockmaps) {
     const TileNode& n = index.nodes[static_cast<size_t>(node)];
     if (n.leaf()) {
         return std::all_of(n.texture_blocks.begin(), n.texture_blocks.end(), [&](BlockId b) { return resident(b); });
     }
     for (const int32_t ch : n.children) {
-        if (!nodeDrawable(index, ch, resident) && !outsideFrustum(frustum, index.nodes[static_cast<size_t>(ch)].bounds))
-            return false;
+        const TileNode& c = index.nodes[static_cast<size_t>(ch)];
+        if (blockmaps && c.blockmap != kNoBlock && resident(c.blockmap)) continue;
+        if (!nodeDrawable(index, ch, resident) && !outsideFrustum(frustum, c.bounds)) return false;
     }
     return true;
 }
@@ -237,7 +274,7 @@ bool leafRefinementPossible(const TilesetIndex& index, const TileNode& n, const 
                             double threshold, const SelectionParams& params,
                             const std::function<bool(BlockId)>& resident) {
     std::vector<BlockBox> boxes;
-    if (!leafBlockBoxes(n, params, &boxes)) return refinementPossible(index, n.id, frustum, resident);
+    if (!leafBlockBoxes(n, params, &boxes)) return refinementPossible(index, n.id, frustum, resident, params.blockmaps);
     return std::all_of(boxes.begin(), boxes.end(), [&](const BlockBox& bb) {
         double d = 0;
         return blockUse(bb.bounds, frustum, eye, threshold, &d) != Usage::Needed || resident(bb.block);
@@ -249,13 +286,22 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
                       const std::function<bool(BlockId)>& resident) {
     Selection s;
     if (index.nodes.empty()) return s;
-    if (!nodeDrawable(index, 0, resident)) {
+    const auto blockMapResident = [&](const TileNode& n) { return hasBlockMap(n, params) && resident(n.blockmap); };
+    if (!nodeDrawable(index, 0, resident) && !blockMapResident(index.nodes[0])) {
         s.root_missing = true;
         return s;
     }
     const Frustum frustum = frustumOf(camera);
     const double scale = distanceScale(index.build, camera, params);
     s.nearest_m = 1e300;
+    auto emit = [&](const TileNode& n, DrawMode mode, bool coarse, double d) {
+        s.draws.push_back({n.id, mode, coarse, d});
+        s.coarse_draws += coarse ? 1 : 0;
+        // A BlockMap holds its buildings in full: its box may reach past the node's.
+        const Box3d& box = mode == DrawMode::BlockMap ? n.blockmap_bounds : n.bounds;
+        s.nearest_m = std::min(s.nearest_m, distanceToBox(camera.position, box));
+        s.farthest_m = std::max(s.farthest_m, farthestCorner(camera.position, box));
+    };
     std::vector<int32_t> stack{0};
     while (!stack.empty()) {
         const int32_t id = stack.back();
@@ -267,6 +313,10 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
             continue;
         }
         const double d = distanceToBox(camera.position, n.bounds);
+        if (blockMapDistance(n, params, d, scale) && resident(n.blockmap)) {
+            emit(n, DrawMode::BlockMap, false, d);
+            continue;
+        }
         bool use_atlas = d >= n.min_distance_m * scale;
         bool coarse = false;
         // The atlas is the finest there is: originals off, or none listed (it holds every texture exactly).
@@ -274,17 +324,19 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
         const auto possible = [&] {
             return n.leaf() ? leafRefinementPossible(index, n, frustum, camera.position, n.min_distance_m * scale,
                                                      params, resident)
-                            : refinementPossible(index, id, frustum, resident);
+                            : refinementPossible(index, id, frustum, resident, params.blockmaps);
         };
         if (!use_atlas && !possible()) {
             use_atlas = true;
             coarse = true;
         }
         if (use_atlas || n.leaf()) {
-            s.draws.push_back({id, use_atlas ? DrawMode::Atlas : DrawMode::Originals, coarse, d});
-            s.coarse_draws += coarse ? 1 : 0;
-            s.nearest_m = std::min(s.nearest_m, d);
-            s.farthest_m = std::max(s.farthest_m, farthestCorner(camera.position, n.bounds));
+            // Drawable by its BlockMap alone (its parent counted on that): the
+            // BlockMap, coarse when the camera is closer than its distance.
+            if (!nodeDrawable(index, id, resident) && blockMapResident(n))
+                emit(n, DrawMode::BlockMap, !blockMapDistance(n, params, d, scale), d);
+            else
+                emit(n, use_atlas ? DrawMode::Atlas : DrawMode::Originals, coarse, d);
             continue;
         }
         for (auto it = n.children.rbegin(); it != n.children.rend(); ++it) stack.push_back(*it);

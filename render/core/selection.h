@@ -12,6 +12,15 @@
 ///   possible (every child in the frustum drawable; for a leaf, its original
 ///   textures resident), so every visible triangle always has some texture.
 ///
+/// BlockMaps (issue 20; ../shared/SEED-FEATURES.md §1.2 "Client selection"):
+/// a node with one is drawn by it from its distance on, when resident, and
+/// its subtree is not visited; its geometry and atlas stand in while it is
+/// not. Its BlockMap is what the as-if-loaded traversal needs of it there,
+/// and what it prefetches of its children (theirs, or their geometry and
+/// atlases where they have none); a node refined past keeps its BlockMap
+/// (rather than its geometry) resident as the fallback. The root's BlockMap
+/// is pinned with the root's other blocks.
+///
 /// The selection threshold: a node's atlas is sharp enough at camera distance
 /// d when d >= min_distance_m * scale, scale = (f * c) / (f_b * c_b) * tau_b / tau,
 /// where f is the viewport's focal length in pixels and c its corner factor
@@ -68,6 +77,11 @@ struct SelectionParams {
     /// Drawability does not wait for them: a node draws with the photo
     /// until its computed block is resident.
     int computed = -1;
+    /// Draw a node's BlockMap (TileNode::blockmap) from its distance on,
+    /// instead of its geometry and atlas (issue 20): the BlockMap is then the
+    /// block Needed, and a node whose geometry is not resident is drawable by
+    /// its BlockMap (coarse when closer than its distance).
+    bool blockmaps = true;
 };
 
 /// min_distance_m multiplier for this viewport (see the file comment).
@@ -103,12 +117,15 @@ void orderCandidates(const TilesetIndex& index, Classification* c);
 bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident);
 
 /// Fig. 30's refinementPossible: an inner node's children are each drawable
-/// or outside the frustum; a leaf's original textures are all resident
-/// (selectDraws asks only for those its camera sees, SelectionParams::texture_use).
+/// (nodeDrawable, or with `blockmaps` their BlockMap resident) or outside the
+/// frustum; a leaf's original textures are all resident (selectDraws asks
+/// only for those its camera sees, SelectionParams::texture_use).
 bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& frustum,
-                        const std::function<bool(BlockId)>& resident);
+                        const std::function<bool(BlockId)>& resident, bool blockmaps = false);
 
-enum class DrawMode : uint8_t { Atlas, Originals };
+/// Atlas: the node's geometry with its atlas; Originals: a leaf's geometry
+/// with its original textures; BlockMap: the node's BlockMap, ray-cast.
+enum class DrawMode : uint8_t { Atlas, Originals, BlockMap };
 
 struct DrawItem {
     int32_t node = 0;

@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "format/blockmap_file.h"
+
 #include "format/glb_reader.h"
 #include "format/dds.h"
 
@@ -132,6 +134,16 @@ Status decodeBlock(const TilesetIndex& index, BlockId id, const std::vector<uint
                     return Status::Invalid(fmt::format("{}: texture {} at byte {}: {}", info.uri, t, ti.offset, st.error));
                 out->textures.emplace_back(static_cast<int32_t>(t), std::move(tex));
             }
+            return Status::Ok();
+        }
+        case BlockKind::BlockMap: {
+            if (Status st = format::decodeBlockMapFile(bytes, info.uri, &out->blockmap); !st.ok()) return st;
+            // Its ids reach the id buffer and the lenses' per-building tables.
+            for (size_t k = 0; k < out->blockmap.features.size(); ++k)
+                if (out->blockmap.features[k] >= index.feature_count)
+                    return Status::Invalid(fmt::format("{}: building {} of {} has id {}, the folder has {} buildings",
+                                                       info.uri, k, out->blockmap.features.size(),
+                                                       out->blockmap.features[k], index.feature_count));
             return Status::Ok();
         }
     }

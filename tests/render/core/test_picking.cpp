@@ -65,5 +65,44 @@ TEST(Picking, NearestBuildingWinsAtAnyMagnitude) {
     }
 }
 
+// A BlockMap drawn in the frame is picked as its shader draws it (the
+// traversal of render/core/blockmap_ray.h): a 3 x 3 grid of 2 m cells at
+// (10, 20), one building of scene id 77 in the middle cell, 6 m high. A ray
+// straight down through the cell's centre hits its roof 44 m below the eye;
+// a triangle nearer on the same ray wins; a ray beside the building misses.
+TEST(Picking, BlockMapPixelsNameTheirBuilding) {
+    format::BlockMap bm;
+    bm.nx = bm.ny = 3;
+    bm.cell_m = 2;
+    bm.origin = {10, 20, 0};
+    bm.z_hi = 6;
+    bm.cells.resize(9);
+    bm.cells[bm.index(1, 1)] = {65535, 0, 0, format::kBlockMapNone};
+    bm.features = {77};
+    bm.dist = format::chebyshevDistances(bm);
+    const std::vector<PickBlockMap> blockmaps{{3, &bm}};
+    PickHit h = pickRay({13, 23, 50}, {0, 0, -1}, {}, blockmaps);
+    ASSERT_TRUE(h.hit);
+    EXPECT_EQ(h.feature, 77u);
+    EXPECT_EQ(h.node, 3);
+    EXPECT_NEAR(h.distance_m, 44.0, 1e-9);
+    EXPECT_NEAR(h.point.z, 6.0, 1e-9);
+    // A wall: from the side at 3 m height, the prism's west face at x = 12.
+    h = pickRay({0, 23, 3}, {1, 0, 0}, {}, blockmaps);
+    ASSERT_TRUE(h.hit);
+    EXPECT_NEAR(h.distance_m, 12.0, 1e-9);
+    EXPECT_FALSE(pickRay({11, 21, 50}, {0, 0, -1}, {}, blockmaps).hit);
+    // A triangle at z = 8 over the building, nearer: it wins.
+    MeshData m;
+    m.positions = {-10, -10, 0, 10, -10, 0, 0, 10, 0};
+    m.indices = {0, 1, 2};
+    m.feature_id = {5, 5, 5};
+    const std::vector<PickMesh> meshes{{1, &m, {13, 23, 8}}};
+    h = pickRay({13, 23, 50}, {0, 0, -1}, meshes, blockmaps);
+    ASSERT_TRUE(h.hit);
+    EXPECT_EQ(h.feature, 5u);
+    EXPECT_NEAR(h.distance_m, 42.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace cityatlas::render

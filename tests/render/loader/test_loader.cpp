@@ -238,6 +238,53 @@ TEST(BlockDecoder, EveryBlockOfATownDecodes) {
     EXPECT_EQ(textures_seen, written);
 }
 
+// A folder with BlockMaps: the index lists each as a block of its node (its
+// box holds the node's, its distance the node's), and each decodes; a file
+// naming a building the folder does not have is refused in one line naming it
+// (its ids reach the id buffer and the lenses' per-building tables).
+TEST(BlockDecoder, BlockMapsAreBlocksOfTheirNodesAndDecode) {
+    const test::BuiltTown& town = test::builtTownWithBlockMaps();
+    TilesetIndex ix;
+    ASSERT_TRUE(parseTilesetIndex(town.text, "tileset.json", &ix).ok());
+    const TileNode& root = ix.nodes[0];
+    ASSERT_NE(root.blockmap, kNoBlock) << "the root has no BlockMap";
+    uint64_t bytes = 0;
+    size_t count = 0;
+    for (const TileNode& n : ix.nodes) {
+        if (n.blockmap == kNoBlock) continue;
+        ++count;
+        const BlockInfo& info = ix.blocks[n.blockmap];
+        EXPECT_EQ(info.kind, BlockKind::BlockMap);
+        EXPECT_EQ(info.node, n.id);
+        EXPECT_EQ(info.uri, "blockmap/" + std::to_string(n.id) + ".bin");
+        EXPECT_EQ(n.blockmap_min_distance_m, n.min_distance_m);
+        EXPECT_LE(n.blockmap_bounds.min.x, n.bounds.min.x + 1e-9);
+        EXPECT_LE(n.blockmap_bounds.min.y, n.bounds.min.y + 1e-9);
+        EXPECT_GE(n.blockmap_bounds.max.x, n.bounds.max.x - 1e-9);
+        EXPECT_GE(n.blockmap_bounds.max.y, n.bounds.max.y - 1e-9);
+        bytes += info.bytes;
+        DecodedBlock d;
+        const Status st = decodeBlock(ix, n.blockmap, readBytes(town.dir / "tiles" / info.uri), &d);
+        ASSERT_TRUE(st.ok()) << st.error;
+        EXPECT_EQ(d.kind, BlockKind::BlockMap);
+        // Its box as the index has it.
+        EXPECT_NEAR(d.blockmap.origin.x, n.blockmap_bounds.min.x, 1e-9);
+        EXPECT_NEAR(d.blockmap.origin.x + d.blockmap.nx * d.blockmap.cell_m, n.blockmap_bounds.max.x, 1e-6);
+        EXPECT_NEAR(d.blockmap.z_hi, n.blockmap_bounds.max.z, 1e-9);
+        EXPECT_FALSE(d.blockmap.roof.empty());
+    }
+    EXPECT_EQ(ix.bytes_by_kind[static_cast<int>(BlockKind::BlockMap)], bytes);
+    std::printf("%zu BlockMap block(s), %llu bytes\n", count, static_cast<unsigned long long>(bytes));
+    // A folder claiming fewer buildings than the BlockMap names.
+    TilesetIndex fewer = ix;
+    fewer.feature_count = 1;
+    DecodedBlock d;
+    const Status st = decodeBlock(fewer, root.blockmap, readBytes(town.dir / "tiles" / ix.blocks[root.blockmap].uri), &d);
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error.find("blockmap/0.bin"), std::string::npos) << st.error;
+    EXPECT_NE(st.error.find("the folder has 1 buildings"), std::string::npos) << st.error;
+}
+
 TEST(BlockDecoder, DamagedBytesAreRefusedNamingTheFile) {
     const TilesetIndex& ix = townIndex();
     const NodeLayer& root = ix.nodes[0].layers[0];

@@ -1,0 +1,142 @@
+# The client draws BlockMaps (issue 20 item 3) along the default path, headless
+# on llvmpipe, against the same folder drawn with original textures only
+# (--mode original, no BlockMap):
+#  1. mixed frames: BlockMaps and geometry in one frame (the report counts
+#     both), PSNR >= 28 dB in every frame (../shared/SEED-FEATURES.md §1.3
+#     item 5), and no hole wider than the BlockMap's bound: a BlockMap cell
+#     covers at most one pixel from its distance on, so a gap between two
+#     buildings narrower than a cell may show as a one-pixel slit (centre
+#     sampling, the default; reported), but no pixel of the reference's
+#     facades may show the clear colour with clear colour all around it;
+#  2. every building with >= 2 px in a reference frame's id buffer is in the
+#     BlockMap frame's id buffer (§1.3 item 6);
+#  3. picking on BlockMap pixels: the CPU ray cast (render/core/picking.h,
+#     through the BlockMap traversal) names the id buffer's building;
+#  4. --blockmaps off draws none and loads none; a folder without BlockMaps
+#     renders as before.
+source "$(dirname "$0")/lib.sh" "$@"
+[ -n "${IMAGE_COMPARE:-}" ] || fail "IMAGE_COMPARE is not set"
+CLEAR="196,218,243"  # the clear colour (linear 0.55, 0.70, 0.90) as sRGB bytes
+SIZE=480x270
+FRAMES=6  # at 2 fps the first four frames mix BlockMaps and leaves
+
+"$CITYATLAS" synth -q --buildings 600 --seed 5 --texture-size 64 -o town > /dev/null
+"$CITYATLAS" build -q town/town.gml -o tiles --blockmaps complement --originals all > /dev/null
+built=$(json tiles/build_report.json "j['blockmaps']['built']")
+[ "$built" -ge 2 ] || fail "only $built BlockMap(s): the town does not test mixing"
+
+"$CITYATLAS" render tiles --size $SIZE --wait --frames $FRAMES --fps 2 --ids --anisotropy 1 -o bm -q
+"$CITYATLAS" render tiles --size $SIZE --wait --frames $FRAMES --fps 2 --ids --anisotropy 1 --mode original --budget 4G -o ref -q
+"$PY" -c "import json,jsonschema,sys; jsonschema.validate(json.load(open('bm/report.json')), json.load(open(sys.argv[1])), cls=jsonschema.Draft7Validator)" \
+  "$SRC/schemas/render_report.schema.json" || fail "report.json does not match its schema"
+mixed=$(json bm/report.json "sum(1 for f in j['frames'] if f['nodes_drawn']['blockmap'] > 0 and f['nodes_drawn']['atlas'] + f['nodes_drawn']['originals'] > 0)")
+[ "$mixed" -ge 3 ] || fail "only $mixed frames mix BlockMaps and geometry"
+check_eq "frames without the root" 0 "$(json bm/report.json "j['summary']['frames_root_missing']")"
+check_eq "errors" 0 "$(json bm/report.json "j['summary']['errors']")"
+
+# 1. PSNR frame by frame (image_compare), holes by width.
+psnr_min=99
+for f in ref/frame_*.png; do
+  name=$(basename "$f")
+  r=$("$IMAGE_COMPARE" "bm/$name" "$f" "$CLEAR")
+  psnr=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$r")
+  covered=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['reference_covered'])" "$r")
+  [ "$covered" -gt 1000 ] || fail "$name: the reference shows almost nothing ($covered pixels)"
+  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "$name: PSNR $psnr dB < 28 dB"
+  psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
+done
+"$PY" - "$CLEAR" <<'PY' || fail "holes wider than the BlockMap's bound"
+import sys, glob, os
+import numpy as np
+from PIL import Image
+clear = np.array([int(v) for v in sys.argv[1].split(",")])
+def isclear(path):
+    a = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    return (np.abs(a - clear) <= 2).all(-1)
+def all3x3(m):  # m and its 8 neighbours, inside the image
+    p = np.pad(m, 1, constant_values=False)
+    out = np.ones_like(m)
+    for dy in range(3):
+        for dx in range(3): out &= p[dy:dy + m.shape[0], dx:dx + m.shape[1]]
+    return out
+slits = wide = 0
+for ref in sorted(glob.glob("ref/frame_*.png")):
+    t, r = isclear(os.path.join("bm", os.path.basename(ref))), isclear(ref)
+    interior = t & all3x3(~r)          # image_compare's interior holes
+    w = interior & all3x3(t)           # ... with nothing drawn around them either
+    slits += int(interior.sum()) - int(w.sum()); wide += int(w.sum())
+    if w.any():
+        y, x = np.argwhere(w)[0]
+        print(f"{ref}: {int(w.sum())} hole pixels wider than a pixel, e.g. at ({x}, {y})")
+print(f"ok: no hole wider than a pixel; {slits} one-pixel slit pixel(s) between buildings closer than a cell")
+sys.exit(1 if wide else 0)
+PY
+echo "ok: $FRAMES frames ($mixed mixing BlockMaps and geometry): PSNR against the originals min $psnr_min dB"
+
+# 2. Every building of >= 2 px in the reference is drawn.
+"$PY" - "$SIZE" <<'PY' || fail "buildings missing from BlockMap frames"
+import sys, glob, os
+import numpy as np
+w, h = map(int, sys.argv[1].split("x"))
+none = 0xFFFFFFFF
+worst = 0
+for ref in sorted(glob.glob("ref/ids_*.bin")):
+    a = np.fromfile(ref, dtype="<u4"); b = np.fromfile(os.path.join("bm", os.path.basename(ref)), dtype="<u4")
+    ids, counts = np.unique(a[a != none], return_counts=True)
+    want = set(ids[counts >= 2].tolist())
+    missing = want - set(np.unique(b[b != none]).tolist())
+    if missing:
+        print(f"{ref}: {len(missing)} of {len(want)} buildings of >= 2 px missing, e.g. {sorted(missing)[:5]}")
+        sys.exit(1)
+    worst = max(worst, len(want))
+print(f"ok: every building of >= 2 px in the reference frames is drawn (up to {worst} a frame)")
+PY
+
+# 3. Picking on BlockMap pixels: just past the root's BlockMap distance (a
+# quarter of the build's: this screen's focal length is a quarter of the
+# build screen's), so the root's BlockMap alone is drawn, picks at building
+# pixels of the id buffer.
+"$PY" - <<'PY'
+import json, math
+t = json.load(open("tiles/tileset.json"))
+b = t["root"]["boundingVolume"]["box"]; c = b[:3]
+radius = math.sqrt(b[3] ** 2 + b[7] ** 2 + b[11] ** 2)  # the box's half diagonal: any box distance is at least d - radius
+d = radius + 0.3 * t["root"]["extras"]["cityatlas"]["min_distance_m"]
+u = [-0.6, -0.6, 0.53]; n = math.sqrt(sum(v * v for v in u))
+eye = [c[k] + d * u[k] / n for k in range(3)]
+keys = [{"time_s": 0, "position": eye, "look_at": c, "label": "far"}, {"time_s": 1, "position": eye, "look_at": c, "label": "far"}]
+json.dump({"interpolation": "linear", "frame_rate": 1, "keyframes": keys}, open("far.json", "w"))
+PY
+"$CITYATLAS" render tiles --path far.json --size $SIZE --wait --frames 1 --ids --anisotropy 1 -o far -q
+check_eq "the far frame: nodes drawn (atlas, originals, blockmap)" "0 0 1" "$(json far/report.json "' '.join(str(j['frames'][0]['nodes_drawn'][k]) for k in ('atlas', 'originals', 'blockmap'))")"
+"$PY" - "$SIZE" <<'PY'
+import sys, json
+import numpy as np
+w, h = map(int, sys.argv[1].split("x"))
+ids = np.fromfile("far/ids_00000.bin", dtype="<u4").reshape(h, w)
+picks = []
+# Pixels whose four neighbours show the same building (buildings are a few
+# pixels wide here): a pick at the pixel centre is not at an edge.
+for y in range(1, h - 1):
+    for x in range(1, w - 1):
+        v = ids[y, x]
+        if v != 0xFFFFFFFF and ids[y - 1, x] == v and ids[y + 1, x] == v and ids[y, x - 1] == v and ids[y, x + 1] == v:
+            picks.append([x + 0.5, y + 0.5])
+picks = picks[::max(1, len(picks) // 40)][:40]
+assert len(picks) >= 10, f"only {len(picks)} pixels to pick"
+json.dump(picks, open("picks.json", "w"))
+PY
+"$CITYATLAS" render tiles --path far.json --size $SIZE --wait --frames 1 --ids --anisotropy 1 --picks picks.json -o picked -q
+"$PY" - <<'PY' || fail "picking disagrees with the id buffer on BlockMap pixels"
+import json
+p = json.load(open("picked/report.json"))["picks"]
+agree = sum(1 for q in p if q.get("feature") is not None and q["feature"] == q.get("id_buffer"))
+print(f"ok: {agree} of {len(p)} picks on the root's BlockMap name the id buffer's building")
+assert agree == len(p), [q for q in p if q.get("feature") != q.get("id_buffer")][:3]
+PY
+
+# 4. Off: no BlockMap drawn or loaded.
+"$CITYATLAS" render tiles --size $SIZE --wait --frames 4 --fps 2 --anisotropy 1 --blockmaps off -o off -q
+check_eq "--blockmaps off: BlockMaps drawn" 0 "$(json off/report.json "sum(f['nodes_drawn']['blockmap'] for f in j['frames'])")"
+check_eq "--blockmaps off: BlockMaps requested" 0 "$(json off/report.json "sum(f['requests']['blockmap'] for f in j['frames'])")"
+echo "ok: --blockmaps off draws and loads none"
