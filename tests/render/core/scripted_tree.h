@@ -122,4 +122,24 @@ inline std::vector<ScriptedNode> quadtree(int depth, double size, double height,
     return script;
 }
 
+/// test_selection's tree: root [0,400] x [0,100] x [0,20] (min distance
+/// 1000), four children 100 m wide along x (100), each with four leaves 25 m
+/// wide (25, a texture block each). Node ids in preorder: root 0; c0 1
+/// (leaves 2-5), c1 6 (7-10), c2 11 (12-15), c3 16 (17-20).
+inline std::vector<ScriptedNode> rowTree() {
+    std::vector<ScriptedNode> s;
+    s.push_back({box(0, 0, 0, 400, 100, 20), 1000, {}, false});
+    for (int c = 0; c < 4; ++c) {
+        const int child = static_cast<int>(s.size());
+        s[0].children.push_back(child);
+        s.push_back({box(100.0 * c, 0, 0, 100.0 * (c + 1), 100, 20), 100, {}, false});
+        for (int l = 0; l < 4; ++l) {
+            s[static_cast<size_t>(child)].children.push_back(static_cast<int>(s.size()));
+            const double x0 = 100.0 * c + 25.0 * l;
+            s.push_back({box(x0, 0, 0, x0 + 25, 100, 20), 25, {}, true});
+        }
+    }
+    return s;
+}
+
 }  // namespace cityatlas::render::test

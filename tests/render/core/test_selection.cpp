@@ -32,22 +32,7 @@ namespace cityatlas::render {
 namespace {
 using test::box;
 
-// Node ids in preorder: root 0; c0 1 (leaves 2-5), c1 6 (7-10), c2 11 (12-15), c3 16 (17-20).
-std::vector<test::ScriptedNode> rowTree() {
-    std::vector<test::ScriptedNode> s;
-    s.push_back({box(0, 0, 0, 400, 100, 20), 1000, {}, false});
-    for (int c = 0; c < 4; ++c) {
-        const int child = static_cast<int>(s.size());
-        s[0].children.push_back(child);
-        s.push_back({box(100.0 * c, 0, 0, 100.0 * (c + 1), 100, 20), 100, {}, false});
-        for (int l = 0; l < 4; ++l) {
-            s[static_cast<size_t>(child)].children.push_back(static_cast<int>(s.size()));
-            const double x0 = 100.0 * c + 25.0 * l;
-            s.push_back({box(x0, 0, 0, x0 + 25, 100, 20), 25, {}, true});
-        }
-    }
-    return s;
-}
+using test::rowTree;  // root 0; c0 1 (leaves 2-5), c1 6 (7-10), c2 11 (12-15), c3 16 (17-20)
 
 struct Fixture {
     Camera camera = test::unitCamera({140, 50, 5}, {1, 0, 0});
