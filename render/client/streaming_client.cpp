@@ -591,13 +591,14 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     const auto original = [&](int32_t t) -> const GpuTexture* {
         return t >= 0 && static_cast<size_t>(t) < r.original.size() ? r.original[static_cast<size_t>(t)] : nullptr;
     };
+    const BlockMapLens blockmap_lens = gl_->blockMapLens();
     auto drawItem = [&](const DrawItem& d) {
         const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
         if (d.mode == DrawMode::BlockMap) {
             // Drawn now (ray-cast, depth written): the meshes queued for
             // endFrame are depth-tested against it.
             drawn_[n.blockmap] = 1;
-            blockmap_pass_->draw(r.blockmaps[n.blockmap], camera);
+            blockmap_pass_->draw(r.blockmaps[n.blockmap], camera, &blockmap_lens);
             return;
         }
         for (const NodeLayer& l : n.layers) {

@@ -46,6 +46,15 @@ uniform usamplerBuffer u_columns;  // x, y, rows, base
 uniform usamplerBuffer u_features; // local -> feature id
 uniform bool u_coloured;           // roof and walls given (else grey)
 uniform bool u_cell_ids;           // test hook: ids = cell * 8 + face
+uniform bool u_styled;             // lenses (blockmap_pass.h BlockMapLens): per-feature styles
+uniform usamplerBuffer u_styles;
+uniform float u_flatten;
+uniform bool u_tinted;             // per-feature tints: linear rgb and weight
+uniform samplerBuffer u_tints;
+uniform int u_lens;                // analytic lens: 0 none, 1 sphere, 2 vertical cylinder
+uniform vec3 u_lens_centre;        // relative to the camera, metres
+uniform float u_lens_radius;
+uniform vec2 u_context;            // outside the lens: saturation, brightness
 layout(location = 0) out vec4 o_colour;
 layout(location = 1) out uint o_feature;
 
@@ -102,8 +111,11 @@ void main() {
         }
         float t_out = min(min(tmax.x, tmax.y), t_exit);
         uvec4 cell = texelFetch(u_cells, c, 0);
-        if (cell.b != kNone) {
+        uint fid = cell.b != kNone ? texelFetch(u_features, int(cell.b)).r : kNone;
+        uint style = u_styled && cell.b != kNone && fid < uint(textureSize(u_styles)) ? texelFetch(u_styles, int(fid)).r : 0u;
+        if (cell.b != kNone && style != 1u && style != 2u) {  // discarded and x-ray buildings: the ray goes on
             float h = heightOf(cell.r), b = heightOf(cell.g);
+            if (style == 3u) h = b + (h - b) * u_flatten;
             float z_in = o.z + d.z * t, z_out = o.z + d.z * t_out;
             float hit_t = -1.0;
             int hit_face = face;
@@ -125,11 +137,23 @@ void main() {
                     int row = clamp(int((hit.z - zb) / max(h - zb, 1e-6) * float(col.b)), 0, int(col.b) - 1);
                     colour = texelFetch(u_walls, ivec2(col.r, int(col.g) + row), 0).rgb;
                 }
-                vec4 clip = u_view_projection * vec4(u_box_offset + hit * u_cell, 1.0);
+                if (u_tinted && fid < uint(textureSize(u_tints))) {
+                    vec4 tint = texelFetch(u_tints, int(fid));
+                    colour = mix(colour, tint.rgb, tint.a);
+                }
+                vec3 rel = u_box_offset + hit * u_cell;  // relative to the camera, metres
+                if (u_lens != 0) {
+                    vec3 ld = rel - u_lens_centre;
+                    float r = u_lens == 1 ? length(ld) : length(ld.xy);
+                    if (!(r < u_lens_radius)) {
+                        float grey = dot(colour, vec3(0.2126, 0.7152, 0.0722));
+                        colour = mix(vec3(grey), colour, u_context.x) * u_context.y;
+                    }
+                }
+                vec4 clip = u_view_projection * vec4(rel, 1.0);
                 gl_FragDepth = 0.5 * clip.z / clip.w + 0.5;
                 o_colour = vec4(colour, 1.0);
-                o_feature = u_cell_ids ? uint(c.y * u_n.x + c.x) * 8u + uint(hit_face)
-                                       : texelFetch(u_features, int(cell.b)).r;
+                o_feature = u_cell_ids ? uint(c.y * u_n.x + c.x) * 8u + uint(hit_face) : fid;
                 return;
             }
         }
@@ -243,7 +267,7 @@ void BlockMapPass::release(GpuBlockMap* g) {
     *g = GpuBlockMap{};
 }
 
-void BlockMapPass::draw(const GpuBlockMap& g, const Camera& camera) {
+void BlockMapPass::draw(const GpuBlockMap& g, const Camera& camera, const BlockMapLens* lens) {
     if (!g.valid()) return;
     const double s = g.cell_m;
     const auto bx = static_cast<float>(g.nx), by = static_cast<float>(g.ny);
@@ -280,6 +304,24 @@ void BlockMapPass::draw(const GpuBlockMap& g, const Camera& camera) {
         glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(u));
         glBindTexture(units[u].second.first, units[u].second.second);
         glUniform1i(loc(units[u].first), u);
+    }
+    // The lenses' tables on units 6 and 7 (samplers of a type share no unit).
+    const bool styled = lens && lens->styles != 0, tinted = lens && lens->tints != 0;
+    glActiveTexture(GL_TEXTURE6);
+    glBindTexture(GL_TEXTURE_BUFFER, styled ? lens->styles : 0);
+    glActiveTexture(GL_TEXTURE7);
+    glBindTexture(GL_TEXTURE_BUFFER, tinted ? lens->tints : 0);
+    glUniform1i(loc("u_styles"), 6);
+    glUniform1i(loc("u_tints"), 7);
+    glUniform1i(loc("u_styled"), styled);
+    glUniform1i(loc("u_tinted"), tinted);
+    glUniform1f(loc("u_flatten"), lens ? lens->flatten : 1.0F);
+    glUniform1i(loc("u_lens"), lens ? lens->lens : 0);
+    if (lens) {
+        const Vec3d c = lens->lens_centre - camera.position;  // double, then rounded once
+        glUniform3f(loc("u_lens_centre"), static_cast<float>(c.x), static_cast<float>(c.y), static_cast<float>(c.z));
+        glUniform1f(loc("u_lens_radius"), static_cast<float>(lens->lens_radius_m));
+        glUniform2f(loc("u_context"), lens->context_saturation, lens->context_brightness);
     }
     glEnable(GL_DEPTH_TEST);
     glDepthMask(GL_TRUE);

@@ -38,6 +38,23 @@ struct GpuBlockMap {
     bool valid() const { return cells != 0; }
 };
 
+/// The lenses (render/core/lenses.h) as a BlockMap draw applies them, from
+/// GlRenderer::blockMapLens: the per-feature tables GlRenderer::setLens
+/// uploaded (buffer textures; 0: none) and the analytic lens. A building
+/// styled discard or x-ray is left out (the ray goes on through its cells:
+/// x-ray's translucent faces are for the near field's meshes), a flattened
+/// one is pressed to its base, tints and the context of the analytic lens
+/// colour the hit as they colour meshes.
+struct BlockMapLens {
+    uint32_t styles = 0;  ///< GL_R8UI buffer texture: LensStyle::style
+    uint32_t tints = 0;   ///< GL_RGBA32F buffer texture: LensStyle::tint
+    float flatten = 0.02F;
+    int lens = 0;         ///< 0 none, 1 sphere, 2 vertical cylinder
+    Vec3d lens_centre;    ///< local frame
+    double lens_radius_m = 0;
+    float context_saturation = 0.15F, context_brightness = 0.55F;
+};
+
 class BlockMapPass {
 public:
     /// Compiles the shaders; needs a current OpenGL 3.3 core context.
@@ -55,8 +72,9 @@ public:
     void release(GpuBlockMap* blockmap);
 
     /// Draws into the bound framebuffer (colour with GL_FRAMEBUFFER_SRGB as
-    /// meshes, depth, ids at location 1) as `camera` sees it; depth test on.
-    void draw(const GpuBlockMap& blockmap, const Camera& camera);
+    /// meshes, depth, ids at location 1) as `camera` sees it; depth test on;
+    /// with `lens`, the lenses as BlockMapLens says.
+    void draw(const GpuBlockMap& blockmap, const Camera& camera, const BlockMapLens* lens = nullptr);
     /// Test hook: the id buffer gets (cell index) * 8 + face (blockmap_ray.h's
     /// faces) of each hit instead of the feature id.
     void setCellIds(bool on) { cell_ids_ = on; }

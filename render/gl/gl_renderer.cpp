@@ -779,6 +779,19 @@ void GlRenderer::issue(const Draw& d, FrameStats* stats) {
     stats->triangles += d.index_count / 3;
 }
 
+BlockMapLens GlRenderer::blockMapLens() const {
+    BlockMapLens l;
+    l.styles = lens_.style.empty() ? 0 : style_texture_;
+    l.tints = lens_.tint.empty() ? 0 : tint_texture_;
+    l.flatten = lens_.flatten;
+    l.lens = lens_.lens;
+    l.lens_centre = lens_.lens_centre;
+    l.lens_radius_m = lens_.lens_radius_m;
+    l.context_saturation = lens_.context_saturation;
+    l.context_brightness = lens_.context_brightness;
+    return l;
+}
+
 FrameStats GlRenderer::endFrame() {
     FrameStats stats;
     stats.nodes = static_cast<uint32_t>(nodes_.size());

@@ -47,6 +47,7 @@
 #include "render/core/lenses.h"
 #include "render/core/tileset_index.h"
 #include "render/core/view.h"
+#include "render/gl/blockmap_pass.h"
 #include "render/gl/edge_pass.h"
 
 namespace cityatlas::render {
@@ -216,6 +217,9 @@ public:
     void drawDummy(const GpuMesh& mesh, const Vec3d& node_centre, int layer);
     /// The lenses from the next frame on (uploads the per-feature tables).
     void setLens(const LensStyle& lens);
+    /// The lenses set now as a BlockMap draw applies them (its tables are this
+    /// renderer's: valid until the next setLens).
+    BlockMapLens blockMapLens() const;
     /// Screen-door cross-fade for the draw*() calls that follow (until the
     /// next setFade): 0 none; 1 fading in, 2 fading out, at `progress` in
     /// [0, 1]. A 4 x 4 ordered dither keeps a fading-in fragment where the

@@ -12,8 +12,9 @@
 #     BlockMap frame's id buffer (§1.3 item 6);
 #  3. picking on BlockMap pixels: the CPU ray cast (render/core/picking.h,
 #     through the BlockMap traversal) names the id buffer's building;
-#  4. --blockmaps off draws none and loads none; a folder without BlockMaps
-#     renders as before.
+#  4. lenses on BlockMap pixels: solo leaves the building of interest alone
+#     in the id buffer; a highlight changes its pixels and no other;
+#  5. --blockmaps off draws none and loads none.
 source "$(dirname "$0")/lib.sh" "$@"
 [ -n "${IMAGE_COMPARE:-}" ] || fail "IMAGE_COMPARE is not set"
 CLEAR="196,218,243"  # the clear colour (linear 0.55, 0.70, 0.90) as sRGB bytes
@@ -135,7 +136,45 @@ print(f"ok: {agree} of {len(p)} picks on the root's BlockMap name the id buffer'
 assert agree == len(p), [q for q in p if q.get("feature") != q.get("id_buffer")][:3]
 PY
 
-# 4. Off: no BlockMap drawn or loaded.
+# 4. Lenses on the root's BlockMap (the far frame).
+"$PY" - "$SIZE" <<'PY'
+import sys, json
+import numpy as np
+w, h = map(int, sys.argv[1].split("x"))
+ids = np.fromfile("far/ids_00000.bin", dtype="<u4")
+v, n = np.unique(ids[ids != 0xFFFFFFFF], return_counts=True)
+poi = int(v[np.argmax(n)])  # the building with the most pixels
+path = json.load(open("far.json"))
+for name, lens in (("solo", {"building": poi, "solo": True}), ("highlight", {"highlight": [poi]})):
+    json.dump(dict(path, lens=lens), open(f"far-{name}.json", "w"))
+open("poi.txt", "w").write(str(poi))
+PY
+for lens in solo highlight; do
+  "$CITYATLAS" render tiles --path far-$lens.json --size $SIZE --wait --frames 1 --ids --anisotropy 1 -o far-$lens -q
+done
+"$PY" - "$SIZE" <<'PY' || fail "lenses on BlockMap pixels"
+import sys
+import numpy as np
+from PIL import Image
+w, h = map(int, sys.argv[1].split("x"))
+poi = int(open("poi.txt").read())
+none = 0xFFFFFFFF
+ids = np.fromfile("far/ids_00000.bin", dtype="<u4")
+solo = np.fromfile("far-solo/ids_00000.bin", dtype="<u4")
+assert set(np.unique(solo[solo != none]).tolist()) == {poi}, f"solo: ids {np.unique(solo[solo != none])[:5]}"
+assert (solo == poi).sum() >= (ids == poi).sum(), "solo: the building lost pixels"
+hl = np.fromfile("far-highlight/ids_00000.bin", dtype="<u4")
+assert (hl == ids).all(), "highlight: the id buffer changed"
+a = np.asarray(Image.open("far/frame_00000.png").convert("RGB")).reshape(-1, 3).astype(int)
+b = np.asarray(Image.open("far-highlight/frame_00000.png").convert("RGB")).reshape(-1, 3).astype(int)
+changed = (np.abs(a - b).max(axis=1) > 2)
+assert changed[ids == poi].mean() > 0.9, f"highlight: {changed[ids == poi].mean():.2f} of the building's pixels changed"
+assert not changed[ids != poi].any(), f"highlight: {changed[ids != poi].sum()} other pixels changed"
+print(f"ok: lenses on the root's BlockMap: solo leaves building {poi} alone ({(solo == poi).sum()} px), "
+      f"a highlight changes its {(ids == poi).sum()} px and no other")
+PY
+
+# 5. Off: no BlockMap drawn or loaded.
 "$CITYATLAS" render tiles --size $SIZE --wait --frames 4 --fps 2 --anisotropy 1 --blockmaps off -o off -q
 check_eq "--blockmaps off: BlockMaps drawn" 0 "$(json off/report.json "sum(f['nodes_drawn']['blockmap'] for f in j['frames'])")"
 check_eq "--blockmaps off: BlockMaps requested" 0 "$(json off/report.json "sum(f['requests']['blockmap'] for f in j['frames'])")"
