@@ -48,6 +48,7 @@ struct BuildCliOptions {
     std::string split_originals = "off";
     std::string blockmaps = "off";           // --blockmaps off|complement
     std::string blockmap_levels = "3";       // --blockmap-levels K|all
+    std::string blockmap_sample = "centre";  // --blockmap-sample centre|max
     std::string format = "native";          // native, 3dtiles or both
     std::string web_textures = "webp";
     tiles::Tiles3dParams tiles3d;
@@ -111,7 +112,8 @@ std::vector<std::string> parameterKey(const BuildCliOptions& opt, const atlas::A
                             t.node_triangles, t.feature_block_size, t.all_originals ? "all" : "needed"));
     if (t.split_originals) k.push_back("split_originals=on");
     if (t.blockmaps != tiles::BlockMapMode::Off)
-        k.push_back(fmt::format("blockmaps={} levels={}", tiles::blockMapModeName(t.blockmaps), t.blockmap_levels));
+        k.push_back(fmt::format("blockmaps={} levels={} sample={}", tiles::blockMapModeName(t.blockmaps), t.blockmap_levels,
+                                t.blockmap_sample == atlas::BlockMapSample::Max ? "max" : "centre"));
     for (const atlas::ComputedSpec& c : opt.computed_specs) k.push_back("computed=" + atlas::computedSpecJson(c).dump());
     if (opt.procedural_facades) k.push_back(fmt::format("procedural_facades=on/{}", opt.input.storey_height_m));
     if (opt.facades != "photo") k.push_back("facades=" + opt.facades);
@@ -516,6 +518,9 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.blockmaps != "off" && opt.blockmaps != "complement")
         return cli::fail("build", Status::Usage(fmt::format("--blockmaps {}: expected off or complement", opt.blockmaps)));
     opt.tiles.blockmaps = opt.blockmaps == "complement" ? tiles::BlockMapMode::Complement : tiles::BlockMapMode::Off;
+    if (opt.blockmap_sample != "centre" && opt.blockmap_sample != "max")
+        return cli::fail("build", Status::Usage(fmt::format("--blockmap-sample {}: expected centre or max", opt.blockmap_sample)));
+    opt.tiles.blockmap_sample = opt.blockmap_sample == "max" ? atlas::BlockMapSample::Max : atlas::BlockMapSample::Centre;
     if (opt.blockmap_levels == "all") {
         opt.tiles.blockmap_levels = -1;
     } else {
@@ -1067,6 +1072,12 @@ RunFn addBuildCommand(CLI::App& app) {
                     "level holds up to four times the BlockMaps of the one above, at about the same size each; where "
                     "facades are small a BlockMap stays smaller than its node far down the tree")
         ->default_val("3")
+        ->group(g);
+    cmd->add_option("--blockmap-sample", opt->blockmap_sample,
+                    "With --blockmaps: centre (a cell holds the building under its centre: the paper's; a gap "
+                    "between buildings narrower than a cell may show as a one-pixel slit) or max (the highest of 4 x 4 "
+                    "samples over the cell: no such slit, silhouettes up to a cell wider)")
+        ->default_val("centre")
         ->group(g);
     cmd->add_option("--split-originals", opt->split_originals,
                     "on: an original of more than two atlases of texels (an orthophoto, a long facade) becomes "

@@ -77,7 +77,7 @@ struct NodeOutcome {
 /// The passes for one node (the file comment's list).
 NodeOutcome buildNodeBlockMap(const atlas::AtlasTree& tree, int32_t id, const NodeCost& cost,
                               const TrianglesByFeature& by_feature, const atlas::SurfaceTables& surfaces,
-                              BcQuality quality, const fs::path& out_dir) {
+                              atlas::BlockMapSample sample, BcQuality quality, const fs::path& out_dir) {
     NodeOutcome out;
     const atlas::AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
     auto lap = std::chrono::steady_clock::now();
@@ -93,6 +93,7 @@ NodeOutcome buildNodeBlockMap(const atlas::AtlasTree& tree, int32_t id, const No
     if (triangles.empty()) return out;
     atlas::BlockMapParams params;
     params.cell_m = node.min_distance_m / tree.projection.pixelsPerMetreAt1m();
+    params.sample = sample;
     // The roof's BC1 plane alone (half a byte a cell, stored as it is) is a
     // lower bound of the file: a grid too fine to pay is declined unbuilt.
     if (roofBytesAtLeast(triangles, params.cell_m) > cost.bytes && !cost.dropped) {
@@ -159,7 +160,8 @@ NodeOutcome buildNodeBlockMap(const atlas::AtlasTree& tree, int32_t id, const No
 }  // namespace
 
 Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std::span<const NodeCost> costs,
-                          int max_level, BcQuality quality, size_t cache_mb, const fs::path& out_dir,
+                          int max_level, atlas::BlockMapSample sample, BcQuality quality, size_t cache_mb,
+                          const fs::path& out_dir,
                           const BlockMapProgressFn& progress, std::vector<std::optional<format::BlockMapEntry>>* entries,
                           NodeBlockMapStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -181,7 +183,8 @@ Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std:
         std::vector<NodeOutcome> outcomes(level_nodes.size());
         tbb::parallel_for(size_t{0}, level_nodes.size(), [&](size_t k) {
             const auto id = static_cast<size_t>(level_nodes[k]);
-            outcomes[k] = buildNodeBlockMap(tree, level_nodes[k], costs[id], by_feature, surfaces, quality, out_dir);
+            outcomes[k] = buildNodeBlockMap(tree, level_nodes[k], costs[id], by_feature, surfaces, sample, quality,
+                                            out_dir);
         });
         BlockMapLevelStats& ls = stats->levels.emplace_back();
         ls.seconds = secondsSince(level_start);

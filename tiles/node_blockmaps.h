@@ -40,6 +40,7 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
+#include "atlas/blockmap.h"
 #include "core/status.h"
 #include "format/tileset_document.h"
 #include "ingest/scene.h"
@@ -95,11 +96,11 @@ using BlockMapProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 /// Builds, measures and writes the BlockMaps of `tree`'s nodes as the file
 /// comment says into out_dir/blockmap/, with each node's entry in `entries`
 /// (resized to the tree; nullopt: none). `costs`: per node. `max_level`: the
-/// deepest level tried (-1: no cap). Colours come from
+/// deepest level tried (-1: no cap); `sample`: how cells are sampled. Colours come from
 /// the scene's textures and materials (read through an OpenImageIO cache of
 /// `cache_mb`). Deterministic.
 Status writeNodeBlockMaps(const Scene& scene, const atlas::AtlasTree& tree, std::span<const NodeCost> costs,
-                          int max_level, BcQuality quality, size_t cache_mb, const std::filesystem::path& out_dir,
+                          int max_level, atlas::BlockMapSample sample, BcQuality quality, size_t cache_mb, const std::filesystem::path& out_dir,
                           const BlockMapProgressFn& progress, std::vector<std::optional<format::BlockMapEntry>>* entries,
                           NodeBlockMapStats* stats);
 

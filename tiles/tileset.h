@@ -110,6 +110,10 @@ struct TilesParams {
     /// builds only for now (a sharded build refuses them).
     BlockMapMode blockmaps = BlockMapMode::Off;
     int blockmap_levels = kDefaultBlockMapLevels;  ///< the deepest level tried (-1: all)
+    /// How a BlockMap's cells are sampled (atlas/blockmap.h): centre (the
+    /// paper's) or max of 4 x 4 (conservative: no slit between buildings
+    /// closer than a cell, silhouettes up to a cell wider).
+    atlas::BlockMapSample blockmap_sample = atlas::BlockMapSample::Centre;
 };
 
 struct TilesStepStats {

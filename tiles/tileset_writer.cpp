@@ -578,7 +578,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         Status blockmap_status = Status::Ok();
         arena.execute([&] {
             blockmap_status = writeNodeBlockMaps(
-                scene, tree, costs, params.blockmap_levels, params.bc_quality, static_cast<size_t>(tree.params.cache_mb), out_dir,
+                scene, tree, costs, params.blockmap_levels, params.blockmap_sample, params.bc_quality, static_cast<size_t>(tree.params.cache_mb), out_dir,
                 [&](uint64_t d, uint64_t t) { report("tiles: blockmaps", d, t); }, &blockmaps, &stats.blockmaps);
         });
         if (!blockmap_status.ok()) return blockmap_status;

@@ -5,7 +5,8 @@
 #  2. complement writes blockmap/<node>.bin for the root at least, says so in
 #     tileset.json and build_report.json, and passes inspect (schema, every
 #     BlockMap decoded and compared with its entry);
-#  3. the option is part of the rebuild key;
+#  3. the option is part of the rebuild key, --blockmap-levels too (0: the
+#     root's BlockMap alone);
 #  4. a damaged BlockMap is a defect naming its file;
 #  5. a bad value, --slurm and a sharded input are refused in one line, with
 #     no folder left behind.
@@ -30,6 +31,12 @@ check_eq "BlockMap files = blockmaps.built" "$built" "$(ls bm/blockmap | wc -l)"
 grep -q "blockmaps .* in $built files" inspect.txt || { cat inspect.txt >&2; fail "inspect does not report the BlockMaps"; }
 echo "ok: $built BlockMap(s), the folder passes inspect"
 
+cp -r bm root-only
+"$CITYATLAS" build -q town/town.gml -o root-only --blockmaps complement --blockmap-levels 0 > /dev/null || fail "--blockmap-levels 0 failed"
+check_eq "--blockmap-levels 0: levels tried, BlockMaps, files" "1 1 1" \
+  "$(json root-only/build_report.json "str(len(j['blockmaps']['by_level'])) + ' ' + str(j['blockmaps']['built'])") $(ls root-only/blockmap | wc -l)"
+check_eq "--blockmap-levels 0: deepest_level" 0 "$(json root-only/build_report.json "j['blockmaps']['deepest_level']")"
+
 # 4. Damage: one byte of the root's BlockMap.
 cp -r bm damaged
 printf '\xff' | dd of=damaged/blockmap/0.bin bs=1 seek=100 conv=notrunc status=none
@@ -43,6 +50,16 @@ set +e
 set -e
 check_eq "--blockmaps replace exit code" 2 "$rc"
 grep -q "expected off or complement" out.txt || { cat out.txt >&2; fail "no reason for the bad value"; }
+set +e
+"$CITYATLAS" build -q town/town.gml -o bad --blockmaps complement --blockmap-levels deep > out.txt 2>&1; rc=$?
+set -e
+check_eq "--blockmap-levels deep exit code" 2 "$rc"
+grep -q "expected a level" out.txt || { cat out.txt >&2; fail "no reason for the bad level"; }
+set +e
+"$CITYATLAS" build -q town/town.gml -o bad --blockmaps complement --blockmap-sample corner > out.txt 2>&1; rc=$?
+set -e
+check_eq "--blockmap-sample corner exit code" 2 "$rc"
+grep -q "expected centre or max" out.txt || { cat out.txt >&2; fail "no reason for the bad sampling"; }
 set +e
 "$CITYATLAS" build -q town/town.gml -o bad --blockmaps complement --slurm > out.txt 2>&1; rc=$?
 set -e

@@ -14,7 +14,10 @@
 #     through the BlockMap traversal) names the id buffer's building;
 #  4. lenses on BlockMap pixels: solo leaves the building of interest alone
 #     in the id buffer; a highlight changes its pixels and no other;
-#  5. --blockmaps off draws none and loads none.
+#  5. --blockmaps off draws none and loads none;
+#  6. built with --blockmap-sample max (conservative cells), the same frames
+#     have no interior hole at all by image_compare's definition, and
+#     PSNR >= 28 dB.
 source "$(dirname "$0")/lib.sh" "$@"
 [ -n "${IMAGE_COMPARE:-}" ] || fail "IMAGE_COMPARE is not set"
 CLEAR="196,218,243"  # the clear colour (linear 0.55, 0.70, 0.90) as sRGB bytes
@@ -179,3 +182,19 @@ PY
 check_eq "--blockmaps off: BlockMaps drawn" 0 "$(json off/report.json "sum(f['nodes_drawn']['blockmap'] for f in j['frames'])")"
 check_eq "--blockmaps off: BlockMaps requested" 0 "$(json off/report.json "sum(f['requests']['blockmap'] for f in j['frames'])")"
 echo "ok: --blockmaps off draws and loads none"
+
+# 6. Conservative cells: no slit either.
+"$CITYATLAS" build -q town/town.gml -o tiles-max --blockmaps complement --originals all --blockmap-sample max > /dev/null
+"$CITYATLAS" render tiles-max --size $SIZE --wait --frames $FRAMES --fps 2 --anisotropy 1 -o bm-max -q
+holes=0; psnr_min=99
+for f in ref/frame_*.png; do
+  name=$(basename "$f")
+  r=$("$IMAGE_COMPARE" "bm-max/$name" "$f" "$CLEAR")
+  interior=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['interior_holes'])" "$r")
+  psnr=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$r")
+  holes=$((holes + interior))
+  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "--blockmap-sample max: $name: PSNR $psnr dB < 28 dB"
+  psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
+done
+check_eq "--blockmap-sample max: interior holes over $FRAMES frames" 0 "$holes"
+echo "ok: --blockmap-sample max: no interior hole, PSNR min $psnr_min dB"
