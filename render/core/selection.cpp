@@ -41,8 +41,8 @@ void forEachNodeBlock(const TileNode& node, Fn&& fn, int computed = -1) {
 
 bool hasBlockMap(const TileNode& n, const SelectionParams& params) { return params.blockmaps && n.blockmap != kNoBlock; }
 
-// The node's BlockMap is what it is drawn by at distance d (scale: distanceScale).
-bool blockMapDistance(const TileNode& n, const SelectionParams& params, double d, double scale) {
+// The node is drawn by its BlockMap at distance d (scale: distanceScale).
+bool atBlockMapDistance(const TileNode& n, const SelectionParams& params, double d, double scale) {
     return hasBlockMap(n, params) && d >= n.blockmap_min_distance_m * scale;
 }
 
@@ -176,7 +176,7 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         ++c.nodes_needed;
         const double d = distance[static_cast<size_t>(id)];
         const bool sharp = d >= n.min_distance_m * scale;
-        if (blockMapDistance(n, params, d, scale)) {
+        if (atBlockMapDistance(n, params, d, scale)) {
             // Drawn by its BlockMap: the next step is prefetched as it would be drawn.
             mark(n.blockmap, Usage::Needed, key[static_cast<size_t>(id)], n.level);
             for (const int32_t ch : n.children) {
@@ -313,7 +313,7 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
             continue;
         }
         const double d = distanceToBox(camera.position, n.bounds);
-        if (blockMapDistance(n, params, d, scale) && resident(n.blockmap)) {
+        if (atBlockMapDistance(n, params, d, scale) && resident(n.blockmap)) {
             emit(n, DrawMode::BlockMap, false, d);
             continue;
         }
@@ -334,7 +334,7 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
             // Drawable by its BlockMap alone (its parent counted on that): the
             // BlockMap, coarse when the camera is closer than its distance.
             if (!nodeDrawable(index, id, resident) && blockMapResident(n))
-                emit(n, DrawMode::BlockMap, !blockMapDistance(n, params, d, scale), d);
+                emit(n, DrawMode::BlockMap, !atBlockMapDistance(n, params, d, scale), d);
             else
                 emit(n, use_atlas ? DrawMode::Atlas : DrawMode::Originals, coarse, d);
             continue;

@@ -315,13 +315,14 @@ void BlockMapPass::draw(const GpuBlockMap& g, const Camera& camera, const BlockM
     glUniform1i(loc("u_tints"), 7);
     glUniform1i(loc("u_styled"), styled);
     glUniform1i(loc("u_tinted"), tinted);
-    glUniform1f(loc("u_flatten"), lens ? lens->flatten : 1.0F);
-    glUniform1i(loc("u_lens"), lens ? lens->lens : 0);
-    if (lens) {
-        const Vec3d c = lens->lens_centre - camera.position;  // double, then rounded once
+    const LensStyle* style = lens ? lens->style : nullptr;
+    glUniform1f(loc("u_flatten"), style ? style->flatten : 1.0F);
+    glUniform1i(loc("u_lens"), style ? style->lens : 0);
+    if (style) {
+        const Vec3d c = style->lens_centre - camera.position;  // double, then rounded once
         glUniform3f(loc("u_lens_centre"), static_cast<float>(c.x), static_cast<float>(c.y), static_cast<float>(c.z));
-        glUniform1f(loc("u_lens_radius"), static_cast<float>(lens->lens_radius_m));
-        glUniform2f(loc("u_context"), lens->context_saturation, lens->context_brightness);
+        glUniform1f(loc("u_lens_radius"), static_cast<float>(style->lens_radius_m));
+        glUniform2f(loc("u_context"), style->context_saturation, style->context_brightness);
     }
     glEnable(GL_DEPTH_TEST);
     glDepthMask(GL_TRUE);

@@ -20,6 +20,7 @@
 
 #include "core/status.h"
 #include "format/blockmap.h"
+#include "render/core/lenses.h"
 #include "render/core/view.h"
 
 namespace cityatlas::render {
@@ -40,19 +41,15 @@ struct GpuBlockMap {
 
 /// The lenses (render/core/lenses.h) as a BlockMap draw applies them, from
 /// GlRenderer::blockMapLens: the per-feature tables GlRenderer::setLens
-/// uploaded (buffer textures; 0: none) and the analytic lens. A building
-/// styled discard or x-ray is left out (the ray goes on through its cells:
-/// x-ray's translucent faces are for the near field's meshes), a flattened
-/// one is pressed to its base, tints and the context of the analytic lens
-/// colour the hit as they colour meshes.
+/// uploaded (buffer textures; 0: none) and the lens style they were made
+/// from. A building styled discard or x-ray is left out (the ray goes on
+/// through its cells: x-ray's translucent faces are for the near field's
+/// meshes), a flattened one is pressed to its base, tints and the context
+/// of the analytic lens colour the hit as they colour meshes.
 struct BlockMapLens {
-    uint32_t styles = 0;  ///< GL_R8UI buffer texture: LensStyle::style
-    uint32_t tints = 0;   ///< GL_RGBA32F buffer texture: LensStyle::tint
-    float flatten = 0.02F;
-    int lens = 0;         ///< 0 none, 1 sphere, 2 vertical cylinder
-    Vec3d lens_centre;    ///< local frame
-    double lens_radius_m = 0;
-    float context_saturation = 0.15F, context_brightness = 0.55F;
+    uint32_t styles = 0;             ///< GL_R8UI buffer texture: LensStyle::style
+    uint32_t tints = 0;              ///< GL_RGBA32F buffer texture: LensStyle::tint
+    const LensStyle* style = nullptr;  ///< flatten and the analytic lens; null: no lens
 };
 
 class BlockMapPass {

@@ -780,16 +780,7 @@ void GlRenderer::issue(const Draw& d, FrameStats* stats) {
 }
 
 BlockMapLens GlRenderer::blockMapLens() const {
-    BlockMapLens l;
-    l.styles = lens_.style.empty() ? 0 : style_texture_;
-    l.tints = lens_.tint.empty() ? 0 : tint_texture_;
-    l.flatten = lens_.flatten;
-    l.lens = lens_.lens;
-    l.lens_centre = lens_.lens_centre;
-    l.lens_radius_m = lens_.lens_radius_m;
-    l.context_saturation = lens_.context_saturation;
-    l.context_brightness = lens_.context_brightness;
-    return l;
+    return {lens_.style.empty() ? 0 : style_texture_, lens_.tint.empty() ? 0 : tint_texture_, &lens_};
 }
 
 FrameStats GlRenderer::endFrame() {
