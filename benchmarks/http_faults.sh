@@ -61,6 +61,8 @@ px = json.load(open("proxy.json"))
 faults = collections.Counter(r["fault"] for r in px["requests"] if r["fault"])
 out = {"fault_seconds": fault_s, "p": p, "render_exit": rc, "requests": len(px["requests"]), "faults": dict(faults)}
 ok = rc == 0
+if rc != 0:
+    out["render_output"] = open("render.txt").read().strip().splitlines()[-5:]
 try:
     r = json.load(open("report.json"))
 except Exception as e:

@@ -401,9 +401,7 @@ int runRender(const RenderCliOptions& opt) {
     };
     // The root comes first: the client never shows a frame without texture.
     const render::Camera first = cameraFor(render::sampleFrame(path, 0));
-    if (!client->waitForRoot(first, opt.wait_timeout_s))
-        return fail(Status::Io(fmt::format("{}: the root\'s blocks did not load within {} s{}", opt.source, opt.wait_timeout_s,
-                                client->errors().empty() ? "" : ": " + client->errors().front())));
+    if (Status ws = client->waitForRoot(first, opt.wait_timeout_s); !ws.ok()) return fail(ws);
 
     Progress progress(!opt.quiet);
     json frame_list = json::array();

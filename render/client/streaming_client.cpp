@@ -538,23 +538,30 @@ void StreamingClient::idle(const Camera& camera, double seconds) {
     }
 }
 
-bool StreamingClient::waitForRoot(const Camera& camera, double timeout_s) {
+Status StreamingClient::waitForRoot(const Camera& camera, double timeout_s) {
     const auto t0 = Clock::now();
     for (;;) {
         takeResults();
         upload(1e9, nullptr);
         plan(camera);
+        // A transient failure (the loader's retries ran out on a flaky
+        // server) is tried again after its cool-down while time is left;
+        // only a permanent one (a 404, bytes that do not decode) ends the wait.
         bool all = true, failed = false;
-        for (const NodeLayer& l : index_.nodes[0].layers) {
-            if (!l.present) continue;
-            for (const BlockId b : {l.geometry, l.atlas}) {
-                if (b == kNoBlock) continue;
-                all = all && manager_->resident(b);
-                failed = failed || manager_->state(b) == BlockState::Failed;
-            }
-        }
-        if (all) return true;
-        if (failed || msSince(t0) > timeout_s * 1000) return false;
+        auto need = [&](BlockId b) {
+            if (b == kNoBlock) return;
+            all = all && manager_->resident(b);
+            failed = failed || manager_->failedForGood(b);
+        };
+        for (const NodeLayer& l : index_.nodes[0].layers)
+            if (l.present) need(l.geometry), need(l.atlas);
+        if (all) return Status::Ok();
+        if (failed)  // the failure just taken is the latest error
+            return Status::Io(fmt::format("{}: the root's blocks cannot be loaded{}", base_,
+                                          errors_.empty() ? "" : ": " + errors_.back()));
+        if (msSince(t0) > timeout_s * 1000)
+            return Status::Io(fmt::format("{}: the root's blocks did not load within {} s{}", base_, timeout_s,
+                                          errors_.empty() ? "" : ": " + errors_.front()));
         loader_->waitForAny(0.05);
     }
 }

@@ -158,8 +158,11 @@ public:
     void idle(const Camera& camera, double seconds);
 
     /// Loads until the root's blocks are resident (the first thing any frame
-    /// needs), planning for `camera`. False on timeout or when a root block failed.
-    bool waitForRoot(const Camera& camera, double timeout_s);
+    /// needs), planning for `camera`. A transient failure of a root block (a
+    /// flaky server outlasting the loader's retries) is waited out; an error
+    /// on timeout or when a root block failed for good (a 404, bytes that do
+    /// not decode), naming the first error seen.
+    Status waitForRoot(const Camera& camera, double timeout_s);
 
     /// The building under pixel (px, py) of the last frame drawn with `camera`
     /// (a CPU ray cast against the drawn nodes' resident geometry).

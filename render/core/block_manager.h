@@ -82,6 +82,9 @@ public:
 
     BlockState state(BlockId id) const { return state_[id]; }
     bool resident(BlockId id) const { return state_[id] == BlockState::Resident; }
+    /// Failed and never tried again: a permanent failure (a transient one
+    /// waits out its cool-down and becomes a candidate again).
+    bool failedForGood(BlockId id) const { return state_[id] == BlockState::Failed && retry_from_update_[id] == 0; }
     const std::vector<BlockId>& idealSet() const { return ideal_; }
     /// Every block of the ideal set is resident (or failed).
     bool idealComplete() const { return stats_.ideal_missing == 0; }

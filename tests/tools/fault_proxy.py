@@ -6,13 +6,16 @@ spoils a share P of the responses, each in one way drawn at random:
 500 or 503; a connection reset (RST) before any byte; a body cut in the middle;
 a stall of several seconds before the answer; the answer dripped in small
 pieces; a Content-Length that lies (longer or shorter than the body). Then it
-passes everything through. One request per connection (it answers with
+passes everything through. Independently of that, --fail-first N --fail-match
+RE answers the first N requests whose request line matches RE with a 503
+(a deterministic fault, e.g. on the root's blocks). One request per connection (it answers with
 Connection: close). Writes a JSON log: every request, its fault, and the
 wall-clock time the faults stopped.
 
 Usage: fault_proxy.py UPSTREAM_PORT --port-file F --log L [--p 0.5] [--fault-seconds 15] [--seed 1]
+                     [--fail-first N --fail-match RE]
 Python standard library only (asyncio)."""
-import argparse, asyncio, json, random, socket, struct, sys, time
+import argparse, asyncio, json, random, re, socket, struct, sys, time
 
 FAULTS = ["status_500", "status_503", "reset", "truncate", "stall", "drip", "lie_longer", "lie_shorter"]
 
@@ -26,7 +29,11 @@ async def main():
     ap.add_argument("--fault-seconds", type=float, default=15)
     ap.add_argument("--stall-seconds", type=float, default=4)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--fail-first", type=int, default=0)
+    ap.add_argument("--fail-match", default=None)
     a = ap.parse_args()
+    fail_match = re.compile(a.fail_match) if a.fail_match else None
+    forced_left = [a.fail_first]
     rnd = random.Random(a.seed)
     state = {"first": None, "requests": [], "faults_stopped_at": None}
 
@@ -51,6 +58,9 @@ async def main():
             writer.close(); return
         line = head.split(b"\r\n", 1)[0].decode("latin-1")
         fault = rnd.choice(FAULTS) if faulting() and rnd.random() < a.p else None
+        if fail_match and forced_left[0] > 0 and fail_match.search(line):
+            forced_left[0] -= 1
+            fault = "status_503"
         state["requests"].append({"t": round(time.time(), 3), "line": line[:120], "fault": fault})
         sock = writer.get_extra_info("socket")
         if fault == "reset":

@@ -243,6 +243,7 @@ TEST(BlockManager, FailedBlocksLeaveTheIdealSetAndAreNotRetried) {
     const BlockId bad = a.request[2];
     for (const BlockId b : a.request) m.finished(b, b != bad);
     EXPECT_EQ(m.state(bad), BlockState::Failed);
+    EXPECT_TRUE(m.failedForGood(bad));
     for (int i = 0; i < 5; ++i) {
         a = m.update(classifyBlocks(w.index, w.camera, {}));
         EXPECT_EQ(std::find(a.request.begin(), a.request.end(), bad), a.request.end());
@@ -262,6 +263,7 @@ TEST(BlockManager, TransientFailuresAreTriedAgainAfterACooldownThatDoubles) {
     for (int failure = 0; failure < 2; ++failure) {
         for (const BlockId b : a.request) m.finished(b, b != flaky, /*transient=*/true);
         ASSERT_EQ(m.state(flaky), BlockState::Failed);
+        EXPECT_FALSE(m.failedForGood(flaky)) << "a transient failure is tried again";
         const uint32_t cooldown = BlockManager::kFailureCooldownUpdates << failure;  // 8, then 16
         uint32_t updates = 0;
         do {
