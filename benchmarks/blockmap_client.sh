@@ -2,7 +2,8 @@
 # Issue 20's client benchmark: a folder built with --blockmaps complement,
 # drawn by `cityatlas render` on this machine's GL (Mesa llvmpipe without a
 # GPU) along the default path, every frame with its ideal set loaded
-# (--wait; frame times exclude loading), with BlockMaps on and off:
+# (--wait; frame times exclude loading), with BlockMaps on and off (a
+# folder built with --blockmaps replace: on alone):
 #   - mean, median and worst frame time, nodes drawn (BlockMaps among them),
 #     triangles, bytes loaded over the path and the most resident at once;
 #   - bytes to the first complete frame (the overview);
@@ -26,7 +27,7 @@ tiles, size, fps, out = sys.argv[1:5]
 t = json.load(open(os.path.join(tiles, "tileset.json")))
 root = t["root"]
 if "blockmap" not in root["extras"]["cityatlas"]:
-    sys.exit(f"{tiles}: the root has no BlockMap (build --blockmaps complement)")
+    sys.exit(f"{tiles}: the root has no BlockMap (build --blockmaps complement or replace)")
 def render(name, extra):
     report = os.path.join(out, name + ".json")
     cmd = ["./build/cli/cityatlas", "render", tiles, "--anisotropy", "1", "--size", size, "--wait", "--report", report, "-q"] + extra
@@ -46,9 +47,11 @@ def render(name, extra):
 # A first pass warms the page cache (the first run of a cold folder read
 # its files while drawing: 370 against 140 ms a frame on the 10,000-building
 # town); then each setting twice, alternating, the second of each kept.
-render("warm-up", ["--fps", fps, "--blockmaps", "off"])
+# A folder built with --blockmaps replace cannot be drawn without its BlockMaps: its run alone.
+replace = t["extras"]["cityatlas"]["build"].get("blockmaps") == "replace"
+render("warm-up", ["--fps", fps] + ([] if replace else ["--blockmaps", "off"]))
 for _ in range(2):
-    runs = [render("path-blockmaps", ["--fps", fps]), render("path-geometry", ["--fps", fps, "--blockmaps", "off"])]
+    runs = [render("path-blockmaps", ["--fps", fps])] + ([] if replace else [render("path-geometry", ["--fps", fps, "--blockmaps", "off"])])
 levels = {}
 def walk(tile, level):
     ca = tile["extras"]["cityatlas"]

@@ -206,6 +206,7 @@ struct BuildRecord {
     int position_bits = 14, uv_bits = 12;
     double position_error_mm = 2.0;
     int blockmap_levels = -1;  ///< --blockmap-levels (-1: all)
+    std::string blockmaps = "off";  ///< --blockmaps
     uint64_t features = 0, triangles = 0, textured_triangles = 0, textures = 0;
     double started_unix = 0;
     ordered_json shards;
@@ -233,6 +234,7 @@ BuildRecord recordOf(const BuildCliOptions& opt, const fs::path& target, const f
     r.uv_bits = opt.tiles.draco.uv_bits;
     r.position_error_mm = opt.position_error_mm;
     r.blockmap_levels = opt.tiles.blockmap_levels;
+    r.blockmaps = std::string(tiles::blockMapModeName(opt.tiles.blockmaps));
     return r;
 }
 
@@ -377,7 +379,8 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                               {"hausdorff_m_max", l.worst_hausdorff_m},
                               {"features_missing", l.missing},
                               {"seconds", l.seconds}});
-        report["blockmaps"] = {{"nodes_tried", ts.blockmaps.tried},
+        report["blockmaps"] = {{"mode", rec.blockmaps},
+                               {"nodes_tried", ts.blockmaps.tried},
                                {"built", ts.blockmaps.built},
                                {"declined_larger", ts.blockmaps.declined_bytes},
                                {"declined_grid", ts.blockmaps.declined_grid},
@@ -391,6 +394,10 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
                                                     {"encode", ts.blockmaps.seconds_encode}}},
                                {"deepest_level", rec.blockmap_levels},
                                {"by_level", std::move(levels)}};
+        if (rec.blockmaps == "replace")
+            report["blockmaps"]["replaced"] = {{"levels", ts.blockmaps.replaced_levels + 1},
+                                               {"nodes", ts.blockmaps.nodes_replaced},
+                                               {"bytes_omitted", ts.blockmaps.bytes_omitted}};
     }
     report["root"] = {{"features", ts.root_features}, {"features_dropped", ts.root_features_dropped}};
     report["encoding"] = {{"bc_quality", rec.bc_quality},
@@ -515,9 +522,16 @@ int runBuild(const BuildCliOptions& opt_in) {
     if (opt.split_originals != "on" && opt.split_originals != "off")
         return cli::fail("build", Status::Usage(fmt::format("--split-originals {}: expected on or off", opt.split_originals)));
     opt.tiles.split_originals = opt.split_originals == "on";
-    if (opt.blockmaps != "off" && opt.blockmaps != "complement")
-        return cli::fail("build", Status::Usage(fmt::format("--blockmaps {}: expected off or complement", opt.blockmaps)));
-    opt.tiles.blockmaps = opt.blockmaps == "complement" ? tiles::BlockMapMode::Complement : tiles::BlockMapMode::Off;
+    if (opt.blockmaps != "off" && opt.blockmaps != "complement" && opt.blockmaps != "replace")
+        return cli::fail("build", Status::Usage(fmt::format("--blockmaps {}: expected off, complement or replace", opt.blockmaps)));
+    opt.tiles.blockmaps = opt.blockmaps == "complement" ? tiles::BlockMapMode::Complement
+                          : opt.blockmaps == "replace"  ? tiles::BlockMapMode::Replace
+                                                        : tiles::BlockMapMode::Off;
+    if (opt.tiles.blockmaps == tiles::BlockMapMode::Replace && opt.format != "native")
+        return cli::fail("build", Status::Usage(fmt::format(
+                                      "--blockmaps replace with --format {}: the replaced levels have no geometry, and a "
+                                      "3D Tiles client would draw nothing there; use --blockmaps complement",
+                                      opt.format)));
     if (opt.blockmap_sample != "centre" && opt.blockmap_sample != "max")
         return cli::fail("build", Status::Usage(fmt::format("--blockmap-sample {}: expected centre or max", opt.blockmap_sample)));
     opt.tiles.blockmap_sample = opt.blockmap_sample == "max" ? atlas::BlockMapSample::Max : atlas::BlockMapSample::Centre;
@@ -1063,7 +1077,10 @@ RunFn addBuildCommand(CLI::App& app) {
                     "geometry leaves out); built top-down while "
                     "one is no larger than the node's geometry and atlases or the node left buildings out, down to "
                     "--blockmap-levels. "
-                    "cityatlas render and view draw them from each node's distance on; other clients ignore them. One-process builds "
+                    "cityatlas render and view draw them from each node's distance on; other clients ignore them. "
+                    "replace: the same BlockMaps, and the levels they cover completely (every node of each from the "
+                    "root down, none a leaf) lose their geometry and atlases: fewer bytes, for folders read by "
+                    "cityatlas clients only (a 3D Tiles client draws nothing there; native format only). One-process builds "
                     "only (at most --shard-triangles triangles) for now. off: none")
         ->default_val("off")
         ->group(g);

@@ -616,7 +616,8 @@ RunFn addRenderCommand(CLI::App& app) {
     cmd->add_option("--tau", opt->tau, "Pixels per texel accepted (> 1: coarser, fewer loads)")->default_val(1.0)
         ->check(CLI::Range(0.1, 64.0));
     cmd->add_option("--blockmaps", opt->blockmaps,
-                    "Draw the folder's BlockMaps (build --blockmaps) where a node's distance allows: on, or off (its geometry and atlases only)")
+                    "Draw the folder's BlockMaps (build --blockmaps) where a node's distance allows: on, or off (its geometry and "
+                    "atlases only; refused on a folder built with --blockmaps replace, whose upper levels are BlockMaps alone)")
         ->default_val("on")
         ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--priority", opt->priority, "Order within a usage category: distance (the papers) or view "

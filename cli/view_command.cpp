@@ -371,7 +371,8 @@ RunFn addViewCommand(CLI::App& app) {
     cmd->add_option("--mode", opt->mode, "atlas, original or dummy")->default_val("atlas")
         ->check(CLI::IsMember({"atlas", "original", "dummy"}));
     cmd->add_option("--blockmaps", opt->blockmaps,
-                    "on or off: draw the folder's BlockMaps (build --blockmaps)")
+                    "on or off: draw the folder's BlockMaps (build --blockmaps; off is refused on a folder built with "
+                    "--blockmaps replace, whose upper levels are BlockMaps alone)")
         ->default_val("on")
         ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--priority", opt->priority, "distance or view")->default_val("distance")

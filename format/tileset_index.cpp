@@ -110,6 +110,7 @@ TilesetIndex indexOf(const TilesetDocument& doc) {
             n.blockmap_bounds.extend(bm.origin);
             n.blockmap_bounds.extend({bm.origin.x + static_cast<double>(bm.grid[0]) * bm.texel_m,
                                       bm.origin.y + static_cast<double>(bm.grid[1]) * bm.texel_m, bm.z_top_m});
+            n.blockmap_only = std::none_of(n.layers.begin(), n.layers.end(), [](const NodeLayer& l) { return l.present; });
         }
         index.depth = std::max(index.depth, n.level);
     }
@@ -135,8 +136,18 @@ Status parseTilesetIndex(const std::string& text, const std::string& where, Tile
     *out = TilesetIndex{};
     TilesetDocument doc;
     if (Status st = readTilesetDocument(text, where, &doc); !st.ok()) return st;
-    if (!doc.tiles[0].layers[0] && !doc.tiles[0].layers[1])
-        return Status::Invalid(fmt::format("{}: node 0: the root has no geometry", where));
+    // A node without geometry is one `--blockmaps replace` left to its
+    // BlockMap: it has one, and children to draw closer than its distance.
+    for (size_t i = 0; i < doc.tiles.size(); ++i) {
+        const TileEntry& t = doc.tiles[i];
+        if (t.layers[0] || t.layers[1]) continue;
+        if (doc.build.blockmaps != "replace")
+            return Status::Invalid(fmt::format("{}: node {}: {} no geometry", where, i, i == 0 ? "the root has" : "has"));
+        if (!t.blockmap || t.leaf())
+            return Status::Invalid(fmt::format("{}: node {}: no geometry, and {}", where, i,
+                                               t.blockmap ? "no children to draw closer than its BlockMap's distance"
+                                                          : "no BlockMap to stand for it (build --blockmaps replace)"));
+    }
     *out = indexOf(doc);
     return Status::Ok();
 }

@@ -76,6 +76,9 @@ struct TileNode {
     BlockId blockmap = kNoBlock;
     double blockmap_min_distance_m = 0;
     Box3d blockmap_bounds;
+    /// `build --blockmaps replace`: the node has no layer, its BlockMap alone
+    /// stands for it (drawn from its distance on; closer, its children).
+    bool blockmap_only = false;
     bool leaf() const { return children.empty(); }
 };
 

@@ -383,6 +383,7 @@ struct Index {
     double focal_px = 0, corner_factor = 1, d_min_m = 0;
     int64_t atlas_size_px = 0, materials = 0, feature_count = 0, block_size = 1;
     bool all_originals = false;  // build.originals == "all": leaves list the blocks of every texture they use
+    std::string blockmaps = "off";  // build.blockmaps
     std::vector<int64_t> texture_block;  // per texture; -2: the entry cannot be read
     size_t blocks = 0, tables = 0;
     std::vector<int64_t> computed_scale;   // per computed texture (extras.cityatlas.computed)
@@ -440,6 +441,7 @@ struct PlacedRect {
 };
 template <class Bad>
 void checkPlacement(const Node& n, const Node& p, std::vector<PlacedRect>& siblings, const Bad& bad) {
+    if (p.layers.empty()) return;  // a parent `--blockmaps replace` left to its BlockMap holds no atlas
     for (const Layer& l : n.layers) {
         if (!l.has_atlas) continue;
         const auto pl = std::find_if(p.layers.begin(), p.layers.end(), [&](const Layer& x) { return x.name == l.name; });
@@ -469,6 +471,56 @@ void checkPlacement(const Node& n, const Node& p, std::vector<PlacedRect>& sibli
             }
         siblings.push_back(box);
     }
+}
+
+// `--blockmaps replace` (tiles/node_blockmaps.h, replacedLevels): the flag
+// and the files agree. Nodes without geometry are whole levels from the
+// root, each node an inner one with a BlockMap; the level below them holds a
+// leaf or a node without a BlockMap (else it would have been replaced too);
+// their geometry and atlas files are gone. Without the flag every node has
+// geometry.
+void checkReplaced(const std::vector<Node>& nodes, const Index& ix, const fs::path& folder, Defects& d) {
+    const bool replace = ix.blockmaps == "replace";
+    std::map<int64_t, std::pair<size_t, size_t>> by_level;  // level -> (nodes, without geometry)
+    std::map<int64_t, bool> keeps;                           // level -> holds a leaf or a node without a BlockMap
+    for (const Node& n : nodes) {
+        if (!n.usable) continue;
+        auto& [all, bare] = by_level[n.level];
+        ++all;
+        keeps[n.level] = keeps[n.level] || n.leaf || !n.blockmap;
+        if (!n.layers.empty()) continue;
+        ++bare;
+        auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", n.where(), what)); };
+        if (!replace) {
+            bad(fmt::format("no geometry, and build.blockmaps is {}, not replace", ix.blockmaps));
+            continue;
+        }
+        if (!n.blockmap) bad("no geometry and no BlockMap to stand for it");
+        if (n.leaf) bad("a leaf without geometry (nothing finer stands for it)");
+        if (!n.contents.empty()) bad("contents listed for a node without geometry");
+        for (const char* kind : {"geometry", "atlas"})
+            for (const char* layer : {"opaque", "alpha"}) {
+                const std::string uri = fmt::format("{}/{}/{}.{}", kind, layer, n.id, kind[0] == 'g' ? "glb" : "dds");
+                std::error_code ec;
+                if (fs::exists(folder / uri, ec)) bad(fmt::format("{} is in the folder: replaced, its node lists none", uri));
+            }
+    }
+    if (!replace) return;
+    int64_t replaced = 0;  // levels 0..replaced-1 are without geometry
+    for (const auto& [level, counts] : by_level) {
+        const auto [all, bare] = counts;
+        if (bare == all && level == replaced) {
+            ++replaced;
+        } else if (bare > 0) {
+            d.push_back(fmt::format("tileset.json: level {}: {} of its {} nodes without geometry: replace leaves whole "
+                                    "levels from the root to their BlockMaps",
+                                    level, bare, all));
+        }
+    }
+    if (by_level.count(replaced) && !keeps[replaced])
+        d.push_back(fmt::format("tileset.json: level {}: every node is an inner node with a BlockMap, yet it keeps its "
+                                "geometry under build.blockmaps replace",
+                                replaced));
 }
 
 void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
@@ -570,9 +622,11 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
 // A node's BlockMap (format/blockmap_file.h): the decoder checks every
 // index the ray caster follows; here, that the file says what the index says,
 // and that it holds the node's buildings: those of its geometry and those its
-// geometry dropped, each either in a cell or listed as missing.
+// geometry dropped, each either in a cell or listed as missing. `buildings`
+// gets what it holds or lists (a node without geometry: the node's features).
 void checkBlockMap(const Node& n, const format::BlockMapEntry& e, const Index& ix, Folder& folder,
-                   const std::set<uint32_t>& geometry_features, bool geometry_decoded, Defects& d) {
+                   const std::set<uint32_t>& geometry_features, bool geometry_decoded, Defects& d,
+                   std::set<uint32_t>* buildings) {
     auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", e.file.uri, what)); };
     if (!folder.check(e.file.uri, static_cast<int64_t>(e.file.bytes), d)) return;
     format::BlockMap bm;
@@ -606,10 +660,11 @@ void checkBlockMap(const Node& n, const format::BlockMapEntry& e, const Index& i
             bad(fmt::format("feature {} is listed as missing but holds cells", f));
             return;
         }
-    if (!geometry_decoded) return;
+    held.insert(e.features_missing.begin(), e.features_missing.end());
+    *buildings = held;
+    if (!geometry_decoded || n.layers.empty()) return;
     std::set<uint32_t> node_features = geometry_features;
     node_features.insert(n.dropped.begin(), n.dropped.end());
-    held.insert(e.features_missing.begin(), e.features_missing.end());
     if (held != node_features)
         bad(fmt::format("holds or lists as missing {} buildings, its node has {} (in its geometry or dropped)",
                         held.size(), node_features.size()));
@@ -671,15 +726,19 @@ void checkNodeFiles(const Node& n, const Index& ix, Folder& folder, Defects& d) 
             if (!c.file.uri.empty() && folder.check(c.file.uri, static_cast<int64_t>(c.file.bytes), d))
                 checkDds(folder.path(c.file.uri), c.file.uri, 0, "", 1, c.width_px, c.height_px, c.mips, c.file.bytes, d);
     }
-    if (n.blockmap) checkBlockMap(n, *n.blockmap, ix, folder, features, decoded_all, d);
+    std::set<uint32_t> in_blockmap;
+    if (n.blockmap) checkBlockMap(n, *n.blockmap, ix, folder, features, decoded_all, d, &in_blockmap);
     if (!decoded_all) return;  // the comparisons below need every layer
     auto bad = [&](const std::string& what) { d.push_back(fmt::format("{}: {}", n.where(), what)); };
+    // A node `--blockmaps replace` left to its BlockMap has its buildings as features.
+    const char* from = "its geometry";
+    if (n.layers.empty() && n.blockmap) features = in_blockmap, from = "its BlockMap";
     if (static_cast<int64_t>(features.size()) != n.feature_count)
-        bad(fmt::format("features.count {}, its geometry has {} feature ids", n.feature_count, features.size()));
+        bad(fmt::format("features.count {}, {} has {} feature ids", n.feature_count, from, features.size()));
     std::set<int64_t> tables;
     for (uint32_t f : features) tables.insert(static_cast<int64_t>(f) / ix.block_size);
     if (tables != std::set<int64_t>(n.feature_tables.begin(), n.feature_tables.end()))
-        bad("features.tables are not the tables of its geometry's feature ids");
+        bad(fmt::format("features.tables are not the tables of {}'s feature ids", from));
     for (int64_t f : n.dropped)
         if (f >= 0 && features.count(static_cast<uint32_t>(f))) {
             bad(fmt::format("feature {} is listed as dropped but is in its geometry", f));
@@ -913,6 +972,7 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
         ix.d_min_m = number(build, "d_min_m");
         ix.atlas_size_px = count(build, "atlas_size_px");
         ix.all_originals = build.contains("originals") && build["originals"] == "all";
+        if (build.contains("blockmaps") && build["blockmaps"].is_string()) ix.blockmaps = build["blockmaps"];
         ix.materials = static_cast<int64_t>(arrayOf(*ca, "materials").size());
         const json& features = member(*ca, "features");
         ix.feature_count = count(features, "count");
@@ -985,6 +1045,7 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
     static const json kNoTile;
     readTree(ts.contains("root") ? static_cast<const json&>(ts["root"]) : kNoTile, "/root", -1, nodes, d);
     checkTree(nodes, ix, d);
+    checkReplaced(nodes, ix, folder, d);
     std::map<std::string, int> uses;
     for (const Node& n : nodes)
         for (const Layer& l : n.layers)

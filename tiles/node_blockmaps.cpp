@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -17,7 +18,22 @@
 namespace cityatlas::tiles {
 namespace fs = std::filesystem;
 
-std::string_view blockMapModeName(BlockMapMode mode) { return mode == BlockMapMode::Complement ? "complement" : "off"; }
+std::string_view blockMapModeName(BlockMapMode mode) {
+    switch (mode) {
+        case BlockMapMode::Complement: return "complement";
+        case BlockMapMode::Replace: return "replace";
+        case BlockMapMode::Off: break;
+    }
+    return "off";
+}
+
+int replacedLevels(const atlas::AtlasTree& tree, std::span<const std::optional<format::BlockMapEntry>> entries) {
+    // The shallowest level holding a node that keeps its geometry (a leaf, or no BlockMap) ends the run.
+    int first_kept = std::numeric_limits<int>::max();
+    for (size_t i = 0; i < tree.nodes.size(); ++i)
+        if (tree.nodes[i].leaf() || i >= entries.size() || !entries[i]) first_kept = std::min(first_kept, tree.nodes[i].level);
+    return first_kept == std::numeric_limits<int>::max() ? -1 : first_kept - 1;
+}
 
 bool blockMapPays(uint64_t blockmap_bytes, const NodeCost& node) { return node.dropped || blockmap_bytes <= node.bytes; }
 

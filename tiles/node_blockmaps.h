@@ -48,10 +48,12 @@
 
 namespace cityatlas::tiles {
 
-/// `build --blockmaps`: none, or BlockMaps beside every node's geometry and
-/// atlases (standard 3D Tiles clients ignore them).
-enum class BlockMapMode : uint8_t { Off, Complement };
-std::string_view blockMapModeName(BlockMapMode mode);  ///< "off", "complement"
+/// `build --blockmaps`: none; BlockMaps beside every node's geometry and
+/// atlases (standard 3D Tiles clients ignore them); or `replace`: the levels
+/// BlockMaps cover completely lose their geometry and atlases (replacedLevels),
+/// a folder for cityatlas clients only (a standard client draws nothing there).
+enum class BlockMapMode : uint8_t { Off, Complement, Replace };
+std::string_view blockMapModeName(BlockMapMode mode);  ///< "off", "complement", "replace"
 
 /// What the rule weighs of a node as written.
 struct NodeCost {
@@ -84,12 +86,23 @@ struct NodeBlockMapStats {
     uint64_t declined_grid = 0;   ///< a grid beyond the file's limits
     uint64_t bytes = 0, gpu_bytes = 0;
     uint64_t unreadable_samples = 0;  ///< colour samples of textures that could not be read (grey)
+    /// `replace`: the levels replaced (replacedLevels), their nodes, and the
+    /// geometry and atlas bytes they no longer write.
+    int replaced_levels = -1;
+    uint64_t nodes_replaced = 0, bytes_omitted = 0;
     std::vector<BlockMapLevelStats> levels;  ///< by level, from the root
     double seconds = 0;
     /// Of which, summed over the nodes (which run in parallel): gathering and
     /// planes (all nodes tried), colours, measured error, encoding and writing.
     double seconds_planes = 0, seconds_colours = 0, seconds_error = 0, seconds_encode = 0;
 };
+
+/// `replace`: the deepest level L such that every node of levels 0..L is an
+/// inner node with a BlockMap (-1: none, e.g. the root got none). Those
+/// nodes' BlockMaps stand for them at every distance: from their own
+/// BlockMap's distance on, and closer their children are drawn. A leaf keeps
+/// its geometry (nothing finer stands for it close by).
+int replacedLevels(const atlas::AtlasTree& tree, std::span<const std::optional<format::BlockMapEntry>> entries);
 
 using BlockMapProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 

@@ -518,6 +518,37 @@ Status writeSubtreeFiles(const Scene& scene, const AtlasTree& tree, const fs::pa
                           out->records, out);
 }
 
+namespace {
+// `--blockmaps replace`: the nodes of the levels BlockMaps cover completely
+// (replacedLevels) lose their geometry and atlases, written by then (the
+// BlockMap rule weighed them); their records list no layer, so
+// tileset.json gives them no content, and as their features the BlockMap's
+// buildings: every building with a triangle in the node, those the geometry
+// had and those it dropped (no geometry is left to have dropped any).
+Status omitReplacedNodeFiles(const AtlasTree& tree, std::span<const std::optional<format::BlockMapEntry>> blockmaps,
+                             const fs::path& out_dir, std::vector<NodeRecord>& records, NodeBlockMapStats* stats) {
+    stats->replaced_levels = replacedLevels(tree, blockmaps);
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        if (tree.nodes[i].level > stats->replaced_levels) continue;
+        for (LayerRecord& l : records[i].layers) {
+            if (!l.present) continue;
+            for (const std::string& uri : {l.geometry_uri, l.atlas_uri}) {
+                std::error_code ec;
+                if (!uri.empty() && !fs::remove(out_dir / uri, ec))
+                    return Status::Io(fmt::format("{}: cannot remove: {}", (out_dir / uri).string(),
+                                                  ec ? ec.message() : "not there"));
+            }
+            stats->bytes_omitted += l.geometry_bytes + l.atlas_bytes;
+            l = LayerRecord{};
+        }
+        records[i].features = unionOf(records[i].features, records[i].dropped);
+        records[i].dropped.clear();
+        ++stats->nodes_replaced;
+    }
+    return Status::Ok();
+}
+}  // namespace
+
 Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
                     const fs::path& out_dir, const std::string& build_hash, Diagnostics& diagnostics,
                     const TilesProgressFn& progress, TilesStats* stats_out, const EncodedAtlases* encoded,
@@ -584,6 +615,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         if (!blockmap_status.ok()) return blockmap_status;
         endStep("blockmaps");
     }
+    if (params.blockmaps == BlockMapMode::Replace)
+        if (Status st = omitReplacedNodeFiles(tree, blockmaps, out_dir, records, &stats.blockmaps); !st.ok()) return st;
 
     // --- Feature tables (the caller may have written them already: a
     // sharded build's plan does, and `build` from what its read gathered).

@@ -79,6 +79,18 @@ std::unique_ptr<StreamingClient> StreamingClient::open(const std::string& base, 
         c->errors_.push_back(st.error);
         std::this_thread::sleep_for(std::chrono::milliseconds(250 << (attempt - 1)));
     }
+    if (!options.selection.blockmaps && options.mode != TextureMode::Original) {
+        int levels = 0;
+        size_t nodes = 0;
+        for (const TileNode& n : c->index_.nodes)
+            if (n.blockmap_only) ++nodes, levels = std::max(levels, n.level + 1);
+        if (nodes) {
+            *status = Status::Usage(fmt::format("{}: built with --blockmaps replace: {} node(s) of levels 0-{} have "
+                                                "their BlockMap alone, which BlockMaps off cannot draw; leave BlockMaps on",
+                                                base, nodes, levels - 1));
+            return nullptr;
+        }
+    }
     c->loadFeatureBounds();
     c->choosePreloadLevel();
     if (c->pinned_bytes_ > options.budget_bytes) {
@@ -555,6 +567,7 @@ Status StreamingClient::waitForRoot(const Camera& camera, double timeout_s) {
         };
         for (const NodeLayer& l : index_.nodes[0].layers)
             if (l.present) need(l.geometry), need(l.atlas);
+        if (index_.nodes[0].blockmap_only) need(index_.nodes[0].blockmap);  // --blockmaps replace: all the root has
         if (all) return Status::Ok();
         if (failed)  // the failure just taken is the latest error
             return Status::Io(fmt::format("{}: the root's blocks cannot be loaded{}", base_,

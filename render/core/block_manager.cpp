@@ -23,6 +23,8 @@ Status BlockManager::checkBudget(const TilesetIndex& index, uint64_t budget_byte
             if (l.geometry != kNoBlock) root += index.blocks[l.geometry].bytes;
             if (l.atlas != kNoBlock) root += index.blocks[l.atlas].bytes;
         }
+    // A root `--blockmaps replace` left to its BlockMap: that is its block.
+    if (!index.nodes.empty() && index.nodes[0].blockmap_only) root += index.blocks[index.nodes[0].blockmap].bytes;
     if (root > budget_bytes)
         return Status::Invalid(fmt::format("memory budget {} bytes is smaller than the root's blocks ({} bytes), which are "
                                         "always resident; give at least {} bytes",

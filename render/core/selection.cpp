@@ -39,7 +39,11 @@ void forEachNodeBlock(const TileNode& node, Fn&& fn, int computed = -1) {
     }
 }
 
-bool hasBlockMap(const TileNode& n, const SelectionParams& params) { return params.blockmaps && n.blockmap != kNoBlock; }
+// A node `--blockmaps replace` left to its BlockMap has nothing else to draw,
+// whatever the parameters say (the client refuses BlockMaps off on such a folder).
+bool hasBlockMap(const TileNode& n, const SelectionParams& params) {
+    return n.blockmap != kNoBlock && (params.blockmaps || n.blockmap_only);
+}
 
 // The node is drawn by its BlockMap at distance d (scale: distanceScale).
 bool atBlockMapDistance(const TileNode& n, const SelectionParams& params, double d, double scale) {
@@ -175,7 +179,8 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
         ++c.nodes_needed;
         const double d = distance[static_cast<size_t>(id)];
-        const bool sharp = d >= n.min_distance_m * scale;
+        // A node without an atlas is never sharp: closer than its BlockMap's distance, its children are.
+        const bool sharp = !n.blockmap_only && d >= n.min_distance_m * scale;
         if (atBlockMapDistance(n, params, d, scale)) {
             // Drawn by its BlockMap: the next step is prefetched as it would be drawn.
             mark(n.blockmap, Usage::Needed, key[static_cast<size_t>(id)], n.level);
@@ -234,8 +239,10 @@ void orderCandidates(const TilesetIndex& index, Classification* c) {
     if (index.nodes.empty()) return;
     std::vector<BlockId> root_blocks;
     forEachNodeBlock(index.nodes[0], [&](BlockId b) { root_blocks.push_back(b); });
-    // The root's BlockMap where the selection uses it (Unused: BlockMaps off).
-    if (const BlockId b = index.nodes[0].blockmap; b != kNoBlock && c->priority[b].usage != Usage::Unused)
+    // The root's BlockMap where the selection uses it (Unused: BlockMaps off),
+    // and always where it is all the root has.
+    if (const BlockId b = index.nodes[0].blockmap;
+        b != kNoBlock && (c->priority[b].usage != Usage::Unused || index.nodes[0].blockmap_only))
         root_blocks.push_back(b);
     std::sort(root_blocks.begin(), root_blocks.end());
     for (BlockId b = 0; b < index.blocks.size(); ++b)
@@ -247,8 +254,10 @@ void orderCandidates(const TilesetIndex& index, Classification* c) {
 }
 
 bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident) {
+    const TileNode& n = index.nodes[static_cast<size_t>(node)];
+    if (n.blockmap_only) return false;  // no geometry: only its BlockMap draws it
     bool all = true;
-    forEachNodeBlock(index.nodes[static_cast<size_t>(node)], [&](BlockId b) { all = all && resident(b); });
+    forEachNodeBlock(n, [&](BlockId b) { all = all && resident(b); });
     return all;
 }
 
@@ -260,7 +269,7 @@ bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& 
     }
     for (const int32_t ch : n.children) {
         const TileNode& c = index.nodes[static_cast<size_t>(ch)];
-        if (blockmaps && c.blockmap != kNoBlock && resident(c.blockmap)) continue;
+        if ((blockmaps || c.blockmap_only) && c.blockmap != kNoBlock && resident(c.blockmap)) continue;
         if (!nodeDrawable(index, ch, resident) && !outsideFrustum(frustum, c.bounds)) return false;
     }
     return true;
@@ -317,7 +326,7 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
             emit(n, DrawMode::BlockMap, false, d);
             continue;
         }
-        bool use_atlas = d >= n.min_distance_m * scale;
+        bool use_atlas = !n.blockmap_only && d >= n.min_distance_m * scale;
         bool coarse = false;
         // The atlas is the finest there is: originals off, or none listed (it holds every texture exactly).
         if (!use_atlas && n.leaf() && (!params.originals || n.texture_blocks.empty())) use_atlas = true;

@@ -113,11 +113,12 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
 void orderCandidates(const TilesetIndex& index, Classification* c);
 
 /// All blocks of a node (both layers' geometry and atlases; not its computed
-/// textures, for which the photo stands in) are resident.
+/// textures, for which the photo stands in) are resident. Never for a node
+/// that has only its BlockMap (TileNode::blockmap_only).
 bool nodeDrawable(const TilesetIndex& index, int32_t node, const std::function<bool(BlockId)>& resident);
 
 /// Fig. 30's refinementPossible: an inner node's children are each drawable
-/// (nodeDrawable, or with `blockmaps` their BlockMap resident) or outside the
+/// (nodeDrawable, or with `blockmaps` or alone their BlockMap resident) or outside the
 /// frustum; a leaf's original textures are all resident (selectDraws asks
 /// only for those its camera sees, SelectionParams::texture_use).
 bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& frustum,

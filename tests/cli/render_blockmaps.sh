@@ -17,7 +17,10 @@
 #  5. --blockmaps off draws none and loads none;
 #  6. built with --blockmap-sample max (conservative cells), the same frames
 #     have no interior hole at all by image_compare's definition, and
-#     PSNR >= 28 dB.
+#     PSNR >= 28 dB;
+#  7. built with --blockmaps replace: the frames match complement's (ids
+#     differ on at most 0.5 % of the pixels), PSNR >= 28 dB; the far frame is
+#     the root's BlockMap alone; --blockmaps off is refused.
 source "$(dirname "$0")/lib.sh" "$@"
 [ -n "${IMAGE_COMPARE:-}" ] || fail "IMAGE_COMPARE is not set"
 CLEAR="196,218,243"  # the clear colour (linear 0.55, 0.70, 0.90) as sRGB bytes
@@ -198,3 +201,46 @@ for f in ref/frame_*.png; do
 done
 check_eq "--blockmap-sample max: interior holes over $FRAMES frames" 0 "$holes"
 echo "ok: --blockmap-sample max: no interior hole, PSNR min $psnr_min dB"
+
+# 7. replace: the levels BlockMaps cover completely have nothing else. The
+# same frames as complement's where both draw the same (a node's BlockMap
+# switches at its own distance, so closer than it both refine to the
+# children), PSNR >= 28 dB against the originals, the ids of every building
+# of >= 2 px; the far frame is the root's BlockMap alone (all the root has);
+# BlockMaps off is refused in one line.
+"$CITYATLAS" build -q town/town.gml -o tiles-rep --blockmaps replace --originals all > /dev/null
+replaced=$(json tiles-rep/build_report.json "j['blockmaps']['replaced']['levels']")
+[ "$replaced" -ge 1 ] || fail "replace left no level to its BlockMaps"
+"$CITYATLAS" render tiles-rep --size $SIZE --wait --frames $FRAMES --fps 2 --ids --anisotropy 1 -o rep -q
+check_eq "replace: errors, frames without the root" "0 0" "$(json rep/report.json "str(j['summary']['errors']) + ' ' + str(j['summary']['frames_root_missing'])")"
+psnr_min=99; same_min=99
+for f in ref/frame_*.png; do
+  name=$(basename "$f")
+  psnr=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$("$IMAGE_COMPARE" "rep/$name" "$f" "$CLEAR")")
+  same=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$("$IMAGE_COMPARE" "rep/$name" "bm/$name" "$CLEAR")")
+  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "replace: $name: PSNR $psnr dB < 28 dB"
+  psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
+  same_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$same_min" "$same")
+done
+"$PY" - "$same_min" <<'PY' || fail "replace draws what complement draws differently"
+import sys, glob, os
+import numpy as np
+# The id buffers: where complement drew a replaced node's geometry (closer
+# than its BlockMap's distance, farther than its own min distance: LOD2
+# roofs measure above a texel), replace draws its children instead; count.
+differ = total = 0
+for a in sorted(glob.glob("bm/ids_*.bin")):
+    x = np.fromfile(a, dtype="<u4"); y = np.fromfile(os.path.join("rep", os.path.basename(a)), dtype="<u4")
+    differ += int((x != y).sum()); total += x.size
+share = differ / total
+print(f"ok: replace against complement: ids differ on {100 * share:.2f} % of the pixels, PSNR >= {float(sys.argv[1]):.1f} dB")
+sys.exit(0 if share <= 0.005 else 1)
+PY
+check_eq "replace: the far frame draws (atlas, originals, blockmap)" "0 0 1" \
+  "$("$CITYATLAS" render tiles-rep --path far.json --size $SIZE --wait --frames 1 -o rep-far -q && json rep-far/report.json "' '.join(str(j['frames'][0]['nodes_drawn'][k]) for k in ('atlas', 'originals', 'blockmap'))")"
+set +e
+"$CITYATLAS" render tiles-rep --blockmaps off --frames 1 -o rep-off -q > rep-off.txt 2>&1; rc=$?
+set -e
+check_eq "replace with --blockmaps off: exit code, lines" "2 1" "$rc $(wc -l < rep-off.txt)"
+grep -q "built with --blockmaps replace" rep-off.txt || { cat rep-off.txt >&2; fail "the refusal does not say why"; }
+echo "ok: replace ($replaced levels): PSNR against the originals min $psnr_min dB; $(cat rep-off.txt)"

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <set>
 
+#include "render/core/block_manager.h"
 #include "render/core/selection.h"
 #include "tests/render/core/scripted_tree.h"
 
@@ -202,6 +203,75 @@ TEST(SelectionBlockMaps, LeavesCloserThanTheirDistanceNeedTheirGeometry) {
     ASSERT_NE(it, s.draws.end());
     EXPECT_EQ(it->mode, DrawMode::BlockMap);
     EXPECT_TRUE(it->coarse);
+}
+
+// `--blockmaps replace`: the root and its children have their BlockMaps
+// alone (no layer). c3's BlockMap switches at 200 m (a measured error above
+// its texel, as LOD2 roofs give), farther than its own 100 m. By hand, the
+// camera as above:
+//   root: d = 0 < 1000      -> refined; its BlockMap Needed and pinned
+//   c3: d = 160 < 200       -> refined (no atlas to be sharp with): its
+//                              BlockMap Needed (the fallback), its leaves
+//                              drawn with their atlases (d >= 160 >= 25)
+//   c2, c1, c0: as above.
+TEST(SelectionBlockMaps, ReplacedNodesAreDrawnByTheirBlockMapOrTheirChildren) {
+    Fixture f;
+    for (const int n : kWithBlockMaps) {
+        TileNode& node = f.index.nodes[static_cast<size_t>(n)];
+        node.layers = {};
+        node.blockmap_only = true;
+    }
+    f.index.nodes[16].blockmap_min_distance_m = 200;
+    const Classification c = classifyBlocks(f.index, f.camera, {});
+    EXPECT_EQ(c.priority[f.blockmap(0)].usage, Usage::Needed);
+    EXPECT_EQ(c.priority[f.blockmap(16)].usage, Usage::Needed);
+    for (int leaf = 17; leaf <= 20; ++leaf) EXPECT_EQ(c.priority[f.geometry(leaf)].usage, Usage::Needed) << "leaf " << leaf;
+    ASSERT_FALSE(c.candidates.empty());
+    EXPECT_EQ(c.candidates.front(), f.blockmap(0)) << "the root's BlockMap is all the root has: pinned first";
+    // Looking away from the town, the root's BlockMap stays pinned.
+    const Classification away = classifyBlocks(f.index, test::unitCamera({-50, 50, 5}, {-1, 0, 0}), {});
+    ASSERT_FALSE(away.candidates.empty());
+    EXPECT_EQ(away.candidates.front(), f.blockmap(0));
+
+    const auto all = [](BlockId) { return true; };
+    Selection s = selectDraws(f.index, f.camera, {}, all);
+    const std::vector<std::pair<int, DrawMode>> want = {
+        {8, DrawMode::Originals}, {9, DrawMode::Originals}, {10, DrawMode::Atlas}, {12, DrawMode::Atlas},
+        {13, DrawMode::Atlas},    {14, DrawMode::Atlas},    {15, DrawMode::Atlas}, {17, DrawMode::Atlas},
+        {18, DrawMode::Atlas},    {19, DrawMode::Atlas},    {20, DrawMode::Atlas}};
+    EXPECT_EQ(drawsOf(s), want);
+    // BlockMaps "off" cannot turn off what a node has alone.
+    SelectionParams off;
+    off.blockmaps = false;
+    EXPECT_EQ(drawsOf(selectDraws(f.index, f.camera, off, all)), want);
+    // c3's BlockMap missing: the root cannot count on c3 and stands in by its BlockMap, coarse.
+    s = selectDraws(f.index, f.camera, {}, allBut({f.blockmap(16)}));
+    EXPECT_EQ(drawsOf(s), (std::vector<std::pair<int, DrawMode>>{{0, DrawMode::BlockMap}}));
+    EXPECT_TRUE(s.draws[0].coarse);
+    // The root's BlockMap missing: nothing can be drawn, whatever else is there.
+    EXPECT_TRUE(selectDraws(f.index, f.camera, {}, allBut({f.blockmap(0)})).root_missing);
+    // The budget must hold the root's BlockMap (500 bytes), its only block.
+    EXPECT_FALSE(BlockManager::checkBudget(f.index, 499).ok());
+    EXPECT_TRUE(BlockManager::checkBudget(f.index, 500).ok());
+
+    // Walking away: a replaced node is drawn only by its BlockMap, never with
+    // an atlas, from its BlockMap's distance on; never with an ancestor.
+    for (double x = 420; x <= 1600; x += 7) {
+        const Camera cam = test::unitCamera({x, 50, 5}, {-1, 0, 0});
+        const Selection w = selectDraws(f.index, cam, {}, all);
+        ASSERT_FALSE(w.draws.empty()) << "x " << x;
+        std::set<int> drawn;
+        for (const DrawItem& d : w.draws) {
+            drawn.insert(d.node);
+            const TileNode& n = f.index.nodes[static_cast<size_t>(d.node)];
+            if (!n.blockmap_only) continue;
+            EXPECT_EQ(d.mode, DrawMode::BlockMap) << "node " << d.node << " at x " << x;
+            EXPECT_GE(distanceToBox(cam.position, n.bounds), n.blockmap_min_distance_m) << "node " << d.node << " at x " << x;
+        }
+        for (const int n : drawn)
+            for (int p = f.index.nodes[static_cast<size_t>(n)].parent; p >= 0; p = f.index.nodes[static_cast<size_t>(p)].parent)
+                EXPECT_FALSE(drawn.count(p)) << "node " << n << " and its ancestor " << p << " at x " << x;
+    }
 }
 
 }  // namespace
