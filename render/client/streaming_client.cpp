@@ -262,7 +262,10 @@ std::vector<StreamingClient::Fade> StreamingClient::crossFades(const Selection& 
         for (Fade& f : fading_out_) {
             const bool drawn_now = shown.count(f.item.node) && shown[f.item.node].mode == f.item.mode;
             // Only what is still resident: a fade never holds a block the budget let go.
-            if (t - f.started >= fade || drawn_now || !nodeDrawable(index_, f.item.node, resident)) continue;
+            const TileNode& n = index_.nodes[static_cast<size_t>(f.item.node)];
+            const bool still_resident = f.item.mode == DrawMode::BlockMap ? n.blockmap != kNoBlock && resident(n.blockmap)
+                                                                          : nodeDrawable(index_, f.item.node, resident);
+            if (t - f.started >= fade || drawn_now || !still_resident) continue;
             f.progress = static_cast<float>((t - f.started) / fade);
             still.push_back(f);
             out.push_back(f);
@@ -612,15 +615,17 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
         return t >= 0 && static_cast<size_t>(t) < r.original.size() ? r.original[static_cast<size_t>(t)] : nullptr;
     };
     const BlockMapLens blockmap_lens = gl_->blockMapLens();
-    auto drawItem = [&](const DrawItem& d) {
+    // `fade`, `fade_t`: the cross-fade's screen door (GlRenderer::setFade), meshes and BlockMaps alike.
+    auto drawItem = [&](const DrawItem& d, int fade, float fade_t) {
         const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
         if (d.mode == DrawMode::BlockMap) {
             // Drawn now (ray-cast, depth written): the meshes queued for
             // endFrame are depth-tested against it.
             drawn_[n.blockmap] = 1;
-            blockmap_pass_->draw(r.blockmaps[n.blockmap], camera, &blockmap_lens);
+            blockmap_pass_->draw(r.blockmaps[n.blockmap], camera, &blockmap_lens, fade, fade_t);
             return;
         }
+        gl_->setFade(fade, fade_t);
         for (const NodeLayer& l : n.layers) {
             if (!l.present) continue;
             drawn_[l.geometry] = 1;
@@ -662,16 +667,14 @@ FrameRecord StreamingClient::frame(const Camera& camera_in) {
     const std::vector<Fade> fades = crossFades(sel);
     for (const Fade& f : fades) {
         if (!f.out) continue;
-        gl_->setFade(2, f.progress);
-        drawItem(f.item);
+        drawItem(f.item, 2, f.progress);
         ++rec.fading;
     }
     for (const DrawItem& d : sel.draws) {
         const TileNode& n = index_.nodes[static_cast<size_t>(d.node)];
         const auto in = std::find_if(fades.begin(), fades.end(), [&](const Fade& f) { return !f.out && f.item.node == d.node; });
-        gl_->setFade(in != fades.end() ? 1 : 0, in != fades.end() ? in->progress : 0.0F);
         rec.fading += in != fades.end() ? 1 : 0;
-        drawItem(d);
+        drawItem(d, in != fades.end() ? 1 : 0, in != fades.end() ? in->progress : 0.0F);
         (d.mode == DrawMode::Originals  ? rec.nodes_originals
          : d.mode == DrawMode::BlockMap ? rec.nodes_blockmap
                                         : rec.nodes_atlas) += 1;

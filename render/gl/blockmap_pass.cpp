@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "render/gl/gl_program.h"
+#include "render/gl/screen_door.h"
 
 namespace cityatlas::render {
 namespace {
@@ -57,7 +58,7 @@ uniform float u_lens_radius;
 uniform vec2 u_context;            // outside the lens: saturation, brightness
 layout(location = 0) out vec4 o_colour;
 layout(location = 1) out uint o_feature;
-
+)" CITYATLAS_SCREEN_DOOR_GLSL R"(
 const uint kNone = 0xFFFFFFFFu;
 float heightOf(uint q) { return float(q) / 65535.0 * u_height; }
 bool outside(ivec2 c) { return any(lessThan(c, ivec2(0))) || any(greaterThanEqual(c, u_n)); }
@@ -69,6 +70,7 @@ bool covered(ivec2 n, uvec4 cell) {
 }
 
 void main() {
+    if (screenDoorDiscards()) discard;  // the cross-fade, before any ray is cast
     vec3 o = u_camera;
     vec3 d = v_grid - u_camera;
     vec3 inv = 1.0 / d;
@@ -267,7 +269,7 @@ void BlockMapPass::release(GpuBlockMap* g) {
     *g = GpuBlockMap{};
 }
 
-void BlockMapPass::draw(const GpuBlockMap& g, const Camera& camera, const BlockMapLens* lens) {
+void BlockMapPass::draw(const GpuBlockMap& g, const Camera& camera, const BlockMapLens* lens, int fade, float fade_t) {
     if (!g.valid()) return;
     const double s = g.cell_m;
     const auto bx = static_cast<float>(g.nx), by = static_cast<float>(g.ny);
@@ -296,6 +298,8 @@ void BlockMapPass::draw(const GpuBlockMap& g, const Camera& camera, const BlockM
     glUniform1f(loc("u_height"), bz);
     glUniform1i(loc("u_coloured"), g.roof != 0);
     glUniform1i(loc("u_cell_ids"), cell_ids_);
+    glUniform1i(loc("u_fade"), fade);
+    glUniform1f(loc("u_fade_t"), fade_t);
     const std::pair<const char*, std::pair<GLenum, uint32_t>> units[6] = {
         {"u_cells", {GL_TEXTURE_2D, g.cells}},       {"u_dist", {GL_TEXTURE_2D, g.dist}},
         {"u_roof", {GL_TEXTURE_2D, g.roof}},         {"u_walls", {GL_TEXTURE_2D, g.walls}},

@@ -70,8 +70,11 @@ public:
 
     /// Draws into the bound framebuffer (colour with GL_FRAMEBUFFER_SRGB as
     /// meshes, depth, ids at location 1) as `camera` sees it; depth test on;
-    /// with `lens`, the lenses as BlockMapLens says.
-    void draw(const GpuBlockMap& blockmap, const Camera& camera, const BlockMapLens* lens = nullptr);
+    /// with `lens`, the lenses as BlockMapLens says; `fade` and `fade_t` as
+    /// GlRenderer::setFade's mode and progress (the same screen door,
+    /// screen_door.h).
+    void draw(const GpuBlockMap& blockmap, const Camera& camera, const BlockMapLens* lens = nullptr, int fade = 0,
+              float fade_t = 0);
     /// Test hook: the id buffer gets (cell index) * 8 + face (blockmap_ray.h's
     /// faces) of each hit instead of the feature id.
     void setCellIds(bool on) { cell_ids_ = on; }

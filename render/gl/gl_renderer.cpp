@@ -12,6 +12,7 @@
 
 #include "render/gl/gl_context.h"
 #include "render/gl/gl_program.h"
+#include "render/gl/screen_door.h"
 #include "format/dds.h"
 #include "render/core/computed_ramp.h"
 
@@ -85,9 +86,7 @@ uniform int u_lens;               // analytic colour lens: 0 none, 1 sphere, 2 v
 uniform vec3 u_lens_centre;       // relative to the camera
 uniform float u_lens_radius;
 uniform vec2 u_context;           // outside the lens: saturation, brightness
-uniform int u_fade;               // cross-fade: 0 none, 1 in, 2 out (GlRenderer::setFade)
-uniform float u_fade_t;
-const float kBayer[16] = float[16](0.0, 8.0, 2.0, 10.0, 12.0, 4.0, 14.0, 6.0, 3.0, 11.0, 1.0, 9.0, 15.0, 7.0, 13.0, 5.0);
+)" CITYATLAS_SCREEN_DOOR_GLSL R"(
 uniform samplerBuffer u_materials;  // linear rgb, alpha = 1 - transparency
 uniform int u_material_count;
 uniform int u_mode;
@@ -116,11 +115,7 @@ void main() {
     } else {
         c = vec4(vec3(u_grey), 1.0);
     }
-    if (u_fade != 0) {
-        ivec2 q = ivec2(gl_FragCoord.xy) & 3;
-        bool in_part = (kBayer[q.y * 4 + q.x] + 0.5) / 16.0 < u_fade_t;
-        if ((u_fade == 1) != in_part) discard;
-    }
+    if (screenDoorDiscards()) discard;                 // the cross-fade (screen_door.h)
     if (v_style == 1u) discard;                        // the discard lens
     if ((v_style == 2u) != (u_pass == 2)) discard;      // x-ray faces only in their own pass
     if (u_tinted && v_feature < uint(textureSize(u_tints))) {
