@@ -12,6 +12,7 @@
 // OpenImageIO does the reading (ImageInput, into a bounded cache of decoded
 // textures) and writing.
 #include "atlas/atlas_images.h"
+#include "atlas/texture_file.h"
 #include "atlas/placement.h"
 
 #include <algorithm>
@@ -322,66 +323,6 @@ Status writeAtlasPng(const format::Image8& img, const fs::path& path) {
 
 namespace {
 
-// An original texture as its file holds it: 8 bits per channel when the
-// file has them, else 16; at most 4 channels; alpha straight.
-struct Decoded {
-    OIIO::ImageSpec spec;
-    int channels = 0;
-    std::vector<uint8_t> raw8;
-    std::vector<uint16_t> raw16;
-    size_t bytes() const { return raw8.size() + 2 * raw16.size(); }
-};
-
-// Reads one texture. 8-bit scanline files (PNG, JPEG: nearly every texture)
-// go row by row: OpenImageIO 2.4's whole-image read_image of a PNG, which
-// its ImageCache uses too, decodes through a fresh buffer on every call, and
-// first-touch page faults made it 2.5x slower (500 reads of a 512^2 RGB PNG:
-// 2.03 s and 109 k faults; row by row 0.80 s and 13 k).
-std::shared_ptr<const Decoded> readTexture(const std::string& path, std::string* why) {
-    OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);  // PNG alpha is straight: do not premultiply the codes
-    auto in = OIIO::ImageInput::open(path, &config);
-    if (!in) {
-        *why = OIIO::geterror();
-        return nullptr;
-    }
-    auto d = std::make_shared<Decoded>();
-    d->spec = in->spec();
-    const OIIO::ImageSpec& spec = d->spec;
-    if (spec.width < 1 || spec.height < 1 || spec.nchannels < 1) {
-        *why = "empty image";
-        return nullptr;
-    }
-    const int nc = std::min(spec.nchannels, 4);
-    d->channels = nc;
-    const size_t n = static_cast<size_t>(spec.width) * spec.height;
-    bool ok = true;
-    if (spec.format == OIIO::TypeDesc::UINT8 && spec.tile_width == 0) {
-        d->raw8.resize(n * nc);
-        std::vector<uint8_t> row(static_cast<size_t>(spec.width) * spec.nchannels);
-        for (int y = 0; y < spec.height && ok; ++y) {
-            ok = in->read_scanline(spec.y + y, spec.z, OIIO::TypeDesc::UINT8, row.data());
-            uint8_t* out = &d->raw8[static_cast<size_t>(y) * spec.width * nc];
-            if (nc == spec.nchannels)
-                std::copy(row.begin(), row.end(), out);
-            else
-                for (int x = 0; x < spec.width; ++x)
-                    std::copy_n(&row[static_cast<size_t>(x) * spec.nchannels], nc, out + static_cast<size_t>(x) * nc);
-        }
-    } else if (spec.format == OIIO::TypeDesc::UINT8) {
-        d->raw8.resize(n * nc);
-        ok = in->read_image(0, 0, 0, nc, OIIO::TypeDesc::UINT8, d->raw8.data());
-    } else {
-        d->raw16.resize(n * nc);
-        ok = in->read_image(0, 0, 0, nc, OIIO::TypeDesc::UINT16, d->raw16.data());
-    }
-    if (!ok) {
-        *why = in->geterror();
-        return nullptr;
-    }
-    return d;
-}
-
 // Decoded textures kept for the leaves that share them (repeating textures,
 // a roof texture used city-wide), least recently used first out, within
 // params.cache_mb. A miss decodes outside the lock; two threads missing the
@@ -390,7 +331,7 @@ class DecodedTextures {
 public:
     explicit DecodedTextures(size_t budget_bytes) : budget_(budget_bytes) {}
 
-    std::shared_ptr<const Decoded> get(int32_t index, const std::string& path, std::string* why) {
+    std::shared_ptr<const DecodedTexture> get(int32_t index, const std::string& path, std::string* why) {
         {
             std::lock_guard lock(mutex_);
             if (auto it = entries_.find(index); it != entries_.end()) {
@@ -398,7 +339,7 @@ public:
                 return it->second.texture;
             }
         }
-        std::shared_ptr<const Decoded> d = readTexture(path, why);
+        std::shared_ptr<const DecodedTexture> d = readTextureFile(path, why);
         if (!d) return nullptr;
         std::lock_guard lock(mutex_);
         if (entries_.count(index) || d->bytes() > budget_) return d;
@@ -416,7 +357,7 @@ public:
 
 private:
     struct Entry {
-        std::shared_ptr<const Decoded> texture;
+        std::shared_ptr<const DecodedTexture> texture;
         std::list<int32_t>::iterator position;
     };
     size_t budget_;
@@ -514,7 +455,7 @@ private:
                      const std::vector<PackedRegion>& regions, Canvas& canvas) {
         const TextureRef& ref = scene_.textures[texture];
         std::string why;
-        const std::shared_ptr<const Decoded> decoded = textures_.get(texture, ref.path, &why);
+        const std::shared_ptr<const DecodedTexture> decoded = textures_.get(texture, ref.path, &why);
         const bool have_spec = decoded != nullptr;
         const OIIO::ImageSpec spec = have_spec ? decoded->spec : OIIO::ImageSpec();
         // The least reduction any region of this texture needs is applied while
@@ -560,7 +501,7 @@ private:
     // Converts a decoded texture into linear premultiplied floats,
     // box-reduced by 2^levels on each axis on the way (levels are lowered
     // until they divide the size, so the reduction is exact and periodic).
-    bool load(int32_t index, const Decoded& decoded, Layer layer, std::pair<int, int>* levels, Image* img) {
+    bool load(int32_t index, const DecodedTexture& decoded, Layer layer, std::pair<int, int>* levels, Image* img) {
         const OIIO::ImageSpec& spec = decoded.spec;
         const int nc = decoded.channels;
         const size_t n = static_cast<size_t>(spec.width) * spec.height;

@@ -2,6 +2,7 @@
 // buildBlockMap: a node's buildings as the prisms of a BlockMap (passes in
 // atlas/blockmap.h).
 #include "atlas/blockmap.h"
+#include "atlas/texture_file.h"
 
 #include <tbb/parallel_for.h>
 
@@ -214,10 +215,10 @@ public:
     static float linearOf(uint8_t v) { return linearTable()[v]; }
     explicit ReducedTextures(size_t textures) : entries_(textures) {}
 
-    /// The reduced levels of texture `t` (decoded on first use through `cache`).
-    const Levels& levels(size_t t, const TextureRef& ref, OIIO::ImageCache* cache) {
+    /// The reduced levels of texture `t` (decoded on first use).
+    const Levels& levels(size_t t, const TextureRef& ref) {
         Entry& e = entries_[t];
-        std::call_once(e.once, [&] { e.levels = reduce(ref, cache); });
+        std::call_once(e.once, [&] { e.levels = reduce(ref); });
         return e.levels;
     }
 
@@ -226,28 +227,29 @@ private:
         std::once_flag once;
         Levels levels;
     };
-    static Levels reduce(const TextureRef& ref, OIIO::ImageCache* cache) {
+    // Read with the atlas stage's reader (atlas/texture_file.h), not through
+    // the ImageCache: a city's root reads every texture once, and the
+    // cache's whole-image reads cost more than the decoding (see
+    // texture_file.cpp). A texture with alpha counts as opaque over black
+    // (premultiplied), as the cache's reads gave it.
+    static Levels reduce(const TextureRef& ref) {
         Levels out;
-        const OIIO::ustring name(ref.path);
-        const OIIO::ImageSpec* spec = cache->imagespec(name);
-        if (!spec || spec->width <= 0 || spec->height <= 0) {
-            (void)cache->geterror();
-            return out;
-        }
-        int w = spec->width, h = spec->height;
-        const int nc = std::min(spec->nchannels, 3);
-        // 8 bits a channel (the textures' own; 16-bit ones are rounded) through
-        // a table: a pow per texel would cost more than the decoding.
-        std::vector<uint8_t> raw(static_cast<size_t>(w) * static_cast<size_t>(h) * static_cast<size_t>(nc));
-        if (!cache->get_pixels(name, 0, 0, 0, w, 0, h, 0, 1, 0, nc, OIIO::TypeUInt8, raw.data())) {
-            (void)cache->geterror();
-            return out;
-        }
+        std::string why;
+        const std::shared_ptr<const DecodedTexture> d = readTextureFile(ref.path, &why, /*straight_alpha=*/false);
+        if (!d) return out;
+        int w = d->spec.width, h = d->spec.height;
+        const size_t nc = static_cast<size_t>(d->channels);
+        const size_t grey = nc < 3 ? 1 : 0;  // one colour channel (grey, grey and alpha): all three from it
+        // 8 bits a channel (16-bit ones are rounded) through a table: a pow per
+        // texel would cost more than the decoding.
         const std::array<float, 256>& kLinear = linearTable();
         std::vector<std::array<float, 3>> level(static_cast<size_t>(w) * static_cast<size_t>(h));
         for (size_t i = 0; i < level.size(); ++i)
-            for (size_t k = 0; k < 3; ++k)
-                level[i][k] = kLinear[raw[i * static_cast<size_t>(nc) + std::min<size_t>(k, static_cast<size_t>(nc) - 1)]];
+            for (size_t k = 0; k < 3; ++k) {
+                const size_t at = i * nc + (grey ? 0 : k);
+                const unsigned v = d->raw8.empty() ? (d->raw16[at] + 128u) / 257u : d->raw8[at];
+                level[i][k] = kLinear[v];
+            }
         // Halve (a 2 x 2 box; an odd last row or column averaged with itself)
         // until the level is small enough to keep, then keep it and the rest.
         int lvl = 0;
@@ -326,7 +328,7 @@ public:
             const Vec2d uv = uvAt(t, p);
             if (tables_.reduced) {
                 // The mip level whose texel is the samples' spacing: a reduced one when it is small enough.
-                const ReducedTextures::Levels& r = tables_.reduced->levels(static_cast<size_t>(t.texture), ref, cache_);
+                const ReducedTextures::Levels& r = tables_.reduced->levels(static_cast<size_t>(t.texture), ref);
                 if (r.readable) {
                     const double footprint = spacing_m * texelsPerMetre(t, r.width[0] << r.first, r.height[0] << r.first);
                     const int level = footprint >= 1 ? static_cast<int>(std::floor(std::log2(footprint))) : 0;
