@@ -146,17 +146,27 @@ void StreamingClient::setBudget(uint64_t bytes) {
     choosePreloadLevel();
 }
 
+template <typename Fn>
+void StreamingClient::forEachPreloadBlock(const TileNode& n, Fn&& fn) const {
+    if (n.blockmap != kNoBlock && (options_.selection.blockmaps || n.blockmap_only)) {
+        fn(n.blockmap);
+        return;
+    }
+    for (const NodeLayer& l : n.layers) {
+        if (!l.present) continue;
+        fn(l.geometry);
+        if (l.atlas != kNoBlock) fn(l.atlas);
+    }
+}
+
 void StreamingClient::choosePreloadLevel() {
-    // The deepest level L <= preload_levels whose nodes' geometry and atlases
-    // fit a quarter of the budget (levels grow monotonically in bytes).
+    // The deepest level L <= preload_levels whose nodes' stand-ins (their
+    // BlockMaps, or geometry and atlases) fit a quarter of the budget
+    // (levels grow monotonically in bytes).
     std::vector<uint64_t> by_level;
     for (const TileNode& n : index_.nodes) {
         if (by_level.size() <= static_cast<size_t>(n.level)) by_level.resize(static_cast<size_t>(n.level) + 1, 0);
-        for (const NodeLayer& l : n.layers) {
-            if (!l.present) continue;
-            by_level[static_cast<size_t>(n.level)] += index_.blocks[l.geometry].bytes;
-            if (l.atlas != kNoBlock) by_level[static_cast<size_t>(n.level)] += index_.blocks[l.atlas].bytes;
-        }
+        forEachPreloadBlock(n, [&](BlockId b) { by_level[static_cast<size_t>(n.level)] += index_.blocks[b].bytes; });
     }
     preload_level_ = -1;
     uint64_t sum = 0;
@@ -298,14 +308,9 @@ Classification StreamingClient::classify(const Camera& camera) const {
                 if (index_.blocks[b].kind == BlockKind::Textures || c.priority[b].usage != Usage::Needed)
                     c.priority[b].usage = Usage::Unused;
         // Preloaded levels lead, coarsest first, wherever the camera is.
-        for (const TileNode& n : index_.nodes) {
-            if (n.level > preload_level_) continue;
-            for (const NodeLayer& l : n.layers) {
-                if (!l.present) continue;
-                c.priority[l.geometry] = {Usage::Needed, -1.0, n.level};
-                if (l.atlas != kNoBlock) c.priority[l.atlas] = {Usage::Needed, -1.0, n.level};
-            }
-        }
+        for (const TileNode& n : index_.nodes)
+            if (n.level <= preload_level_)
+                forEachPreloadBlock(n, [&](BlockId b) { c.priority[b] = {Usage::Needed, -1.0, n.level}; });
         orderCandidates(index_, &c);
         return c;
     }

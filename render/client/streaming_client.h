@@ -160,8 +160,8 @@ public:
     /// Loads until the root's blocks are resident (the first thing any frame
     /// needs), planning for `camera`. A transient failure of a root block (a
     /// flaky server outlasting the loader's retries) is waited out; an error
-    /// on timeout or when a root block failed for good (a 404, bytes that do
-    /// not decode), naming the first error seen.
+    /// when a root block failed for good (a 404, bytes that do not decode),
+    /// naming its error, or on timeout, naming the first error seen.
     Status waitForRoot(const Camera& camera, double timeout_s);
 
     /// The building under pixel (px, py) of the last frame drawn with `camera`
@@ -232,6 +232,11 @@ private:
     bool related(int32_t a, int32_t b) const;
     double now() const;
     void choosePreloadLevel();
+    /// What stands for node `n` when it is preloaded: its BlockMap where the
+    /// selection draws BlockMaps and it has one (the fallback it keeps when
+    /// refined past), else its layers' geometry and atlases.
+    template <typename Fn>
+    void forEachPreloadBlock(const TileNode& n, Fn&& fn) const;
     Classification classify(const Camera& camera) const;
     void plan(const Camera& camera);
     void takeResults();

@@ -21,6 +21,7 @@
 #  7. built with --blockmaps replace: the frames match complement's (ids
 #     differ on at most 0.5 % of the pixels), PSNR >= 28 dB; the far frame is
 #     the root's BlockMap alone; --blockmaps off is refused.
+#  8. --preload-levels preloads BlockMaps where they stand in.
 source "$(dirname "$0")/lib.sh" "$@"
 [ -n "${IMAGE_COMPARE:-}" ] || fail "IMAGE_COMPARE is not set"
 CLEAR="196,218,243"  # the clear colour (linear 0.55, 0.70, 0.90) as sRGB bytes
@@ -244,3 +245,40 @@ set -e
 check_eq "replace with --blockmaps off: exit code, lines" "2 1" "$rc $(wc -l < rep-off.txt)"
 grep -q "built with --blockmaps replace" rep-off.txt || { cat rep-off.txt >&2; fail "the refusal does not say why"; }
 echo "ok: replace ($replaced levels): PSNR against the originals min $psnr_min dB; $(cat rep-off.txt)"
+
+# 8. Preloading (--preload-levels) keeps a node's BlockMap resident, not its
+# geometry and atlases, where BlockMaps are drawn: the level chosen is the
+# deepest whose stand-ins fit a quarter of the budget, recounted here from
+# tileset.json for both settings, with a budget that holds the upper levels'
+# BlockMaps and not their geometry (levels 0 to the tree's deepest inner
+# level, at most 2).
+read -r levels budget want_on want_off < <("$PY" - <<'PY'
+import json
+t = json.load(open("tiles/tileset.json"))
+def nodes(n, level=0):
+    yield n, level
+    for ch in n.get("children", []): yield from nodes(ch, level + 1)
+geo, bm = {}, {}
+for n, level in nodes(t["root"]):
+    ca = n["extras"]["cityatlas"]
+    g = sum(L["geometry"]["bytes"] + (L["atlas"]["bytes"] if L.get("atlas") else 0) for L in ca["layers"].values())
+    geo[level] = geo.get(level, 0) + g
+    bm[level] = bm.get(level, 0) + (ca["blockmap"]["bytes"] if "blockmap" in ca else g)
+top = min(2, max(geo))
+budget = 4 * sum(bm[l] for l in range(top + 1)) + 4
+def chosen(by_level):
+    level, total = -1, 0
+    for l in range(top + 1):
+        total += by_level[l]
+        if total > budget // 4: break
+        level = l
+    return level
+assert top >= 1 and chosen(geo) < top, "the upper levels' geometry fits too: the town does not separate the two"
+print(top, budget, chosen(bm), chosen(geo))
+PY
+)
+for run in on off; do
+  "$CITYATLAS" render tiles --frames 1 --size 160x90 --anisotropy 1 --preload-levels "$levels" --budget "$budget" --blockmaps $run -o preload-$run -q
+done
+check_eq "--preload-levels $levels: the level preloaded, BlockMaps on and off" "$want_on $want_off" \
+  "$(json preload-on/report.json "j['settings']['preload_level']") $(json preload-off/report.json "j['settings']['preload_level']")"
