@@ -146,19 +146,6 @@ void StreamingClient::setBudget(uint64_t bytes) {
     choosePreloadLevel();
 }
 
-template <typename Fn>
-void StreamingClient::forEachPreloadBlock(const TileNode& n, Fn&& fn) const {
-    if (n.blockmap != kNoBlock && (options_.selection.blockmaps || n.blockmap_only)) {
-        fn(n.blockmap);
-        return;
-    }
-    for (const NodeLayer& l : n.layers) {
-        if (!l.present) continue;
-        fn(l.geometry);
-        if (l.atlas != kNoBlock) fn(l.atlas);
-    }
-}
-
 void StreamingClient::choosePreloadLevel() {
     // The deepest level L <= preload_levels whose nodes' stand-ins (their
     // BlockMaps, or geometry and atlases) fit a quarter of the budget
@@ -166,7 +153,8 @@ void StreamingClient::choosePreloadLevel() {
     std::vector<uint64_t> by_level;
     for (const TileNode& n : index_.nodes) {
         if (by_level.size() <= static_cast<size_t>(n.level)) by_level.resize(static_cast<size_t>(n.level) + 1, 0);
-        forEachPreloadBlock(n, [&](BlockId b) { by_level[static_cast<size_t>(n.level)] += index_.blocks[b].bytes; });
+        forEachStandInBlock(n, options_.selection.blockmaps,
+                            [&](BlockId b) { by_level[static_cast<size_t>(n.level)] += index_.blocks[b].bytes; });
     }
     preload_level_ = -1;
     uint64_t sum = 0;
@@ -310,7 +298,8 @@ Classification StreamingClient::classify(const Camera& camera) const {
         // Preloaded levels lead, coarsest first, wherever the camera is.
         for (const TileNode& n : index_.nodes)
             if (n.level <= preload_level_)
-                forEachPreloadBlock(n, [&](BlockId b) { c.priority[b] = {Usage::Needed, -1.0, n.level}; });
+                forEachStandInBlock(n, options_.selection.blockmaps,
+                                    [&](BlockId b) { c.priority[b] = {Usage::Needed, -1.0, n.level}; });
         orderCandidates(index_, &c);
         return c;
     }
@@ -568,14 +557,10 @@ Status StreamingClient::waitForRoot(const Camera& camera, double timeout_s) {
         // server) is tried again after its cool-down while time is left;
         // only a permanent one (a 404, bytes that do not decode) ends the wait.
         bool all = true, failed = false;
-        auto need = [&](BlockId b) {
-            if (b == kNoBlock) return;
+        forEachRootBlock(index_, [&](BlockId b) {
             all = all && manager_->resident(b);
             failed = failed || manager_->failedForGood(b);
-        };
-        for (const NodeLayer& l : index_.nodes[0].layers)
-            if (l.present) need(l.geometry), need(l.atlas);
-        if (index_.nodes[0].blockmap_only) need(index_.nodes[0].blockmap);  // --blockmaps replace: all the root has
+        });
         if (all) return Status::Ok();
         if (failed)  // the failure just taken is the latest error
             return Status::Io(fmt::format("{}: the root's blocks cannot be loaded{}", base_,

@@ -232,11 +232,6 @@ private:
     bool related(int32_t a, int32_t b) const;
     double now() const;
     void choosePreloadLevel();
-    /// What stands for node `n` when it is preloaded: its BlockMap where the
-    /// selection draws BlockMaps and it has one (the fallback it keeps when
-    /// refined past), else its layers' geometry and atlases.
-    template <typename Fn>
-    void forEachPreloadBlock(const TileNode& n, Fn&& fn) const;
     Classification classify(const Camera& camera) const;
     void plan(const Camera& camera);
     void takeResults();

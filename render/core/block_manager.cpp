@@ -17,14 +17,7 @@ BlockManager::BlockManager(const TilesetIndex& index, const BudgetParams& params
 
 Status BlockManager::checkBudget(const TilesetIndex& index, uint64_t budget_bytes) {
     uint64_t root = 0;
-    if (!index.nodes.empty())
-        for (const NodeLayer& l : index.nodes[0].layers) {
-            if (!l.present) continue;
-            if (l.geometry != kNoBlock) root += index.blocks[l.geometry].bytes;
-            if (l.atlas != kNoBlock) root += index.blocks[l.atlas].bytes;
-        }
-    // A root `--blockmaps replace` left to its BlockMap: that is its block.
-    if (!index.nodes.empty() && index.nodes[0].blockmap_only) root += index.blocks[index.nodes[0].blockmap].bytes;
+    forEachRootBlock(index, [&](BlockId b) { root += index.blocks[b].bytes; });
     if (root > budget_bytes)
         return Status::Invalid(fmt::format("memory budget {} bytes is smaller than the root's blocks ({} bytes), which are "
                                         "always resident; give at least {} bytes",

@@ -26,24 +26,7 @@ double priorityKey(const Box3d& bounds, double distance, const Camera& camera, P
     return distance * (1.0 - cosine);
 }
 
-// A node's geometry and atlas blocks, and those of computed texture `computed` (>= 0).
-template <typename Fn>
-void forEachNodeBlock(const TileNode& node, Fn&& fn, int computed = -1) {
-    for (const NodeLayer& layer : node.layers) {
-        if (!layer.present) continue;
-        if (layer.geometry != kNoBlock) fn(layer.geometry);
-        if (layer.atlas != kNoBlock) fn(layer.atlas);
-        if (computed >= 0 && static_cast<size_t>(computed) < layer.computed.size() &&
-            layer.computed[static_cast<size_t>(computed)] != kNoBlock)
-            fn(layer.computed[static_cast<size_t>(computed)]);
-    }
-}
-
-// A node `--blockmaps replace` left to its BlockMap has nothing else to draw,
-// whatever the parameters say (the client refuses BlockMaps off on such a folder).
-bool hasBlockMap(const TileNode& n, const SelectionParams& params) {
-    return n.blockmap != kNoBlock && (params.blockmaps || n.blockmap_only);
-}
+bool hasBlockMap(const TileNode& n, const SelectionParams& params) { return drawsBlockMap(n, params.blockmaps); }
 
 // The node is drawn by its BlockMap at distance d (scale: distanceScale).
 bool atBlockMapDistance(const TileNode& n, const SelectionParams& params, double d, double scale) {
@@ -142,15 +125,10 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
         forEachNodeBlock(n, [&](BlockId b) { mark(b, usage, key[static_cast<size_t>(id)], n.level); }, params.computed);
     };
-    // What stands for a node that is not drawn by its own atlas at this
-    // distance (a fallback on the path, or the next step prefetched): its
-    // BlockMap where it has one, else its geometry and atlas.
     auto markStandIn = [&](int32_t id, Usage usage) {
         const TileNode& n = index.nodes[static_cast<size_t>(id)];
-        if (hasBlockMap(n, params))
-            mark(n.blockmap, usage, key[static_cast<size_t>(id)], n.level);
-        else
-            markNode(id, usage);
+        forEachStandInBlock(
+            n, params.blockmaps, [&](BlockId b) { mark(b, usage, key[static_cast<size_t>(id)], n.level); }, params.computed);
     };
     // A leaf's originals: where it is known which blocks its triangles
     // sample where, each block by its own box (`prefetch_only`: the leaf is
@@ -238,11 +216,10 @@ void orderCandidates(const TilesetIndex& index, Classification* c) {
     c->candidates.clear();
     if (index.nodes.empty()) return;
     std::vector<BlockId> root_blocks;
-    forEachNodeBlock(index.nodes[0], [&](BlockId b) { root_blocks.push_back(b); });
-    // The root's BlockMap where the selection uses it (Unused: BlockMaps off),
-    // and always where it is all the root has.
+    forEachRootBlock(index, [&](BlockId b) { root_blocks.push_back(b); });
+    // And the root's BlockMap where the selection uses it (Unused: BlockMaps off).
     if (const BlockId b = index.nodes[0].blockmap;
-        b != kNoBlock && (c->priority[b].usage != Usage::Unused || index.nodes[0].blockmap_only))
+        b != kNoBlock && !index.nodes[0].blockmap_only && c->priority[b].usage != Usage::Unused)
         root_blocks.push_back(b);
     std::sort(root_blocks.begin(), root_blocks.end());
     for (BlockId b = 0; b < index.blocks.size(); ++b)
@@ -269,7 +246,7 @@ bool refinementPossible(const TilesetIndex& index, int32_t node, const Frustum& 
     }
     for (const int32_t ch : n.children) {
         const TileNode& c = index.nodes[static_cast<size_t>(ch)];
-        if ((blockmaps || c.blockmap_only) && c.blockmap != kNoBlock && resident(c.blockmap)) continue;
+        if (drawsBlockMap(c, blockmaps) && resident(c.blockmap)) continue;
         if (!nodeDrawable(index, ch, resident) && !outsideFrustum(frustum, c.bounds)) return false;
     }
     return true;

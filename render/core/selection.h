@@ -112,6 +112,47 @@ Classification classifyBlocks(const TilesetIndex& index, const Camera& camera, c
 /// ends with it; a client with its own usage rule (a reference mode) calls it too.
 void orderCandidates(const TilesetIndex& index, Classification* c);
 
+/// A node's layers' geometry and atlas blocks, and those of computed texture
+/// `computed` (>= 0).
+template <typename Fn>
+void forEachNodeBlock(const TileNode& node, Fn&& fn, int computed = -1) {
+    for (const NodeLayer& layer : node.layers) {
+        if (!layer.present) continue;
+        if (layer.geometry != kNoBlock) fn(layer.geometry);
+        if (layer.atlas != kNoBlock) fn(layer.atlas);
+        if (computed >= 0 && static_cast<size_t>(computed) < layer.computed.size() &&
+            layer.computed[static_cast<size_t>(computed)] != kNoBlock)
+            fn(layer.computed[static_cast<size_t>(computed)]);
+    }
+}
+
+/// Whether node `n` is drawn by its BlockMap where its distance allows: it
+/// has one, and BlockMaps are on (`blockmaps`) or it has nothing else
+/// (`--blockmaps replace`; the client refuses BlockMaps off on such a folder).
+inline bool drawsBlockMap(const TileNode& n, bool blockmaps) {
+    return n.blockmap != kNoBlock && (blockmaps || n.blockmap_only);
+}
+
+/// What stands for a node that is not drawn with its own atlas at this
+/// distance (a fallback on the path, the next step prefetched, a preloaded
+/// level): its BlockMap where drawsBlockMap, else forEachNodeBlock's blocks.
+template <typename Fn>
+void forEachStandInBlock(const TileNode& n, bool blockmaps, Fn&& fn, int computed = -1) {
+    if (drawsBlockMap(n, blockmaps))
+        fn(n.blockmap);
+    else
+        forEachNodeBlock(n, fn, computed);
+}
+
+/// The root's blocks that every frame needs, always resident: its layers'
+/// geometry and atlases, or its BlockMap where that is all it has.
+template <typename Fn>
+void forEachRootBlock(const TilesetIndex& index, Fn&& fn) {
+    if (index.nodes.empty()) return;
+    forEachNodeBlock(index.nodes[0], fn);
+    if (index.nodes[0].blockmap_only) fn(index.nodes[0].blockmap);
+}
+
 /// All blocks of a node (both layers' geometry and atlases; not its computed
 /// textures, for which the photo stands in) are resident. Never for a node
 /// that has only its BlockMap (TileNode::blockmap_only).
