@@ -10,9 +10,14 @@
 // through each pixel centre as the fragment shader does (the shader equals
 // that traversal pixel for pixel: test_blockmap_gl); the full detail with
 // Embree (atlas/raycast.h), 4 x 4 rays a pixel, a pixel covered when half of
-// them hit, its building the most frequent. Compared: the silhouettes
-// (Hausdorff between the two masks' boundary pixels) and the buildings on
-// the pixels either covers; the bar is below, with why it is relative.
+// them hit, its building the most frequent. The metrics and bars are the
+// spec's (§1.3 "Render-level", item 4):
+//  (i)  the symmetric Hausdorff distance between the two masks (the covered
+//       pixels) <= 1.5 px in every view;
+//  (ii) on the pixels both cover, ids agree on >= 97 % of them (over the 48
+//       views), and every disagreeing pixel is within 1.5 px of an id edge
+//       of the reference;
+//  (v)  at half the distance (i) fails for at least one view.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -62,45 +67,64 @@ struct Image {
 };
 
 struct Comparison {
-    double hausdorff_px = 0;
-    double id_agreement = 1;
-    size_t pixels = 0;
+    double hausdorff_px = 0;       ///< between the masks
+    size_t both = 0, agree = 0;    ///< pixels both cover; of those, with the same building
+    size_t off_edge = 0;           ///< disagreeing pixels farther than 1.5 px from an id edge of the reference
 };
 
-// Boundary pixels: covered, with a 4-neighbour uncovered or off the image.
-std::vector<std::pair<int, int>> boundary(const Image& im) {
-    std::vector<std::pair<int, int>> out;
+// The farthest covered pixel of `a` from the covered pixels of `b` (a square
+// window first, the whole image when it holds none); 1e9 when `b` covers
+// nothing and `a` something.
+double directed(const Image& a, const Image& b) {
+    constexpr int kWindow = 8;
+    double worst = 0;
     for (int y = 0; y < kHeight; ++y)
         for (int x = 0; x < kWidth; ++x) {
-            if (!im.covered(x, y)) continue;
-            const bool edge = x == 0 || y == 0 || x == kWidth - 1 || y == kHeight - 1 || !im.covered(x - 1, y) ||
-                              !im.covered(x + 1, y) || !im.covered(x, y - 1) || !im.covered(x, y + 1);
-            if (edge) out.emplace_back(x, y);
+            if (!a.covered(x, y)) continue;
+            double best = 1e18;
+            const auto search = [&](int r) {
+                for (int yy = std::max(0, y - r); yy <= std::min(kHeight - 1, y + r); ++yy)
+                    for (int xx = std::max(0, x - r); xx <= std::min(kWidth - 1, x + r); ++xx)
+                        if (b.covered(xx, yy)) best = std::min(best, double((xx - x) * (xx - x) + (yy - y) * (yy - y)));
+            };
+            search(kWindow);
+            if (best > kWindow * kWindow) search(std::max(kWidth, kHeight));  // nearest may lie outside the window
+            worst = std::max(worst, best >= 1e18 ? 1e9 : std::sqrt(best));
         }
-    return out;
-}
-
-double directed(const std::vector<std::pair<int, int>>& a, const std::vector<std::pair<int, int>>& b) {
-    double worst = 0;
-    for (const auto& [ax, ay] : a) {
-        double best = 1e30;
-        for (const auto& [bx, by] : b) best = std::min(best, double((ax - bx) * (ax - bx) + (ay - by) * (ay - by)));
-        worst = std::max(worst, std::sqrt(best));
-    }
     return worst;
 }
 
-Comparison compare(const Image& reference, const Image& blockmap) {
+// An id edge of `im`: a covered pixel with a 4-neighbour of another building
+// or uncovered (or off the image).
+bool idEdge(const Image& im, int x, int y) {
+    const uint32_t id = im.id[static_cast<size_t>(y * kWidth + x)];
+    const auto other = [&](int xx, int yy) {
+        return xx < 0 || yy < 0 || xx >= kWidth || yy >= kHeight || im.id[static_cast<size_t>(yy * kWidth + xx)] != id;
+    };
+    return id != kNone && (other(x - 1, y) || other(x + 1, y) || other(x, y - 1) || other(x, y + 1));
+}
+
+Comparison compare(const Image& reference, const Image& test) {
     Comparison c;
-    const auto a = boundary(reference), b = boundary(blockmap);
-    c.hausdorff_px = (a.empty() || b.empty()) ? (a.empty() && b.empty() ? 0 : 1e9) : std::max(directed(a, b), directed(b, a));
-    size_t agree = 0;
-    for (size_t i = 0; i < reference.id.size(); ++i) {
-        if (reference.id[i] == kNone && blockmap.id[i] == kNone) continue;
-        ++c.pixels;
-        agree += reference.id[i] == blockmap.id[i];
-    }
-    c.id_agreement = c.pixels ? static_cast<double>(agree) / static_cast<double>(c.pixels) : 1;
+    c.hausdorff_px = std::max(directed(reference, test), directed(test, reference));
+    for (int y = 0; y < kHeight; ++y)
+        for (int x = 0; x < kWidth; ++x) {
+            const size_t i = static_cast<size_t>(y * kWidth + x);
+            if (reference.id[i] == kNone || test.id[i] == kNone) continue;
+            ++c.both;
+            if (reference.id[i] == test.id[i]) {
+                ++c.agree;
+                continue;
+            }
+            // Within 1.5 px: the pixel or one of its 8 neighbours is an id edge.
+            bool near = false;
+            for (int dy = -1; dy <= 1 && !near; ++dy)
+                for (int dx = -1; dx <= 1 && !near; ++dx) {
+                    const int xx = x + dx, yy = y + dy;
+                    near = xx >= 0 && yy >= 0 && xx < kWidth && yy < kHeight && idEdge(reference, xx, yy);
+                }
+            c.off_edge += !near;
+        }
     return c;
 }
 
@@ -199,33 +223,41 @@ protected:
     }
     static Image reference(const View& v) { return sampled(v, 4, geometry); }
 
-    // The worst view of 48 at `factor` x the switching distance: the
-    // BlockMap (one ray a pixel, as the shader) and the full detail drawn the
-    // same way, each against the supersampled full detail.
-    struct Worst {
-        double blockmap_px = 0, geometry_px = 0;      // silhouette Hausdorff
-        double blockmap_ids = 1, geometry_ids = 1;    // id agreement
+    // The 48 views at `factor` x the switching distance: the BlockMap (one
+    // ray a pixel, as the shader) and, for comparison, the full detail drawn
+    // the same way, each against the supersampled full detail.
+    struct Figures {
+        double worst_px = 0;       // (i): the worst view's mask Hausdorff
+        size_t both = 0, agree = 0, off_edge = 0;  // (ii), summed over the views
+        double worst_view_ids = 1;  // the lowest agreement of one view (reported)
+        void add(const Comparison& c) {
+            worst_px = std::max(worst_px, c.hausdorff_px);
+            both += c.both, agree += c.agree, off_edge += c.off_edge;
+            if (c.both) worst_view_ids = std::min(worst_view_ids, double(c.agree) / double(c.both));
+        }
+        double ids() const { return both ? double(agree) / double(both) : 1; }
+        bool withinBar() const { return worst_px <= 1.5 && ids() >= 0.97 && off_edge == 0; }
     };
-    static Worst run(double factor) {
-        Worst w;
+    struct Run {
+        Figures blockmap, geometry;
+    };
+    static Run run(double factor) {
+        Run r;
         for (const View& v : views(factor * kCell * focal_ * corner_)) {
             const Image ref = reference(v);
-            const Comparison b = compare(ref, sampled(v, 1, blockmap)), g = compare(ref, sampled(v, 1, geometry));
-            w.blockmap_px = std::max(w.blockmap_px, b.hausdorff_px);
-            w.geometry_px = std::max(w.geometry_px, g.hausdorff_px);
-            w.blockmap_ids = std::min(w.blockmap_ids, b.id_agreement);
-            w.geometry_ids = std::min(w.geometry_ids, g.id_agreement);
+            r.blockmap.add(compare(ref, sampled(v, 1, blockmap)));
+            r.geometry.add(compare(ref, sampled(v, 1, geometry)));
         }
-        std::printf("%.1f x the switching distance (cell %.1f m, %d x %d cells), worst of 48 views against the "
-                    "supersampled full detail: BlockMap %.2f px, ids %.1f %%; full detail at one sample a pixel "
-                    "%.2f px, ids %.1f %%\n",
-                    factor, kCell, bm_->nx, bm_->ny, w.blockmap_px, 100 * w.blockmap_ids, w.geometry_px,
-                    100 * w.geometry_ids);
-        return w;
-    }
-    // The bar, relative to the full detail drawn at one sample a pixel (see the test below).
-    static bool withinBar(const Worst& w) {
-        return w.blockmap_px <= w.geometry_px + 1.5 && w.blockmap_ids >= w.geometry_ids - 0.045;
+        const auto print = [](const char* what, const Figures& f) {
+            std::printf("  %s: masks within %.2f px (worst view); ids agree on %.2f %% of %zu pixels both cover "
+                        "(worst view %.2f %%), %zu disagreeing farther than 1.5 px from an id edge\n",
+                        what, f.worst_px, 100 * f.ids(), f.both, 100 * f.worst_view_ids, f.off_edge);
+        };
+        std::printf("%.1f x the switching distance (cell %.1f m, %d x %d cells), 48 views against the supersampled "
+                    "full detail:\n", factor, kCell, bm_->nx, bm_->ny);
+        print("BlockMap", r.blockmap);
+        print("full detail, one sample a pixel", r.geometry);
+        return r;
     }
 
     static constexpr double kCell = 2.5;
@@ -241,26 +273,23 @@ atlas::RayCaster* BlockMapSwitching::caster_ = nullptr;
 format::BlockMap* BlockMapSwitching::bm_ = nullptr;
 double BlockMapSwitching::focal_ = 0, BlockMapSwitching::corner_ = 1;
 
-// The bar is absolute (1.5 px, 97 % of ids), but on this town the
-// full detail itself, drawn at one sample a pixel as any rasterizer does,
-// misses it at every distance (4.5 px, 87 % at the switching distance):
-// Hausdorff between boundary pixels reacts to one-pixel slits between
-// buildings, and a pixel's one sample disagrees with the majority of its 16
-// wherever a building edge crosses it. So the bar here is relative: the
-// BlockMap's worst silhouette within 1.5 px of the full detail's own, its
-// worst id agreement within 4.5 points. Measured (this test's output):
-// at 1x, 4.47 / 4.47 px and 84.0 / 87.4 %; at 0.5x, 9.43 / 6.71 px and
-// 88.0 / 93.6 %: the half distance misses both.
+// Measured (this test's output): at 1x the BlockMap's masks are within
+// 1.41 px and its ids agree on 98.3 % of 69,960 pixels (the worst view
+// 95.1 %: a view at 20 degrees where the town covers 958 px), every
+// disagreement at an id edge; at 0.5x the masks are 9.43 px apart.
+// Conservative cells (BlockMapSample::Max) miss the bar: 2.00 px (ids 97.1 %).
 TEST_F(BlockMapSwitching, AtTheSwitchingDistanceItLooksAsTheFullDetailDoes) {
-    const Worst w = run(1.0);
-    EXPECT_TRUE(withinBar(w));
-    EXPECT_LE(w.blockmap_px, w.geometry_px + 1.5);
-    EXPECT_GE(w.blockmap_ids, w.geometry_ids - 0.045);
+    const Run r = run(1.0);
+    EXPECT_LE(r.blockmap.worst_px, 1.5);
+    EXPECT_GE(r.blockmap.ids(), 0.97);
+    EXPECT_EQ(r.blockmap.off_edge, 0u);
+    EXPECT_TRUE(r.blockmap.withinBar());
 }
 
 TEST_F(BlockMapSwitching, AtHalfTheDistanceTheBarIsMissed) {
-    const Worst w = run(0.5);
-    EXPECT_FALSE(withinBar(w));
+    const Run r = run(0.5);
+    EXPECT_GT(r.blockmap.worst_px, 1.5);
+    EXPECT_FALSE(r.blockmap.withinBar());
 }
 
 }  // namespace
