@@ -1091,9 +1091,9 @@ RunFn addBuildCommand(CLI::App& app) {
         ->default_val("3")
         ->group(g);
     cmd->add_option("--blockmap-sample", opt->blockmap_sample,
-                    "With --blockmaps: centre (a cell holds the building under its centre: the paper's; a gap "
-                    "between buildings narrower than a cell may show as a one-pixel slit) or max (the highest of 4 x 4 "
-                    "samples over the cell: no such slit, silhouettes up to a cell wider)")
+                    "With --blockmaps: centre (a cell holds the building under its centre: the paper's; silhouettes "
+                    "within half a cell) or max (the highest of 4 x 4 samples over the cell: conservative, silhouettes "
+                    "up to a cell wider)")
         ->default_val("centre")
         ->group(g);
     cmd->add_option("--split-originals", opt->split_originals,

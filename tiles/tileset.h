@@ -111,8 +111,8 @@ struct TilesParams {
     BlockMapMode blockmaps = BlockMapMode::Off;
     int blockmap_levels = kDefaultBlockMapLevels;  ///< the deepest level tried (-1: all)
     /// How a BlockMap's cells are sampled (atlas/blockmap.h): centre (the
-    /// paper's) or max of 4 x 4 (conservative: no slit between buildings
-    /// closer than a cell, silhouettes up to a cell wider).
+    /// paper's) or max of 4 x 4 (conservative: silhouettes up to a cell
+    /// wider).
     atlas::BlockMapSample blockmap_sample = atlas::BlockMapSample::Centre;
 };
 

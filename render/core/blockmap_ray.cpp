@@ -29,6 +29,11 @@ int cellIndex(double v, int n) { return v >= 0 ? static_cast<int>(std::min(v, n 
 
 }  // namespace
 
+double sideSkirt(const Vec3d& d, int face) {
+    const double horizontal = std::hypot(d.x, d.y);
+    return d.z < 0 && face < kBlockMapRoof && horizontal > 0 ? 0.5 * -d.z / horizontal : 0;
+}
+
 BlockMapHit castBlockMapRay(const format::BlockMap& bm, const Vec3d& origin, const Vec3d& direction, bool leap) {
     BlockMapHit out;
     if (bm.nx <= 0 || bm.ny <= 0) return out;
@@ -99,7 +104,7 @@ BlockMapHit castBlockMapRay(const format::BlockMap& bm, const Vec3d& origin, con
             const double z_in = o.z + d.z * t, z_out = o.z + d.z * t_out;
             double hit_t = -1;
             int hit_face = face;
-            if (z_in >= b && z_in <= h) {
+            if (z_in >= std::max(b - sideSkirt(d, face), 0.0) && z_in <= h) {  // never below the grid's box
                 hit_t = t;  // a side (or the roof/underside the walk entered the box through)
             } else if (z_in > h && z_out <= h) {
                 hit_t = t + (h - z_in) / d.z, hit_face = kBlockMapRoof;

@@ -121,7 +121,9 @@ void main() {
             float z_in = o.z + d.z * t, z_out = o.z + d.z * t_out;
             float hit_t = -1.0;
             int hit_face = face;
-            if (z_in >= b && z_in <= h) hit_t = t;
+            // sideSkirt (render/core/blockmap_ray.h): below the base by what the ray descends over half a cell
+            float skirt = d.z < 0.0 && face < 4 && length(d.xy) > 0.0 ? 0.5 * -d.z / length(d.xy) : 0.0;
+            if (z_in >= max(b - skirt, 0.0) && z_in <= h) hit_t = t;  // never below the box (the proxy drawn)
             else if (z_in > h && z_out <= h) { hit_t = t + (h - z_in) / d.z; hit_face = 4; }
             else if (z_in < b && z_out >= b) { hit_t = t + (b - z_in) / d.z; hit_face = 5; }
             if (hit_t >= 0.0) {

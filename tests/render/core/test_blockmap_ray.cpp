@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The BlockMap traversal (render/core/blockmap_ray.h) against brute force:
-// every ray against every occupied cell's prism with the slab test, in the
+// every ray against every occupied cell's prism with the slab test, and
+// against each side's skirt below the base (sideSkirt) as a quad, in the
 // local frame (../shared/SEED-FEATURES.md §1.3 item 7: 10^6 random rays), on
 // random BlockMaps (tall and flat cells, floating cells with a base above
 // the range's bottom, plates with base = top, empty stretches for space
@@ -71,11 +72,29 @@ BlockMapHit bruteForce(const BlockMap& bm, const Vec3d& o, const Vec3d& d) {
                 if (std::min(ta, tb) > t0) t0 = std::min(ta, tb), axis = a;
                 t1 = std::min(t1, std::max(ta, tb));
             }
-            if (miss || t0 > t1 || t0 < 0 || t0 >= best.t) continue;
-            best.hit = true, best.t = t0, best.x = x, best.y = y;
-            if (axis == 0) best.face = d.x > 0 ? format::kMinusX : format::kPlusX;
-            else if (axis == 1) best.face = d.y > 0 ? format::kMinusY : format::kPlusY;
-            else best.face = d.z < 0 ? kBlockMapRoof : kBlockMapUnderside;
+            if (!(miss || t0 > t1 || t0 < 0 || t0 >= best.t)) {
+                best.hit = true, best.t = t0, best.x = x, best.y = y;
+                if (axis == 0) best.face = d.x > 0 ? format::kMinusX : format::kPlusX;
+                else if (axis == 1) best.face = d.y > 0 ? format::kMinusY : format::kPlusY;
+                else best.face = d.z < 0 ? kBlockMapRoof : kBlockMapUnderside;
+            }
+            // The skirts: each side's quad continued below the base by what a
+            // descending ray falls over half a cell of horizontal travel,
+            // entered from outside the cell, never below the grid's box.
+            const double horizontal = std::hypot(d.x, d.y);
+            if (!(d.z < 0) || horizontal == 0) continue;
+            const double skirt = 0.5 * bm.cell_m * -d.z / horizontal;
+            for (int a = 0; a < 2; ++a) {
+                if (dd[a] == 0) continue;
+                const double plane = dd[a] > 0 ? lo[a] : hi[a];  // the side the ray enters through
+                const double t = (plane - oo[a]) / dd[a];
+                if (t < 0 || t >= best.t) continue;
+                const int b = 1 - a;
+                const double pb = oo[b] + t * dd[b], pz = o.z + t * d.z;
+                if (pb < lo[b] || pb > hi[b] || pz < std::max(lo[2] - skirt, bm.origin.z) || pz >= lo[2]) continue;
+                best.hit = true, best.t = t, best.x = x, best.y = y;
+                best.face = a == 0 ? (d.x > 0 ? format::kMinusX : format::kPlusX) : (d.y > 0 ? format::kMinusY : format::kPlusY);
+            }
         }
     return best;
 }
