@@ -16,8 +16,8 @@
 //  (i)  the symmetric Hausdorff distance between the two masks (the covered
 //       pixels) <= 1.5 px in every view;
 //  (ii) on the pixels both cover, ids agree on >= 97 % of them (over a
-//       node's 48 views), and every disagreeing pixel is within 1.5 px of an id edge
-//       of the reference;
+//       node's 48 views), and every disagreeing pixel is within 1.5 px of
+//       an id edge of the reference;
 //  (v)  at half the distance (i) fails for at least one view.
 // The masks are traced kMargin pixels beyond the frame, so a pixel on the
 // border is matched to the other mask as the scene has it.
@@ -72,7 +72,6 @@ constexpr int kMargin = 4;
 struct Image {
     std::vector<uint32_t> ids = std::vector<uint32_t>((kWidth + 2 * kMargin) * (kHeight + 2 * kMargin), kNone);
     static bool stored(int x, int y) { return x >= -kMargin && y >= -kMargin && x < kWidth + kMargin && y < kHeight + kMargin; }
-    static bool inFrame(int x, int y) { return x >= 0 && y >= 0 && x < kWidth && y < kHeight; }
     uint32_t& id(int x, int y) { return ids[static_cast<size_t>((y + kMargin) * (kWidth + 2 * kMargin) + x + kMargin)]; }
     uint32_t id(int x, int y) const { return stored(x, y) ? ids[static_cast<size_t>((y + kMargin) * (kWidth + 2 * kMargin) + x + kMargin)] : kNone; }
     bool covered(int x, int y) const { return id(x, y) != kNone; }
