@@ -26,11 +26,9 @@ double priorityKey(const Box3d& bounds, double distance, const Camera& camera, P
     return distance * (1.0 - cosine);
 }
 
-bool hasBlockMap(const TileNode& n, const SelectionParams& params) { return drawsBlockMap(n, params.blockmaps); }
-
 // The node is drawn by its BlockMap at distance d (scale: distanceScale).
 bool atBlockMapDistance(const TileNode& n, const SelectionParams& params, double d, double scale) {
-    return hasBlockMap(n, params) && d >= n.blockmap_min_distance_m * scale;
+    return drawsBlockMap(n, params.blockmaps) && d >= n.blockmap_min_distance_m * scale;
 }
 
 // A leaf's texture blocks with the box each is sampled over; false while
@@ -272,7 +270,7 @@ Selection selectDraws(const TilesetIndex& index, const Camera& camera, const Sel
                       const std::function<bool(BlockId)>& resident) {
     Selection s;
     if (index.nodes.empty()) return s;
-    const auto blockMapResident = [&](const TileNode& n) { return hasBlockMap(n, params) && resident(n.blockmap); };
+    const auto blockMapResident = [&](const TileNode& n) { return drawsBlockMap(n, params.blockmaps) && resident(n.blockmap); };
     if (!nodeDrawable(index, 0, resident) && !blockMapResident(index.nodes[0])) {
         s.root_missing = true;
         return s;

@@ -42,18 +42,24 @@ mixed=$(json bm/report.json "sum(1 for f in j['frames'] if f['nodes_drawn']['blo
 check_eq "frames without the root" 0 "$(json bm/report.json "j['summary']['frames_root_missing']")"
 check_eq "errors" 0 "$(json bm/report.json "j['summary']['errors']")"
 
-# 1. PSNR and interior holes frame by frame (image_compare).
-psnr_min=99; holes=0
-for f in ref/frame_*.png; do
-  name=$(basename "$f")
-  r=$("$IMAGE_COMPARE" "bm/$name" "$f" "$CLEAR")
-  psnr=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$r")
-  covered=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['reference_covered'])" "$r")
-  [ "$covered" -gt 1000 ] || fail "$name: the reference shows almost nothing ($covered pixels)"
-  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "$name: PSNR $psnr dB < 28 dB"
-  psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
-  holes=$((holes + $("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['interior_holes'])" "$r")))
-done
+# PSNR (>= 28 dB in every frame) and interior holes of the frames in DIR
+# against the reference's (image_compare); sets psnr_min and holes.
+score_frames() {
+  local dir=$1 label=$2 f name psnr covered interior
+  psnr_min=99; holes=0
+  for f in ref/frame_*.png; do
+    name=$(basename "$f")
+    read -r psnr covered interior < <("$PY" -c "import json,sys; j = json.loads(sys.argv[1]); print(j['psnr_db'], j['reference_covered'], j['interior_holes'])" \
+      "$("$IMAGE_COMPARE" "$dir/$name" "$f" "$CLEAR")")
+    [ "$covered" -gt 1000 ] || fail "$name: the reference shows almost nothing ($covered pixels)"
+    "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "$label: $name: PSNR $psnr dB < 28 dB"
+    psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
+    holes=$((holes + interior))
+  done
+}
+
+# 1. PSNR and interior holes frame by frame.
+score_frames bm "BlockMaps"
 check_eq "interior holes over $FRAMES frames (default centre sampling)" 0 "$holes"
 echo "ok: $FRAMES frames ($mixed mixing BlockMaps and geometry): PSNR against the originals min $psnr_min dB"
 
@@ -166,16 +172,7 @@ echo "ok: --blockmaps off draws and loads none"
 # 6. Conservative cells: no interior hole either.
 "$CITYATLAS" build -q town/town.gml -o tiles-max --blockmaps complement --originals all --blockmap-sample max > /dev/null
 "$CITYATLAS" render tiles-max --size $SIZE --wait --frames $FRAMES --fps 2 --anisotropy 1 -o bm-max -q
-holes=0; psnr_min=99
-for f in ref/frame_*.png; do
-  name=$(basename "$f")
-  r=$("$IMAGE_COMPARE" "bm-max/$name" "$f" "$CLEAR")
-  interior=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['interior_holes'])" "$r")
-  psnr=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$r")
-  holes=$((holes + interior))
-  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "--blockmap-sample max: $name: PSNR $psnr dB < 28 dB"
-  psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
-done
+score_frames bm-max "--blockmap-sample max"
 check_eq "--blockmap-sample max: interior holes over $FRAMES frames" 0 "$holes"
 echo "ok: --blockmap-sample max: no interior hole, PSNR min $psnr_min dB"
 
@@ -190,13 +187,10 @@ replaced=$(json tiles-rep/build_report.json "j['blockmaps']['replaced']['levels'
 [ "$replaced" -ge 1 ] || fail "replace left no level to its BlockMaps"
 "$CITYATLAS" render tiles-rep --size $SIZE --wait --frames $FRAMES --fps 2 --ids --anisotropy 1 -o rep -q
 check_eq "replace: errors, frames without the root" "0 0" "$(json rep/report.json "str(j['summary']['errors']) + ' ' + str(j['summary']['frames_root_missing'])")"
-psnr_min=99; same_min=99
-for f in ref/frame_*.png; do
-  name=$(basename "$f")
-  psnr=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$("$IMAGE_COMPARE" "rep/$name" "$f" "$CLEAR")")
-  same=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$("$IMAGE_COMPARE" "rep/$name" "bm/$name" "$CLEAR")")
-  "$PY" -c "import sys; sys.exit(0 if float(sys.argv[1]) >= 28.0 else 1)" "$psnr" || fail "replace: $name: PSNR $psnr dB < 28 dB"
-  psnr_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$psnr_min" "$psnr")
+score_frames rep "replace"
+same_min=99
+for f in bm/frame_*.png; do
+  same=$("$PY" -c "import json,sys; print(json.loads(sys.argv[1])['psnr_db'])" "$("$IMAGE_COMPARE" "rep/$(basename "$f")" "$f" "$CLEAR")")
   same_min=$("$PY" -c "import sys; print(min(float(sys.argv[1]), float(sys.argv[2])))" "$same_min" "$same")
 done
 "$PY" - "$same_min" <<'PY' || fail "replace draws what complement draws differently"
