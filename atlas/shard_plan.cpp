@@ -16,7 +16,7 @@ namespace cityatlas::atlas {
 void FeatureSummaries::add(const Triangle& t) {
     const size_t f = t.feature;
     if (f >= count.size()) {
-        const size_t n = std::max(f + 1, count.size() * 2);
+        const size_t n = f + 1;
         count.resize(n, 0), weight.resize(n, 0), area.resize(n, 0), point.resize(n, Vec3d{0, 0, 0});
     }
     const double a = triangleArea(t.position_local);

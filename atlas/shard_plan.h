@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <vector>
 
 #include "atlas/atlas_tree.h"
@@ -40,11 +41,13 @@ struct ShardPlan {
 };
 
 /// What the plan needs of each feature, gathered one triangle at a time.
+/// Deques, not vectors: a city's columns grow a block at a time, without a
+/// vector's doubling (up to twice the features) or the copy while it moves.
 struct FeatureSummaries {
-    std::vector<uint64_t> count;      ///< triangles
-    std::vector<double> weight;       ///< textured area (the cut's weight)
-    std::vector<double> area;         ///< all area (zero-area triangles a little)
-    std::vector<Vec3d> point;         ///< area-weighted sum of triangle centroids
+    std::deque<uint64_t> count;      ///< triangles
+    std::deque<double> weight;       ///< textured area (the cut's weight)
+    std::deque<double> area;         ///< all area (zero-area triangles a little)
+    std::deque<Vec3d> point;         ///< area-weighted sum of triangle centroids
     void add(const Triangle& t);
 };
 

@@ -16,6 +16,7 @@
 /// records do not depend on the order the triangles come in.
 
 #include <cstddef>
+#include <deque>
 #include <vector>
 
 #include "format/feature_bounds.h"
@@ -32,7 +33,7 @@ public:
     /// Feature `f`'s record alone (all zero when no triangle named it).
     format::FeatureBoundsRecord record(size_t f) const;
     /// Frees what add() gathered.
-    void clear() { std::vector<Acc>().swap(acc_); }
+    void clear() { std::deque<Acc>().swap(acc_); }
 
 private:
     struct Acc {
@@ -42,7 +43,7 @@ private:
         double azimuth_deg = 0;
         bool textured = false;
     };
-    std::vector<Acc> acc_;
+    std::deque<Acc> acc_;  // grows a block at a time: no doubling, no copy while a city's worth moves
 };
 
 /// The records of a whole scene in memory.
