@@ -300,8 +300,7 @@ private:
         Status root(const ScanElement& e) override { return r.checkRoot(e.local_name, e.ns, true); }
         bool element(const ScanElement& e) override { return r.indexElement(e, *this); }
         bool captured(xmlNodePtr n, int depth, int dimension, int64_t) override {
-            r.indexCaptured(n, depth, dimension);
-            return false;
+            return r.indexCaptured(n, depth, dimension);
         }
         void namespaceError(int64_t line, const std::string& message) override {
             r.warn(warn::kXmlNamespaceError, line, "", message + "; read as in no namespace");
@@ -309,6 +308,7 @@ private:
         void progress(uint64_t done) override {
             if (r.state_.progress) r.state_.progress("index", done, r.summary_.bytes);
         }
+        void endOfScan() override { r.finishGlobalMember(); }
     };
 
     static constexpr const char* kGmlNamespace = "http://www.opengis.net/gml";
@@ -319,10 +319,11 @@ private:
         const char* n = e.local_name;
         if (e.depth == 1) {
             if (scan.current != RootChild::Other) flushMemberRefs(scan.member);
+            finishGlobalMember();
             scan.current = classify(n);
             scan.object_seen = false;
-            if (scan.current == RootChild::Other)
-                return std::strcmp(n, "boundedBy") == 0 || std::strcmp(n, "appearanceMember") == 0;
+            if (std::strcmp(n, "appearanceMember") == 0) global_.open = true;
+            if (scan.current == RootChild::Other) return std::strcmp(n, "boundedBy") == 0;
             scan.member = scan.members++;
             if (scan.current == RootChild::BareObject) {
                 warn(warn::kCityGmlMemberMissing, e.line, e.attribute("id", kGmlNamespace),
@@ -332,6 +333,7 @@ private:
             }
             return false;
         }
+        if (global_.open) return globalElement(e);
         if (scan.current == RootChild::Other) return false;
         if (!scan.object_seen) {  // a member's first element: its city object
             noteVersion(e.ns);
@@ -366,16 +368,11 @@ private:
         member_hrefs_.clear();
     }
 
-    void indexCaptured(xmlNodePtr n, int depth, int dimension) {
+    // True: the handler keeps `n` (a global surface data's header, freed with it).
+    bool indexCaptured(xmlNodePtr n, int depth, int dimension) {
+        if (global_.open) return globalCaptured(n, depth);
         if (depth == 1 && isNamed(n, "boundedBy")) {
             readEnvelope(n, dimension);
-        } else if (depth == 1) {  // appearanceMember
-            if (xmlNodePtr a = firstChild(n)) {
-                theme_catalogue_.note(a);
-                prefetchImages(a);
-                global_appearances_.addAppearance(a);
-                warnUnsupported(global_appearances_);
-            }
         } else if (isNamed(n, "appearance")) {
             theme_catalogue_.note(firstChild(n) ? firstChild(n) : n);
             if (xmlNodePtr a = firstChild(n)) prefetchImages(a);
@@ -385,6 +382,157 @@ private:
             if (parseDoubles(t.data(), t.data() + t.size(), &v) && v.size() >= 2)
                 first_point_ = Vec3d{v[0], v[1], v.size() >= 3 && dimension != 2 ? v[2] : 0.0};
         }
+        return false;
+    }
+
+    // --- Global appearances, a piece at a time.
+    // A global appearanceMember can hold a city's texture coordinates (a
+    // shared texture's targets on every roof, or a 3DCityDB export's
+    // appearances): as one DOM it took ~450 bytes a building. The scan
+    // captures its pieces instead: the theme, each surface data's header
+    // children (imageURI, wrapMode, colours; kept in a "shell" element) and
+    // each of its targets alone, handed to the store inside a small
+    // Appearance > surfaceDataMember > shell wrapper. The store gets the same
+    // calls a whole DOM would give it, target by target, as the schema
+    // orders them (header before targets; a header element after a target
+    // is warned, as it applies to the later targets only).
+    struct GlobalAppearance {
+        bool open = false;             // inside a depth-1 appearanceMember
+        xmlDocPtr doc = nullptr;       // the scan's, for the wrapper and the shell
+        bool appearance = false;       // inside its Appearance
+        std::string theme;             // its app:theme (the first), "" without
+        bool theme_seen = false, noted = false;
+        xmlNodePtr shell = nullptr;    // the surface data being streamed, header children only
+        bool streams_targets = false;  // a kind whose targets are independent (PT, GeoreferencedTexture, X3DMaterial)
+        bool data_noted = false;       // catalogue and prefetch have seen this surface data
+        uint64_t targets = 0;          // streamed so far
+    };
+    GlobalAppearance global_;
+
+    bool globalElement(const ScanElement& e) {
+        const char* n = e.local_name;
+        global_.doc = e.doc;
+        if (e.depth == 2) {  // the Appearance
+            finishGlobalAppearance();
+            global_.appearance = true;
+            return false;
+        }
+        if (e.depth == 3) {
+            finishGlobalData();
+            if (std::strcmp(n, "theme") == 0) return !global_.theme_seen;
+            // A member by reference (xlink:href, no content) is small: whole.
+            std::string scratch;
+            return std::strcmp(n, "surfaceDataMember") == 0 && !e.attributeView("href", kXlinkNamespace, &scratch).empty();
+        }
+        if (e.depth == 4) {  // the surface data: its shell now, its children one at a time
+            finishGlobalData();
+            xmlNodePtr shell = xmlNewDocNode(e.doc, nullptr, reinterpret_cast<const xmlChar*>(n), nullptr);
+            std::string scratch;
+            if (const std::string_view id = e.attributeView("id", kGmlNamespace, &scratch); !id.empty()) {
+                const std::string value(id);
+                xmlNsPtr gml = xmlNewNs(shell, reinterpret_cast<const xmlChar*>(kGmlNamespace),
+                                        reinterpret_cast<const xmlChar*>("gml"));
+                xmlNewNsProp(shell, gml, reinterpret_cast<const xmlChar*>("id"), reinterpret_cast<const xmlChar*>(value.c_str()));
+            }
+            shell->line = static_cast<unsigned short>(std::min<int64_t>(e.line, 65535));  // as libxml2 keeps element lines
+            global_.shell = shell;
+            global_.streams_targets = std::strcmp(n, "ParameterizedTexture") == 0 ||
+                                      std::strcmp(n, "GeoreferencedTexture") == 0 || std::strcmp(n, "X3DMaterial") == 0;
+            return false;
+        }
+        return e.depth == 5 && global_.shell;
+    }
+
+    bool globalCaptured(xmlNodePtr n, int depth) {
+        if (depth == 3 && isNamed(n, "theme")) {
+            global_.theme = text(n);
+            global_.theme_seen = true;
+            return false;
+        }
+        if (depth == 3) {  // a surfaceDataMember by reference
+            giveGlobal(n);
+            return false;
+        }
+        GlobalAppearance& g = global_;
+        const bool target = isNamed(n, "target");
+        // A texture's targets wait for its imageURI (the store reads it from the shell).
+        const bool ready = !isNamed(g.shell, "X3DMaterial") ? child(g.shell, "imageURI") != nullptr : true;
+        if (target && g.streams_targets && ready) {
+            xmlAddChild(g.shell, n);
+            giveGlobal(g.shell);
+            xmlUnlinkNode(n);
+            ++g.targets;
+            return false;
+        }
+        if (!target && g.targets > 0)
+            warn(warn::kAppearanceUnsupported, lineOf(n), gmlId(g.shell),
+                 fmt::format("app:{} after the targets of app:{}: applies to the targets after it only", localName(n),
+                             localName(g.shell)));
+        xmlAddChild(g.shell, n);  // header (or a target waiting for it): given with the shell at its end
+        return true;
+    }
+
+    // The store, the theme catalogue and the prefetch get `data` (a
+    // surfaceDataMember, or a surface data shell) inside an Appearance with
+    // this appearance's theme.
+    void giveGlobal(xmlNodePtr data) {
+        GlobalAppearance& g = global_;
+        xmlNodePtr appearance = xmlNewDocNode(g.doc, nullptr, reinterpret_cast<const xmlChar*>("Appearance"), nullptr);
+        if (g.theme_seen)
+            xmlNewTextChild(appearance, nullptr, reinterpret_cast<const xmlChar*>("theme"),
+                            reinterpret_cast<const xmlChar*>(g.theme.c_str()));
+        xmlNodePtr member = data;
+        if (!isNamed(data, "surfaceDataMember")) {
+            member = xmlNewDocNode(g.doc, nullptr, reinterpret_cast<const xmlChar*>("surfaceDataMember"), nullptr);
+            xmlAddChild(member, data);
+        }
+        xmlAddChild(appearance, member);
+        if (!g.data_noted || member == data) {  // once per surface data: its kind and image do not change
+            theme_catalogue_.note(appearance);
+            prefetchImages(appearance);
+            g.data_noted = member != data;
+            g.noted = true;
+        }
+        global_appearances_.addAppearance(appearance);
+        warnUnsupported(global_appearances_);
+        xmlUnlinkNode(data);  // the caller's
+        xmlFreeNode(appearance);
+    }
+
+    // The surface data ends: its shell goes to the store once more when it
+    // gave none of its targets yet or holds some that waited.
+    void finishGlobalData() {
+        GlobalAppearance& g = global_;
+        if (!g.shell) return;
+        bool waiting = false;
+        for (xmlNodePtr c = firstChild(g.shell); c && !waiting; c = nextSibling(c)) waiting = isNamed(c, "target");
+        if (g.targets == 0 || waiting) giveGlobal(g.shell);
+        xmlFreeNode(g.shell);
+        g.shell = nullptr;
+        g.streams_targets = g.data_noted = false;
+        g.targets = 0;
+    }
+
+    void finishGlobalAppearance() {
+        finishGlobalData();
+        GlobalAppearance& g = global_;
+        if (g.appearance && !g.noted) {  // an appearance with no surface data still names its theme
+            xmlNodePtr appearance = xmlNewDocNode(g.doc, nullptr, reinterpret_cast<const xmlChar*>("Appearance"), nullptr);
+            if (g.theme_seen)
+                xmlNewTextChild(appearance, nullptr, reinterpret_cast<const xmlChar*>("theme"),
+                                reinterpret_cast<const xmlChar*>(g.theme.c_str()));
+            theme_catalogue_.note(appearance);
+            xmlFreeNode(appearance);
+        }
+        g.theme.clear();
+        g.appearance = g.theme_seen = g.noted = false;
+    }
+
+    // The appearanceMember ends (the next root child, or the end of the scan).
+    void finishGlobalMember() {
+        if (!global_.open) return;
+        finishGlobalAppearance();
+        global_ = GlobalAppearance{};
     }
 
     Status indexPass() {
@@ -988,11 +1136,16 @@ private:
         texture_key_ += std::to_string(static_cast<int>(img.wrap));
         if (auto it = texture_index_.find(texture_key_); it != texture_index_.end()) return it->second;
         const int32_t index = textures_.resolve(base_dir_, img.uri, img.wrap, {file_.string(), line, polygon_id, ""});
+        // A cache, not a table: resolve() keeps every answer (and warns
+        // once), so forgetting is exact, and a city's worth of uris would be
+        // a second copy of its texture paths (~130 bytes a texture).
+        if (texture_index_.size() >= kTextureCacheEntries) texture_index_.clear();
         texture_index_.emplace(texture_key_, index);
         return index;
     }
+    static constexpr size_t kTextureCacheEntries = 4096;
     std::string texture_key_;
-    std::unordered_map<std::string, int32_t> texture_index_;  // (uri#wrap) -> resolve()'s answer
+    std::unordered_map<std::string, int32_t> texture_index_;  // (uri#wrap) -> resolve()'s answer, recent ones
 
     // A GeoreferencedTexture as a texture-generation matrix: the inverse of
     // its pixel-to-world map, scaled to the image's size, applied to a

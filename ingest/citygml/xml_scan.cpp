@@ -78,6 +78,7 @@ void onStartElement(void* ctx, const xmlChar* local_name, const xmlChar* prefix,
     e.line = currentLine(st.ctxt);
     e.attribute_count = attribute_count;
     e.attributes = attributes;
+    e.doc = st.ctxt->myDoc;
     std::string scratch;
     const std::string_view dim = e.attributeView("srsDimension", "", &scratch);
     e.srs_dimension = !dim.empty() ? atoi(dim) : st.dimension.empty() ? 0 : st.dimension.back();

@@ -27,6 +27,10 @@ struct ScanElement {
     int srs_dimension = 0;         ///< srsDimension on the element or its nearest ancestor, 0 if none
     int attribute_count = 0;
     const xmlChar* const* attributes = nullptr;  ///< libxml2's 5-tuples
+    /// The scan's document: the one captured subtrees belong to, for nodes a
+    /// handler makes to hold them (names from its dictionary; freed on the
+    /// scanning thread, as captured subtrees are).
+    xmlDocPtr doc = nullptr;
 
     /// An attribute by local name and namespace prefix ("" = any namespace),
     /// entities decoded as the DOM would; empty when absent or empty.

@@ -248,6 +248,100 @@ TEST(CityGmlReader, TexCoordGenAndThemesAndMaterialFallback) {
     EXPECT_FALSE(ingest(docFor("t.png"), bad)->status.ok());
 }
 
+TEST(CityGmlReader, GlobalAppearanceStreamedGivesWhatTheSameAppearanceGivesInsideTheBuilding) {
+    // The index pass hands a global appearanceMember to the store a piece at
+    // a time (its theme, each surface data's header, each target alone);
+    // an appearance inside a city object still goes whole. The same
+    // appearances either way must give the same scene: textures, materials
+    // and uvs per triangle, per theme, and the same theme list.
+    const fs::path dir = scratch("global_streamed");
+    fs::create_directories(dir);
+    synth::TownSettings ts;
+    ts.buildings = 1;
+    ts.texture_size_px = 16;
+    ASSERT_TRUE(synth::writeTown(synth::generateTown(ts), dir / "town", true, nullptr).ok());
+    fs::copy_file(dir / "town" / "textures" / "paving.png", dir / "t.png", fs::copy_options::overwrite_existing);
+    fs::copy_file(dir / "town" / "textures" / "paving.png", dir / "u.png", fs::copy_options::overwrite_existing);
+    std::string surfaces;
+    for (int i = 1; i <= 5; ++i)
+        surfaces += "<gml:surfaceMember>" + square("p" + std::to_string(i), 5.0 * i) + "</gml:surfaceMember>";
+    const std::string uv = "0 0 1 0 1 1 0 1 0 0";
+    // Day: a texture (with an id, reused by night) with two targets, one
+    // TexCoordList with an id; a material; a texture whose target comes
+    // before its imageURI (it must wait for it) and a TexCoordGen target.
+    // Night: the day texture by reference. "bare": no surface data at all.
+    const std::string appearances =
+        R"(<app:Appearance><app:theme>bare</app:theme></app:Appearance>)"
+        R"(<app:Appearance><app:theme>day</app:theme>)"
+        R"(<app:surfaceDataMember><app:ParameterizedTexture gml:id="pt"><app:imageURI>t.png</app:imageURI><app:wrapMode>wrap</app:wrapMode>)"
+        R"(<app:target uri="#p1"><app:TexCoordList><app:textureCoordinates ring="#p1_r">)" + uv +
+        R"(</app:textureCoordinates></app:TexCoordList></app:target>)"
+        R"(<app:target uri="#p2"><app:TexCoordList gml:id="tcl2"><app:textureCoordinates ring="#p2_r">0 0 2 0 2 2 0 2 0 0</app:textureCoordinates></app:TexCoordList></app:target>)"
+        R"(</app:ParameterizedTexture></app:surfaceDataMember>)"
+        R"(<app:surfaceDataMember><app:X3DMaterial><app:diffuseColor>0 1 0</app:diffuseColor><app:target>#p3</app:target></app:X3DMaterial></app:surfaceDataMember>)"
+        R"(<app:surfaceDataMember><app:ParameterizedTexture><app:target uri="#p4"><app:TexCoordList><app:textureCoordinates ring="#p4_r">)" + uv +
+        R"(</app:textureCoordinates></app:TexCoordList></app:target><app:imageURI>u.png</app:imageURI>)"
+        R"(<app:target uri="#p5"><app:TexCoordGen><app:worldToTexture>0.1 0 0 -10 0 0.1 0 -20 0 0 0 1</app:worldToTexture></app:TexCoordGen></app:target>)"
+        R"(</app:ParameterizedTexture></app:surfaceDataMember></app:Appearance>)"
+        R"(<app:Appearance><app:theme>night</app:theme><app:surfaceDataMember xlink:href="#pt"/></app:Appearance>)";
+    std::string global_appearances, local_appearances;
+    for (size_t at = 0, end; (end = appearances.find("</app:Appearance>", at)) != std::string::npos; at = end + 17) {
+        const std::string one = appearances.substr(at, end + 17 - at);
+        global_appearances += "<app:appearanceMember>" + one + "</app:appearanceMember>\n";
+        local_appearances += "<app:appearance>" + one + "</app:appearance>";
+    }
+    auto write = [&](const std::string& name, const std::string& inside, const std::string& after) {
+        const fs::path p = dir / (name + ".gml");
+        std::ofstream(p) << kHeader2 << R"(<core:cityObjectMember><bldg:Building gml:id="b">)" << inside
+                         << "<bldg:lod2MultiSurface><gml:MultiSurface>" << surfaces
+                         << "</gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>\n"
+                         << after << "</core:CityModel>\n";
+        return p;
+    };
+    const fs::path global = write("global", "", global_appearances);
+    const fs::path local = write("local", local_appearances, "");
+    for (const char* theme : {"", "day", "night", "bare"}) {
+        CityGmlOptions o;
+        o.theme = theme;
+        const auto g = ingest(global, o), l = ingest(local, o);
+        ASSERT_TRUE(g->status.ok()) << g->status.error;
+        ASSERT_TRUE(l->status.ok()) << l->status.error;
+        EXPECT_EQ(g->state.counts.themes, (std::vector<std::string>{"bare", "day", "night"}));
+        EXPECT_EQ(g->state.counts.themes, l->state.counts.themes);
+        EXPECT_EQ(g->state.counts.theme_used, l->state.counts.theme_used) << theme;
+        EXPECT_EQ(g->state.diagnostics.total(), l->state.diagnostics.total()) << theme;
+        ASSERT_EQ(g->scene.triangles.size(), 10u);
+        ASSERT_EQ(g->scene.triangles.size(), l->scene.triangles.size());
+        ASSERT_EQ(g->scene.textures.size(), l->scene.textures.size()) << theme;
+        for (size_t t = 0; t < g->scene.textures.size(); ++t) EXPECT_EQ(g->scene.textures[t].path, l->scene.textures[t].path);
+        ASSERT_EQ(g->scene.materials.size(), l->scene.materials.size()) << theme;
+        for (size_t m = 0; m < g->scene.materials.size(); ++m) EXPECT_EQ(g->scene.materials[m], l->scene.materials[m]);
+        for (size_t i = 0; i < g->scene.triangles.size(); ++i) {
+            const Triangle &a = g->scene.triangles[i], &b = l->scene.triangles[i];
+            EXPECT_EQ(a.texture, b.texture) << theme << " triangle " << i;
+            EXPECT_EQ(a.material, b.material) << theme << " triangle " << i;
+            for (int k = 0; k < 3; ++k) EXPECT_EQ(a.uv[k], b.uv[k]) << theme << " triangle " << i;
+        }
+        if (std::string(theme) == "day" || std::string(theme).empty()) {
+            // Every surface got what its appearance gave it: p1, p2 t.png, p3 green, p4, p5 u.png.
+            const std::vector<int32_t> texture = {0, 0, 0, 0, -1, -1, 1, 1, 1, 1};
+            for (size_t i = 0; i < 10; ++i) EXPECT_EQ(g->scene.triangles[i].texture, texture[i]) << "triangle " << i;
+            EXPECT_EQ(g->scene.materials[static_cast<size_t>(g->scene.triangles[4].material)].diffuse[1], 1.0f);
+        }
+    }
+    // A header element after the targets it should have applied to (against
+    // the schema's order) is a counted warning; whole, the DOM would apply it to all.
+    const fs::path late = write("late", "",
+                                R"(<app:appearanceMember><app:Appearance><app:surfaceDataMember><app:ParameterizedTexture>)"
+                                R"(<app:imageURI>t.png</app:imageURI><app:target uri="#p1"><app:TexCoordList><app:textureCoordinates ring="#p1_r">)" +
+                                    uv + R"(</app:textureCoordinates></app:TexCoordList></app:target><app:wrapMode>clamp</app:wrapMode>)"
+                                R"(</app:ParameterizedTexture></app:surfaceDataMember></app:Appearance></app:appearanceMember>)");
+    const auto w = ingest(late);
+    ASSERT_TRUE(w->status.ok()) << w->status.error;
+    EXPECT_EQ(w->state.diagnostics.count(warn::kAppearanceUnsupported), 1u);
+    EXPECT_EQ(w->scene.triangles[0].texture, 0) << "the target before it keeps its texture";
+}
+
 TEST(CityGmlReader, CityGml1NamespaceAndPosElementsAnd2dCoordinates) {
     constexpr const char* header1 = R"(<?xml version="1.0"?>
 <CityModel xmlns="http://www.opengis.net/citygml/1.0" xmlns:bldg="http://www.opengis.net/citygml/building/1.0"
