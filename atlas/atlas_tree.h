@@ -304,8 +304,8 @@ using TrianglePass = std::function<Status(const std::function<void(const Triangl
 
 /// decideGlobals over triangles read in passes (an input never held whole).
 /// Memory: about 40 bytes a texture, the critical triangles' distances, and
-/// the texture models (48 bytes a textured triangle) of at most
-/// params.model_budget_bytes at a time. A scene whose models fit is read
+/// the texture models (48 bytes a textured triangle, counted as allocated,
+/// and 128 a texture) of at most params.model_budget_bytes at a time. A scene whose models fit is read
 /// twice; one whose models do not, once more per batch of textures for the
 /// promotions and, with d_min chosen from the data, per batch and round of
 /// candidate distances (default_dmin.h). The decisions are the same either way.

@@ -41,7 +41,10 @@ TextureModelBuilder::TextureModelBuilder(size_t textures, double ppm) : TextureM
 TextureModelBuilder::TextureModelBuilder(size_t first, size_t end, double ppm, const uint32_t* reserve)
     : ppm_(ppm), first_(first), m_(end - first), bounds_(end - first) {
     if (reserve)
-        for (size_t i = 0; i < m_.size(); ++i) m_[i].members.reserve(reserve[i]);
+        for (size_t i = 0; i < m_.size(); ++i) {
+            m_[i].members.reserve(reserve[i]);
+            capacity_ += m_[i].members.capacity();
+        }
 }
 
 void TextureModelBuilder::add(const Triangle& t) {
@@ -49,8 +52,10 @@ void TextureModelBuilder::add(const Triangle& t) {
     const size_t i = static_cast<size_t>(t.texture) - first_;  // wraps below first_
     if (i >= m_.size()) return;
     const TexelDensity d = texelDensity(t);
-    m_[i].members.push_back({d.uv_min, d.uv_max, d.s_world * ppm_, d.t_world * ppm_});
-    ++members_;
+    std::vector<ChartMember>& members = m_[i].members;
+    const size_t before = members.capacity();
+    members.push_back({d.uv_min, d.uv_max, d.s_world * ppm_, d.t_world * ppm_});
+    capacity_ += members.capacity() - before;
     for (const Vec3d& p : t.position_local) bounds_[i].extend(p);
 }
 

@@ -26,7 +26,8 @@ struct TextureModel {
 };
 
 /// One model per scene texture (empty members for unused ones), built one
-/// triangle at a time (inputs never held whole): 48 bytes a textured triangle.
+/// triangle at a time (inputs never held whole): 48 bytes a textured triangle
+/// (and a vector's spare room while it grows) and kBytesPerTexture a texture.
 /// A builder may take a range of textures only, [first, end), and ignore the
 /// others' triangles (a city's models are built a range at a time: atlas_tree.h
 /// decideGlobals); `reserve` gives each texture's triangle count when known.
@@ -38,13 +39,15 @@ public:
     TextureModelBuilder(size_t first, size_t end, double pixels_per_metre_at_1m, const uint32_t* reserve = nullptr);
     void add(const Triangle& t);
     std::vector<TextureModel> finish(const std::vector<TextureRef>& textures, const AtlasParams& params);
-    /// The members added so far, in bytes.
-    uint64_t memberBytes() const { return members_ * sizeof(ChartMember); }
+    /// What the builder holds, in bytes: its members' vectors as allocated
+    /// (with their growth's spare room) and each texture's model and box.
+    uint64_t bytes() const { return capacity_ * sizeof(ChartMember) + m_.size() * kBytesPerTexture; }
+    static constexpr uint64_t kBytesPerTexture = sizeof(TextureModel) + sizeof(Box3d);
 
 private:
     double ppm_;
     size_t first_ = 0;
-    uint64_t members_ = 0;
+    uint64_t capacity_ = 0;  // members' vector capacities, summed
     std::vector<TextureModel> m_;
     std::vector<Box3d> bounds_;
 };

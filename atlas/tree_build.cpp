@@ -468,7 +468,7 @@ std::vector<std::pair<size_t, size_t>> modelRanges(const std::vector<uint32_t>& 
     size_t first = 0;
     uint64_t bytes = 0;
     for (size_t i = 0; i < members.size(); ++i) {
-        const uint64_t b = uint64_t{members[i]} * sizeof(ChartMember);
+        const uint64_t b = uint64_t{members[i]} * sizeof(ChartMember) + TextureModelBuilder::kBytesPerTexture;
         if (i > first && bytes + b > budget) out.emplace_back(first, i), first = i, bytes = 0;
         bytes += b;
     }
@@ -500,7 +500,7 @@ Status decideGlobals(const std::vector<TextureRef>& textures, const AtlasParams&
             for (const Vec3d& p : t.position_local) box.extend(p);
             if (all) {
                 all->add(t);
-                if (all->memberBytes() > params.model_budget_bytes) all.reset();  // a range at a time, below
+                if (all->bytes() > params.model_budget_bytes) all.reset();  // a range at a time, below
             }
             if (t.texture < 0) return;
             // d_full (papers/000 §6.1.2): per texture, the distance at which it needs

@@ -208,7 +208,7 @@ void addAtlasTreeOptions(CLI::App* cmd, AtlasTreeOptions* opt) {
     cmd->add_option_function<uint64_t>(
            "--models-mb", [opt](uint64_t mb) { opt->params.model_budget_bytes = mb << 20; },
            "Memory for the scene-wide texture models that choose d_min and the promotions (48 bytes a textured "
-           "triangle), MB; a city whose models need more is planned a range of textures at a time, a pass over "
+           "triangle, as allocated, and 128 a texture), MB; a city whose models need more is planned a range of textures at a time, a pass over "
            "its triangles each. The output does not depend on it")
         ->default_val(256)
         ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 20))
