@@ -472,15 +472,21 @@ private:
         return true;
     }
 
+    // An Appearance with this appearance's theme, in the scan's document.
+    xmlNodePtr newGlobalAppearance() const {
+        xmlNodePtr appearance = xmlNewDocNode(global_.doc, nullptr, reinterpret_cast<const xmlChar*>("Appearance"), nullptr);
+        if (global_.theme_seen)
+            xmlNewTextChild(appearance, nullptr, reinterpret_cast<const xmlChar*>("theme"),
+                            reinterpret_cast<const xmlChar*>(global_.theme.c_str()));
+        return appearance;
+    }
+
     // The store, the theme catalogue and the prefetch get `data` (a
     // surfaceDataMember, or a surface data shell) inside an Appearance with
     // this appearance's theme.
     void giveGlobal(xmlNodePtr data) {
         GlobalAppearance& g = global_;
-        xmlNodePtr appearance = xmlNewDocNode(g.doc, nullptr, reinterpret_cast<const xmlChar*>("Appearance"), nullptr);
-        if (g.theme_seen)
-            xmlNewTextChild(appearance, nullptr, reinterpret_cast<const xmlChar*>("theme"),
-                            reinterpret_cast<const xmlChar*>(g.theme.c_str()));
+        xmlNodePtr appearance = newGlobalAppearance();
         xmlNodePtr member = data;
         if (!isNamed(data, "surfaceDataMember")) {
             member = xmlNewDocNode(g.doc, nullptr, reinterpret_cast<const xmlChar*>("surfaceDataMember"), nullptr);
@@ -517,10 +523,7 @@ private:
         finishGlobalData();
         GlobalAppearance& g = global_;
         if (g.appearance && !g.noted) {  // an appearance with no surface data still names its theme
-            xmlNodePtr appearance = xmlNewDocNode(g.doc, nullptr, reinterpret_cast<const xmlChar*>("Appearance"), nullptr);
-            if (g.theme_seen)
-                xmlNewTextChild(appearance, nullptr, reinterpret_cast<const xmlChar*>("theme"),
-                                reinterpret_cast<const xmlChar*>(g.theme.c_str()));
+            xmlNodePtr appearance = newGlobalAppearance();
             theme_catalogue_.note(appearance);
             xmlFreeNode(appearance);
         }
