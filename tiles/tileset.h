@@ -282,7 +282,11 @@ Status readFeatureTables(const std::filesystem::path& folder, const std::vector<
 struct BuiltSubtrees {
     std::vector<uint8_t> built;                  ///< per node: 1 when a shard wrote its files
     std::vector<NodeRecord> records;             ///< per node; those of built nodes as the shards wrote them
-    std::map<int32_t, std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>> root_geometry;  ///< by shard root
+    /// A shard root's geometry, per layer (null: none), read when the levels
+    /// above merge it and freed once they have: a few shards' at a time, not
+    /// every shard's (their number grows with the city).
+    std::function<Status(int32_t shard_root, std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>* out)>
+        root_geometry;
     std::map<int32_t, std::vector<uint32_t>> subtree_features;  ///< by shard root
     std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's)
     std::vector<std::vector<int32_t>> leaf_textures;  ///< per node, for --originals all (texture_blocks.h)

@@ -296,8 +296,9 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
     };
     std::function<void(int32_t)> visit = [&](const int32_t id) {
         if (isBuilt(static_cast<size_t>(id))) {
-            if (auto it = built->root_geometry.find(id); it != built->root_geometry.end())
-                geometry[static_cast<size_t>(id)] = std::move(it->second);
+            if (built->root_geometry)  // a shard's root: the visit goes no deeper
+                if (Status s = built->root_geometry(id, &geometry[static_cast<size_t>(id)]); !s.ok())
+                    records[static_cast<size_t>(id)].error = s.error;
             return;
         }
         const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
