@@ -1429,7 +1429,6 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / d).string(), ec.message()));
     }
     atlas::GivenHalves given;
-    std::map<int32_t, size_t> shard_of_root;
     for (size_t k = 0; k < shards; ++k) {
         const fs::path sd = dir / shardName(static_cast<int>(k));
         Manifest& m = manifests[k];
@@ -1480,7 +1479,6 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         for (auto& [node, list] : m.leaf_textures) built.leaf_textures[static_cast<size_t>(base) + node] = std::move(list);
         for (auto& [node, list] : m.leaf_tiles) built.leaf_tiles[static_cast<size_t>(base) + node] = std::move(list);
         built.subtree_features[base] = std::move(m.root_subtree_features);
-        shard_of_root[base] = k;
         atlas::AtlasHalves halves;
         for (int l = 0; l < atlas::kLayerCount; ++l) {
             if (fs::exists(sd / layerFile("root-halves", l))) {
@@ -1606,9 +1604,9 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     built.block_cache = &block_cache;
     // A shard's root geometry from its folder (kept in the cache by now), when the top merges it.
     built.root_geometry = [&](int32_t root, std::array<std::unique_ptr<tiles::NodeGeometry>, atlas::kLayerCount>* out) {
-        const auto shard = shard_of_root.find(root);
-        if (shard == shard_of_root.end()) return Status::Io(fmt::format("merge: node {} is no shard's root", root));
-        const fs::path sd = cache / keys[shard->second];
+        const auto shard = std::find(shard_root.begin(), shard_root.end(), root);
+        if (shard == shard_root.end()) return Status::Io(fmt::format("merge: node {} is no shard's root", root));
+        const fs::path sd = cache / keys[static_cast<size_t>(shard - shard_root.begin())];
         for (int l = 0; l < atlas::kLayerCount; ++l) {
             if (!fs::exists(sd / layerFile("root-geometry", l))) continue;
             auto geo = std::make_unique<tiles::NodeGeometry>();

@@ -456,7 +456,7 @@ private:
         GlobalAppearance& g = global_;
         const bool target = isNamed(n, "target");
         // A texture's targets wait for its imageURI (the store reads it from the shell).
-        const bool ready = !isNamed(g.shell, "X3DMaterial") ? child(g.shell, "imageURI") != nullptr : true;
+        const bool ready = isNamed(g.shell, "X3DMaterial") || child(g.shell, "imageURI");
         if (target && g.streams_targets && ready) {
             xmlAddChild(g.shell, n);
             giveGlobal(g.shell);
@@ -493,10 +493,11 @@ private:
             xmlAddChild(member, data);
         }
         xmlAddChild(appearance, member);
-        if (!g.data_noted || member == data) {  // once per surface data: its kind and image do not change
+        // Once per surface data (its kind and image do not change from target to target).
+        if (member == data || !g.data_noted) {
             theme_catalogue_.note(appearance);
             prefetchImages(appearance);
-            g.data_noted = member != data;
+            g.data_noted = member != data;  // a member by reference is one call of its own
             g.noted = true;
         }
         global_appearances_.addAppearance(appearance);
