@@ -453,7 +453,7 @@ private:
 
     void drawTexture(int32_t texture, Layer layer, std::span<const size_t> which,
                      const std::vector<PackedRegion>& regions, Canvas& canvas) {
-        const TextureRef& ref = scene_.textures[texture];
+        const TextureRef ref = scene_.textures.ref(texture);
         std::string why;
         const std::shared_ptr<const DecodedTexture> decoded = textures_.get(texture, ref.path, &why);
         const bool have_spec = decoded != nullptr;

@@ -309,7 +309,7 @@ using TrianglePass = std::function<Status(const std::function<void(const Triangl
 /// twice; one whose models do not, once more per batch of textures for the
 /// promotions and, with d_min chosen from the data, per batch and round of
 /// candidate distances (default_dmin.h). The decisions are the same either way.
-Status decideGlobals(const std::vector<TextureRef>& textures, const AtlasParams& params, const TrianglePass& pass,
+Status decideGlobals(const TextureTable& textures, const AtlasParams& params, const TrianglePass& pass,
                      GlobalDecisions* out);
 
 /// An atlas image in linear light, premultiplied RGBA floats, rows bottom-up

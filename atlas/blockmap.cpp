@@ -216,9 +216,9 @@ public:
     explicit ReducedTextures(size_t textures) : entries_(textures) {}
 
     /// The reduced levels of texture `t` (decoded on first use).
-    const Levels& levels(size_t t, const TextureRef& ref) {
+    const Levels& levels(size_t t, const TextureTable& textures) {
         Entry& e = entries_[t];
-        std::call_once(e.once, [&] { e.levels = reduce(ref); });
+        std::call_once(e.once, [&] { e.levels = reduce(textures.path(t)); });
         return e.levels;
     }
 
@@ -232,10 +232,10 @@ private:
     // cache's whole-image reads cost more than the decoding (see
     // texture_file.cpp). A texture with alpha counts as opaque over black
     // (premultiplied), as the cache's reads gave it.
-    static Levels reduce(const TextureRef& ref) {
+    static Levels reduce(const std::string& path) {
         Levels out;
         std::string why;
-        const std::shared_ptr<const DecodedTexture> d = readTextureFile(ref.path, &why, /*straight_alpha=*/false);
+        const std::shared_ptr<const DecodedTexture> d = readTextureFile(path, &why, /*straight_alpha=*/false);
         if (!d) return out;
         int w = d->spec.width, h = d->spec.height;
         const size_t nc = static_cast<size_t>(d->channels);
@@ -324,11 +324,11 @@ public:
                              uint64_t* reduced) const {
         const Triangle& t = triangles_[index];
         if (t.texture >= 0 && static_cast<size_t>(t.texture) < tables_.textures.size()) {
-            const TextureRef& ref = tables_.textures[static_cast<size_t>(t.texture)];
+            const TextureInfo& ref = tables_.textures[static_cast<size_t>(t.texture)];
             const Vec2d uv = uvAt(t, p);
             if (tables_.reduced) {
                 // The mip level whose texel is the samples' spacing: a reduced one when it is small enough.
-                const ReducedTextures::Levels& r = tables_.reduced->levels(static_cast<size_t>(t.texture), ref);
+                const ReducedTextures::Levels& r = tables_.reduced->levels(static_cast<size_t>(t.texture), tables_.textures);
                 if (r.readable) {
                     const double footprint = spacing_m * texelsPerMetre(t, r.width[0] << r.first, r.height[0] << r.first);
                     const int level = footprint >= 1 ? static_cast<int>(std::floor(std::log2(footprint))) : 0;
@@ -345,12 +345,13 @@ public:
                 }
             }
             float rgb[4] = {0, 0, 0, 0};
-            const OIIO::ImageSpec* spec = cache_->imagespec(OIIO::ustring(ref.path));
+            const OIIO::ustring path(tables_.textures.path(static_cast<size_t>(t.texture)));
+            const OIIO::ImageSpec* spec = cache_->imagespec(path);
             if (spec && spec->width > 0 && spec->height > 0) {
                 const int x = wrapIndex(static_cast<int>(std::floor(uv.x * spec->width)), spec->width, ref.wrap);
                 const int y = wrapIndex(static_cast<int>(std::floor((1 - uv.y) * spec->height)), spec->height, ref.wrap);
                 const int nc = std::min(spec->nchannels, 3);
-                if (cache_->get_pixels(OIIO::ustring(ref.path), 0, 0, x, x + 1, y, y + 1, 0, 1, 0, nc, OIIO::TypeFloat, rgb)) {
+                if (cache_->get_pixels(path, 0, 0, x, x + 1, y, y + 1, 0, 1, 0, nc, OIIO::TypeFloat, rgb)) {
                     if (nc < 3) rgb[1] = rgb[2] = rgb[0];  // grey images
                     return {linearFromSrgb(rgb[0]), linearFromSrgb(rgb[1]), linearFromSrgb(rgb[2])};
                 }

@@ -53,7 +53,7 @@ std::shared_ptr<ReducedTextures> makeReducedTextures(size_t textures);
 
 /// What the colour pass needs of the scene (Scene::textures, ::materials).
 struct SurfaceTables {
-    std::span<const TextureRef> textures;
+    const TextureTable& textures;
     std::span<const Material> materials;
     size_t cache_mb = 256;  ///< decoded textures kept (OpenImageIO ImageCache)
     /// Small mip levels kept across BlockMaps (makeReducedTextures over the

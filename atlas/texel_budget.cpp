@@ -21,7 +21,7 @@ uint64_t bcBytesWithMips(int width, int height, int channels) {
 
 std::vector<NativeSize> nativeSizes(const Scene& scene) { return nativeSizes(scene.textures); }
 
-std::vector<NativeSize> nativeSizes(const std::vector<TextureRef>& textures) {
+std::vector<NativeSize> nativeSizes(const TextureTable& textures) {
     std::vector<NativeSize> n(textures.size());
     for (size_t i = 0; i < n.size(); ++i) n[i] = {std::max(0, textures[i].width_px), std::max(0, textures[i].height_px)};
     return n;
@@ -89,7 +89,7 @@ void accountTexels(const Scene& scene, AtlasTree& tree) {
     s.textures_upsampled = s.textures_exact = s.textures_needing_originals = 0;
     for (size_t t = 0; t < used.size(); ++t) {
         if (!used[t]) continue;
-        const TextureRef& ref = scene.textures[t];
+        const TextureInfo& ref = scene.textures[t];
         const uint64_t bytes = bcBytesWithMips(std::max(1, ref.width_px), std::max(1, ref.height_px), ref.channels == 4 ? 4 : 3);
         s.bytes.originals_used += bytes;
         s.textures_upsampled += capped[t];

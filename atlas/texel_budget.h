@@ -13,7 +13,7 @@ namespace cityatlas::atlas {
 
 /// Each scene texture's size as ingest recorded it (0 where unknown).
 std::vector<NativeSize> nativeSizes(const Scene& scene);
-std::vector<NativeSize> nativeSizes(const std::vector<TextureRef>& textures);
+std::vector<NativeSize> nativeSizes(const TextureTable& textures);
 
 /// The unrepeated fraction of a content box: one period over its span, per axis.
 double uniqueFraction(const Vec2d& uv_min, const Vec2d& uv_max);

@@ -59,12 +59,12 @@ void TextureModelBuilder::add(const Triangle& t) {
     for (const Vec3d& p : t.position_local) bounds_[i].extend(p);
 }
 
-std::vector<TextureModel> TextureModelBuilder::finish(const std::vector<TextureRef>& textures, const AtlasParams& params) {
+std::vector<TextureModel> TextureModelBuilder::finish(const TextureTable& textures, const AtlasParams& params) {
     std::vector<TextureModel> m = std::move(m_);
     std::vector<Box3d> bounds = std::move(bounds_);
     for (TextureModel& t : m) t.members.shrink_to_fit();
     for (size_t i = 0; i < m.size(); ++i) {
-        const TextureRef& r = textures[first_ + i];
+        const TextureInfo& r = textures[first_ + i];
         m[i].native = {std::max(0, r.width_px), std::max(0, r.height_px)};
         m[i].channels = r.channels == 4 ? 4 : 3;
         m[i].original_bytes =

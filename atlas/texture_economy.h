@@ -38,7 +38,7 @@ public:
     TextureModelBuilder(size_t textures, double pixels_per_metre_at_1m);
     TextureModelBuilder(size_t first, size_t end, double pixels_per_metre_at_1m, const uint32_t* reserve = nullptr);
     void add(const Triangle& t);
-    std::vector<TextureModel> finish(const std::vector<TextureRef>& textures, const AtlasParams& params);
+    std::vector<TextureModel> finish(const TextureTable& textures, const AtlasParams& params);
     /// What the builder holds, in bytes: its members' vectors as allocated
     /// (with their growth's spare room) and each texture's model and box.
     uint64_t bytes() const { return capacity_ * sizeof(ChartMember) + m_.size() * kBytesPerTexture; }

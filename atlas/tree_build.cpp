@@ -478,7 +478,7 @@ std::vector<std::pair<size_t, size_t>> modelRanges(const std::vector<uint32_t>& 
 
 }  // namespace
 
-Status decideGlobals(const std::vector<TextureRef>& textures, const AtlasParams& params, const TrianglePass& pass,
+Status decideGlobals(const TextureTable& textures, const AtlasParams& params, const TrianglePass& pass,
                      GlobalDecisions* out) {
     if (Status s = validateParams(params); !s.ok()) return s;
     const int threads = params.threads > 0 ? params.threads : static_cast<int>(tbb::info::default_concurrency());
@@ -564,7 +564,7 @@ Status decideGlobals(const std::vector<TextureRef>& textures, const AtlasParams&
     if (!(g.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
     double lo = 1e300, hi = 0;
     for (size_t i = 0; i < n; ++i) {
-        const TextureRef& r = textures[i];
+        const TextureInfo& r = textures[i];
         double native_distance = 0;
         if (r.width_px > 0) native_distance = std::max(native_distance, s_max[i] * ppm / r.width_px);
         if (r.height_px > 0) native_distance = std::max(native_distance, t_max[i] * ppm / r.height_px);
@@ -755,7 +755,7 @@ Status buildAtlasTree(const Scene& scene, const AtlasParams& params, const fs::p
     stats.textures_unreadable = rendered.unreadable_textures.size();
     for (int32_t t : rendered.unreadable_textures)
         diagnostics.warn(warn::kTextureUnreadable,
-                         {scene.textures[t].path, 0, "", "cannot be read: its atlas regions are mid grey"});
+                         {scene.textures.path(t), 0, "", "cannot be read: its atlas regions are mid grey"});
     step("images");
     return Status::Ok();
 }

@@ -79,13 +79,13 @@ bool isGenerated(const std::string& path, const std::string& working) {
 // it by their place in the working folder (and their contents), not by the
 // folder's name, so the same build to another output has the same hash;
 // the photos they were made from enter as themselves.
-std::string buildHashOf(const std::string& inputs_key, const std::vector<TextureRef>& textures,
+std::string buildHashOf(const std::string& inputs_key, const TextureTable& textures,
                         const std::vector<TextureDigest>& digests, const std::string& working,
                         const std::vector<FileDigest>& source_textures) {
-    std::vector<TextureRef> hashed = textures;
-    for (TextureRef& t : hashed)
-        if (isGenerated(t.path, working)) t.path = "<working>" + t.path.substr(working.size());
-    std::vector<std::string> parts{buildHash(inputs_key, hashed, digests)};
+    const auto path_as = [&](std::string path) {
+        return isGenerated(path, working) ? "<working>" + path.substr(working.size()) : path;
+    };
+    std::vector<std::string> parts{buildHash(inputs_key, textures, digests, path_as)};
     for (const FileDigest& d : source_textures) parts.push_back(d.path + "=" + d.xxh3);
     return source_textures.empty() ? parts[0] : hashStrings(parts);
 }
@@ -306,7 +306,7 @@ void removeNativeFiles(const fs::path& folder) {
 }
 
 // The report, the folder moved into place, the summary on stdout.
-int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
+int finishBuild(const BuildRecord& rec, const TextureTable& textures,
                 const std::vector<TextureDigest>& texture_digests, const atlas::AtlasTree& tree, const tiles::TilesStats& ts,
                 const tiles::Tiles3dStats& t3, Diagnostics& diagnostics, Stages stages, Progress& progress) {
     const atlas::AtlasStats& as = tree.stats;
@@ -441,12 +441,12 @@ int finishBuild(const BuildRecord& rec, const std::vector<TextureRef>& textures,
     // The texture digests (a million at city scale) as text, not as a DOM.
     std::vector<size_t> listed;
     forEachFingerprintTexture(textures, texture_digests, [&](size_t t) {
-        if (!isGenerated(textures[t].path, rec.working)) listed.push_back(t);
+        if (!isGenerated(textures.path(t), rec.working)) listed.push_back(t);
     });
     const size_t count = listed.size() + rec.source_textures.size();
     std::string text = format::spliceArray(report.dump(2), 2, "textures", kFingerprintTextures, count, [&](size_t i) {
         const FileDigest d = i >= listed.size() ? rec.source_textures[i - listed.size()]
-                                                : FileDigest{textures[listed[i]].path, texture_digests[listed[i]].bytes,
+                                                : FileDigest{textures.path(listed[i]), texture_digests[listed[i]].bytes,
                                                              hexDigest(texture_digests[listed[i]].xxh3)};
         return nlohmann::json{{"path", d.path}, {"bytes", d.bytes}, {"xxh3", d.xxh3}}.dump(2);
     });

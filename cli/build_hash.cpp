@@ -66,30 +66,27 @@ std::vector<fs::path> withSidecars(const std::vector<fs::path>& inputs) {
     return unique;
 }
 
-std::vector<TextureDigest> digestTextures(const std::vector<TextureRef>& textures) {
+std::vector<TextureDigest> digestTextures(const TextureTable& textures) {
     std::vector<TextureDigest> out(textures.size());
-    std::unordered_map<std::string_view, size_t> first;  // views of the entries' own paths: no copies
-    first.reserve(textures.size());
+    const std::vector<uint32_t> first = textures.firstOfPath();
     for (size_t t = 0; t < textures.size(); ++t) {
-        const auto [at, inserted] = first.try_emplace(textures[t].path, t);
-        if (!inserted) {
-            out[t] = out[at->second];
+        if (first[t] != t) {
+            out[t] = out[first[t]];
             continue;
         }
         TextureDigest& d = out[t];
-        d.readable = hashFile(textures[t].path, &d.xxh3, &d.bytes).ok();  // unreadable ones are ingest warnings
+        d.readable = hashFile(textures.path(t), &d.xxh3, &d.bytes).ok();  // unreadable ones are ingest warnings
     }
     return out;
 }
 
 std::string hexDigest(uint64_t xxh3) { return fmt::format("{:016x}", xxh3); }
 
-void forEachFingerprintTexture(const std::vector<TextureRef>& textures, const std::vector<TextureDigest>& digests,
+void forEachFingerprintTexture(const TextureTable& textures, const std::vector<TextureDigest>& digests,
                                const std::function<void(size_t)>& fn) {
-    std::unordered_set<std::string_view> seen;
-    seen.reserve(textures.size());
+    const std::vector<uint32_t> first = textures.firstOfPath();
     for (size_t t = 0; t < textures.size() && t < digests.size(); ++t)
-        if (seen.insert(textures[t].path).second && digests[t].readable) fn(t);
+        if (first[t] == t && digests[t].readable) fn(t);
 }
 
 namespace {
@@ -110,12 +107,12 @@ private:
 };
 }  // namespace
 
-std::string buildHash(const std::string& inputs_key, const std::vector<TextureRef>& textures,
-                      const std::vector<TextureDigest>& digests) {
+std::string buildHash(const std::string& inputs_key, const TextureTable& textures,
+                      const std::vector<TextureDigest>& digests, const std::function<std::string(std::string)>& path_as) {
     StringsHash h;
     h.add(inputs_key);
     forEachFingerprintTexture(textures, digests, [&](size_t t) {
-        h.add(fmt::format("{}={}", textures[t].path, hexDigest(digests[t].xxh3)));
+        h.add(fmt::format("{}={}", path_as ? path_as(textures.path(t)) : textures.path(t), hexDigest(digests[t].xxh3)));
     });
     return h.digest();
 }

@@ -41,17 +41,19 @@ struct TextureDigest {
     friend bool operator==(const TextureDigest&, const TextureDigest&) = default;
 };
 /// Hashes every texture file once (a path that several entries share is read once).
-std::vector<TextureDigest> digestTextures(const std::vector<TextureRef>& textures);
+std::vector<TextureDigest> digestTextures(const TextureTable& textures);
 /// The digest as FileDigest::xxh3 writes it (16 hex digits).
 std::string hexDigest(uint64_t xxh3);
 /// The readable textures as the build fingerprint lists them: each path once,
 /// in first use order (`fn(index of its first entry)`).
-void forEachFingerprintTexture(const std::vector<TextureRef>& textures, const std::vector<TextureDigest>& digests,
+void forEachFingerprintTexture(const TextureTable& textures, const std::vector<TextureDigest>& digests,
                                const std::function<void(size_t)>& fn);
 /// The build hash: hashStrings of the inputs key and every fingerprint texture
-/// as "path=xxh3", without making that list.
-std::string buildHash(const std::string& inputs_key, const std::vector<TextureRef>& textures,
-                      const std::vector<TextureDigest>& digests);
+/// as "path=xxh3" (the path as `path_as` writes it, when given), without
+/// making that list.
+std::string buildHash(const std::string& inputs_key, const TextureTable& textures,
+                      const std::vector<TextureDigest>& digests,
+                      const std::function<std::string(std::string)>& path_as = {});
 
 /// XXH3-64 of a list of strings (length-prefixed), 16 hex digits.
 std::string hashStrings(const std::vector<std::string>& parts);

@@ -59,7 +59,7 @@ int runIngest(const IngestCliOptions& opt) {
     size_t features = 0, textures = 0, materials = 0;
     if (opt.glb.empty()) {
         stats = stats_sink.stats.finish();
-        features = stats_sink.features, textures = stats_sink.textures.size(), materials = stats_sink.materials.size();
+        features = stats_sink.features, textures = stats_sink.textures().size(), materials = stats_sink.materials.size();
     } else {
         stats = computeStats(collector.scene);
         features = collector.scene.features.size(), textures = collector.scene.textures.size();

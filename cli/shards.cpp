@@ -192,7 +192,7 @@ atlas::GlobalDecisions globalsFrom(const json& j) {
 // ways (as a DOM their JSON took ~0.4 KB each in the plan, every shard and the merge).
 constexpr const char* kTextureTableMagic = "cityatlas-textures-1";
 
-Status writeTextureTable(const fs::path& path, const std::vector<TextureRef>& textures,
+Status writeTextureTable(const fs::path& path, const TextureTable& textures,
                          const std::vector<TextureDigest>& digests) {
     std::ofstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot create", path.string()));
@@ -200,7 +200,7 @@ Status writeTextureTable(const fs::path& path, const std::vector<TextureRef>& te
     f.write(kTextureTableMagic, static_cast<std::streamsize>(std::strlen(kTextureTableMagic)));
     put(static_cast<uint64_t>(textures.size()));
     for (size_t t = 0; t < textures.size(); ++t) {
-        const TextureRef& r = textures[t];
+        const TextureRef r = textures.ref(t);
         const TextureDigest d = t < digests.size() ? digests[t] : TextureDigest{};
         put(static_cast<uint32_t>(r.path.size()));
         f.write(r.path.data(), static_cast<std::streamsize>(r.path.size()));
@@ -212,7 +212,7 @@ Status writeTextureTable(const fs::path& path, const std::vector<TextureRef>& te
     return Status::Ok();
 }
 
-Status readTextureTable(const fs::path& path, std::vector<TextureRef>* textures, std::vector<TextureDigest>* digests) {
+Status readTextureTable(const fs::path& path, TextureTable* textures, std::vector<TextureDigest>* digests) {
     std::ifstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
     auto get = [&](auto* v) { return static_cast<bool>(f.read(reinterpret_cast<char*>(v), sizeof *v)); };
@@ -221,7 +221,7 @@ Status readTextureTable(const fs::path& path, std::vector<TextureRef>* textures,
     uint64_t n = 0;
     if (!f.read(magic.data(), static_cast<std::streamsize>(magic.size())) || magic != kTextureTableMagic || !get(&n))
         return bad("not a texture table of this cityatlas version");
-    textures->clear(), textures->reserve(n);
+    textures->clear();
     if (digests) digests->clear(), digests->reserve(n);
     for (uint64_t t = 0; t < n; ++t) {
         uint32_t len = 0;
@@ -896,7 +896,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         key.addValue(level[k]);
         for (size_t t = 0; t < tables.textures.size(); ++t) {
             if (!textures_of[k][t]) continue;
-            const TextureRef& r = tables.textures[t];
+            const TextureRef r = tables.textures.ref(t);
             const bool known = t < texture_digests.size() && texture_digests[t].readable;
             key.add(fmt::format("texture {} {} {} {} {} {} {} {} {}", t, r.path, r.width_px, r.height_px, r.channels,
                                 static_cast<int>(r.wrap), texture_index[t], globals.promote[t],
@@ -1590,7 +1590,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         key.add(fmt::format("block {} writer {}", tiles::bcQualityName(tp.bc_quality), tiles::kWriterRevision));
         for (const tiles::TextureEntry* e : textures) {
             const auto t = static_cast<size_t>(e->scene_texture);
-            const TextureRef& ref = r.tables.textures[t];
+            const TextureRef ref = r.tables.textures.ref(t);
             const TextureDigest& digest = texture_digests[t];
             if (!digest.readable) return std::string();  // unknown content: not kept
             key.add(fmt::format("{} {} {} {} {} {}", ref.path, hexDigest(digest.xxh3), ref.width_px, ref.height_px,

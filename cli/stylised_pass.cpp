@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
+#include <mutex>
 
 #include "cli/shards.h"
 #include "ingest/stylised_facades.h"
@@ -44,8 +45,13 @@ Status addStylisedFacades(const fs::path& spill, const fs::path& dir, Scene* tab
     }
     std::atomic<uint64_t> stylised{0}, without_windows{0}, tilted{0}, unreadable{0};
     std::vector<std::string> write_error(facades.size()), photo_path(facades.size());
+    std::mutex table_mutex;
     tbb::parallel_for(size_t{0}, facades.size(), [&](size_t k) {
-        TextureRef& texture = tables->textures[facades[k]];
+        TextureRef texture;
+        {
+            const std::lock_guard lock(table_mutex);  // set() below appends to the table's buffers
+            texture = tables->textures.ref(facades[k]);
+        }
         const int channels = texture.channels == 4 ? 4 : 3;
         format::Image8 photo;
         std::string why;
@@ -68,6 +74,8 @@ Status addStylisedFacades(const fs::path& spill, const fs::path& dir, Scene* tab
         photo_path[k] = std::move(texture.path);
         texture.path = png.string();
         texture.width_px = input.width, texture.height_px = input.height, texture.channels = channels;
+        const std::lock_guard lock(table_mutex);
+        tables->textures.set(facades[k], texture);
         stylised += 1;
     });
     for (const std::string& e : write_error)

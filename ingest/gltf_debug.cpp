@@ -209,7 +209,7 @@ Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) 
     const size_t grey = n_tex + n_mat;
     if (n_groups >= kDropped) return Status::Io(fmt::format("{}: too many textures and materials", where));
     std::vector<bool> texture_usable(n_tex);
-    for (size_t i = 0; i < n_tex; ++i) texture_usable[i] = !scene.textures[i].path.empty();
+    for (size_t i = 0; i < n_tex; ++i) texture_usable[i] = !scene.textures.path(i).empty();
 
     const size_t n_tri = scene.triangles.size();
     std::vector<uint32_t> tri_group(n_tri);
@@ -319,7 +319,7 @@ Status writeDebugGlb(const Scene& scene, const std::filesystem::path& glb_path) 
             fmt::format_to(prim, R"({{"attributes":{{"POSITION":{})", position_accessor);
             sep(materials);
             if (g < n_tex) {
-                const TextureRef& tex = scene.textures[g];
+                const TextureRef tex = scene.textures.ref(g);
                 fmt::format_to(acc, R"(,{{"bufferView":{},"byteOffset":{},"componentType":{},"count":{},"type":"VEC2"}})",
                                uv_view, uv_cursor * 8, kFloat, count);
                 fmt::format_to(prim, R"(,"TEXCOORD_0":{})", n_accessors++);

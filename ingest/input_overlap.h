@@ -31,7 +31,7 @@ public:
 
     void setGeoreference(const Georeference& g) override { inner_.setGeoreference(g); }
     int32_t addTexture(const TextureRef& t) override { return inner_.addTexture(t); }
-    const TextureRef* texture(int32_t index) const override { return inner_.texture(index); }
+    const TextureTable& textures() const override { return inner_.textures(); }
     int32_t addMaterial(const Material& m) override { return inner_.addMaterial(m); }
     uint32_t addFeature(Feature f) override;
     void setFeatureLod(uint32_t feature, int8_t lod) override { inner_.setFeatureLod(feature, lod); }

@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "core/geometry.h"
+#include "ingest/texture_table.h"
 
 namespace cityatlas {
 
@@ -55,19 +56,6 @@ inline constexpr int kSurfaceSemanticCount = 8;
 std::string_view semanticName(SurfaceSemantic s);  ///< "wall", "roof", ...
 /// The inverse of semanticName; empty for an unknown name.
 std::optional<SurfaceSemantic> semanticFromName(std::string_view name);
-
-/// CityGML app:wrapMode values.
-enum class WrapMode : uint8_t { None, Wrap, Mirror, Clamp, Border };
-std::string_view wrapModeName(WrapMode w);  ///< "none", "wrap", ...
-
-/// A texture image by reference. Pixels are not loaded at ingest.
-struct TextureRef {
-    std::string path;        ///< absolute, or relative to the current directory
-    int width_px = 0;
-    int height_px = 0;
-    int channels = 0;        ///< 3 = RGB, 4 = RGBA (alpha is meaningful)
-    WrapMode wrap = WrapMode::Wrap;
-};
 
 /// Colour of an untextured surface (app:X3DMaterial): linear RGB in [0,1].
 struct Material {
@@ -121,7 +109,7 @@ struct Georeference {
 struct Scene {
     Georeference georef;
     std::vector<Triangle> triangles;
-    std::vector<TextureRef> textures;
+    TextureTable textures;
     std::vector<Material> materials;
     std::vector<Feature> features;
 

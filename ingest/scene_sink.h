@@ -15,8 +15,8 @@ public:
     virtual ~SceneSink() = default;
     virtual void setGeoreference(const Georeference& georef) = 0;
     virtual int32_t addTexture(const TextureRef& texture) = 0;   ///< returns its index
-    /// A texture added before (its index from addTexture), or null.
-    virtual const TextureRef* texture(int32_t index) const = 0;
+    /// The textures added so far (indices from addTexture).
+    virtual const TextureTable& textures() const = 0;
     virtual int32_t addMaterial(const Material& material) = 0;   ///< interned; returns its index
     virtual uint32_t addFeature(Feature feature) = 0;            ///< returns its index
     /// Records which LOD a feature's geometry came from (known after its parts are read).
@@ -34,10 +34,7 @@ public:
         scene.textures.push_back(t);
         return static_cast<int32_t>(scene.textures.size() - 1);
     }
-    const TextureRef* texture(int32_t index) const override {
-        return index >= 0 && static_cast<size_t>(index) < scene.textures.size() ? &scene.textures[static_cast<size_t>(index)]
-                                                                                  : nullptr;
-    }
+    const TextureTable& textures() const override { return scene.textures; }
     int32_t addMaterial(const Material& m) override { return scene.internMaterial(m); }
     uint32_t addFeature(Feature f) override {
         scene.features.push_back(std::move(f));
@@ -55,18 +52,16 @@ public:
 class SceneStatsSink : public SceneSink {
 public:
     Georeference georef;
-    std::vector<TextureRef> textures;
+    TextureTable textures_;
     std::vector<Material> materials;
     size_t features = 0;
     SceneStatsAccumulator stats;
     void setGeoreference(const Georeference& g) override { georef = g; }
     int32_t addTexture(const TextureRef& t) override {
-        textures.push_back(t);
-        return static_cast<int32_t>(textures.size() - 1);
+        textures_.push_back(t);
+        return static_cast<int32_t>(textures_.size() - 1);
     }
-    const TextureRef* texture(int32_t index) const override {
-        return index >= 0 && static_cast<size_t>(index) < textures.size() ? &textures[static_cast<size_t>(index)] : nullptr;
-    }
+    const TextureTable& textures() const override { return textures_; }
     int32_t addMaterial(const Material& m) override {
         for (size_t i = 0; i < materials.size(); ++i)
             if (materials[i] == m) return static_cast<int32_t>(i);

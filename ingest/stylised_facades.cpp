@@ -587,7 +587,7 @@ FacadeSummary analyseFacade(const synth::Image8& image) {
     return summary;
 }
 
-bool uprightOnWall(const Triangle& t, const TextureRef& texture) {
+bool uprightOnWall(const Triangle& t, const TextureInfo& texture) {
     const Vec3d e1 = t.position_local[1] - t.position_local[0], e2 = t.position_local[2] - t.position_local[0];
     const Vec2d d1{t.uv[1].x - t.uv[0].x, t.uv[1].y - t.uv[0].y}, d2{t.uv[2].x - t.uv[0].x, t.uv[2].y - t.uv[0].y};
     const double det = d1.x * d2.y - d2.x * d1.y;

@@ -70,7 +70,7 @@ FacadeSummary analyseFacade(const synth::Image8& image);
 /// up the image (rows stay level on the wall) within 10 degrees. Photos
 /// rectified to the facade do; crops of oblique aerial images often do not,
 /// and a window grid along the image's axes means nothing there.
-bool uprightOnWall(const Triangle& t, const TextureRef& texture);
+bool uprightOnWall(const Triangle& t, const TextureInfo& texture);
 
 /// The clean facade of a summary: facade colour, and a window at every
 /// (row, column) of the grid. channels 3 or 4.

@@ -144,16 +144,16 @@ size_t TextureResolver::KeyHash::operator()(const Key& k) const {
     return std::hash<std::string_view>{}(k.path) ^ (static_cast<size_t>(k.wrap) * 0x9E3779B97F4A7C15ULL);
 }
 
-size_t TextureResolver::KeyHash::operator()(int32_t index) const { return (*this)(KeyEqual{sink}.keyOf(index)); }
-
-TextureResolver::Key TextureResolver::KeyEqual::keyOf(int32_t index) const {
-    const TextureRef* t = sink->texture(index);
-    return t ? Key{t->path, t->wrap} : Key{{}, WrapMode::None};
+size_t TextureResolver::KeyHash::operator()(int32_t index) const {
+    const TextureTable& t = sink->textures();
+    const auto i = static_cast<size_t>(index);
+    return (*this)(Key{t.path(i), t[i].wrap});
 }
 
 bool TextureResolver::KeyEqual::operator()(const Key& a, int32_t b) const {
-    const Key k = keyOf(b);
-    return a.wrap == k.wrap && a.path == k.path;
+    const TextureTable& t = sink->textures();
+    const auto i = static_cast<size_t>(b);
+    return a.wrap == t[i].wrap && a.path == t.path(i);
 }
 
 TextureResolver::~TextureResolver() = default;

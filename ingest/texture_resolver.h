@@ -14,6 +14,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -46,8 +47,12 @@ public:
     /// Starts reading the header of `uri` in the background (at most
     /// kMaxPrefetched waiting at a time; beyond that resolve() reads inline).
     void prefetch(const std::filesystem::path& base_dir, const std::string& uri);
-    /// The image behind an index resolve() returned (path, size), or null.
-    const TextureRef* info(int32_t index) const { return sink_.texture(index); }
+    /// The image behind an index resolve() returned (path, size), or none.
+    std::optional<TextureRef> info(int32_t index) const {
+        const TextureTable& t = sink_.textures();
+        if (index < 0 || static_cast<size_t>(index) >= t.size()) return std::nullopt;
+        return t.ref(static_cast<size_t>(index));
+    }
     uint64_t resolved() const { return ok_; }
     uint64_t failed() const { return failed_; }
 
@@ -74,7 +79,6 @@ private:
     struct KeyEqual {
         using is_transparent = void;
         const SceneSink* sink;
-        Key keyOf(int32_t index) const;
         bool operator()(int32_t a, int32_t b) const { return a == b; }
         bool operator()(const Key& a, int32_t b) const;
         bool operator()(int32_t a, const Key& b) const { return (*this)(b, a); }

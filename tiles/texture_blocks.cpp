@@ -76,7 +76,7 @@ bool readImage8(const std::string& path, int channels, Image8* out, std::string*
     return true;
 }
 
-std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const std::vector<TextureRef>& textures,
+std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const TextureTable& textures,
                                          int atlas_size_px, bool split) {
     std::vector<int32_t> index(used.size(), -1);
     int32_t next = 0;
@@ -148,12 +148,19 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
     const uint64_t block_texels = static_cast<uint64_t>(tree.params.atlas_size_px) * tree.params.atlas_size_px;
     uint64_t current_texels = 0;
     int32_t current = -1;
+    // The entries' number, from the last used texture (the index counts up in scene order): made at their size.
+    for (size_t st = texture_index.size(); st-- > 0;)
+        if (texture_index[st] >= 0) {
+            b.textures.reserve(static_cast<size_t>(texture_index[st]) +
+                               tilesetEntries(scene.textures[st], tree.params.atlas_size_px, split).size());
+            break;
+        }
     // Every used texture has its entry (the leaves' geometry names them by
     // their rank among the used ones); exact until some leaf needs its original.
     for (size_t st = 0; st < texture_index.size(); ++st) {
         const int32_t ti = texture_index[st];
         if (ti < 0) continue;
-        const TextureRef& ref = scene.textures[st];
+        const TextureInfo& ref = scene.textures[st];
         const std::vector<TexelRect> entries = tilesetEntries(ref, tree.params.atlas_size_px, split);
         if (b.textures.size() < static_cast<size_t>(ti) + entries.size()) b.textures.resize(static_cast<size_t>(ti) + entries.size());
         for (size_t k = 0; k < entries.size(); ++k) {
@@ -308,7 +315,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         if (cached(blk, &enc)) return enc;
         tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
             const TextureEntry& e = blocks->textures[list[k]];
-            const TextureRef& ref = scene.textures[static_cast<size_t>(e.scene_texture)];
+            const TextureRef ref = scene.textures.ref(static_cast<size_t>(e.scene_texture));
             Image8 img;
             // Straight alpha, as the client blends (GL_SRC_ALPHA): OpenImageIO
             // premultiplies many RGBA PNGs on read, which drew translucent
@@ -369,7 +376,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
                 e.block = -1;
                 if (e.tile >= 0 && !warned_split.insert(e.scene_texture).second) continue;  // once per texture, not per tile
                 diagnostics.warn(warn::kTextureUnreadable,
-                                 {scene.textures[static_cast<size_t>(e.scene_texture)].path, 0, "",
+                                 {scene.textures.path(static_cast<size_t>(e.scene_texture)), 0, "",
                                   "original texture for near views not written (leaves draw their atlas): " + enc[k].why});
                 e.block = -1;
                 continue;

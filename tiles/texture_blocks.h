@@ -73,7 +73,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
 /// ones (a split texture takes one more number per tile, tiles/texture_tiles.h),
 /// so a shard of a larger build numbers its leaves' textures as the whole
 /// build does without seeing the other shards.
-std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const std::vector<TextureRef>& textures,
+std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const TextureTable& textures,
                                          int atlas_size_px, bool split);
 /// Per node (leaves only; others empty): the scene textures its triangles use, ascending.
 std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree);

@@ -31,12 +31,12 @@ TileGrid tileGridFor(int width, int height, WrapMode wrap, int atlas_size_px, in
     return {width, height, atlas_size_px, overlap, wrap == WrapMode::Wrap};
 }
 
-TileGrid splitGridOf(const TextureRef& texture, int atlas_size_px, bool split) {
+TileGrid splitGridOf(const TextureInfo& texture, int atlas_size_px, bool split) {
     if (!split || !splitsTexture(texture.width_px, texture.height_px, atlas_size_px)) return {};
     return tileGridFor(texture.width_px, texture.height_px, texture.wrap, atlas_size_px);
 }
 
-std::vector<TexelRect> tilesetEntries(const TextureRef& texture, int atlas_size_px, bool split) {
+std::vector<TexelRect> tilesetEntries(const TextureInfo& texture, int atlas_size_px, bool split) {
     const TileGrid grid = splitGridOf(texture, atlas_size_px, split);
     std::vector<TexelRect> out{TexelRect{0, 0, texture.width_px, texture.height_px}};
     for (int k = 0; k < grid.count(); ++k) out.push_back(grid.rectOf(k));

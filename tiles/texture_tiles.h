@@ -80,12 +80,12 @@ TileGrid tileGridFor(int width, int height, WrapMode wrap, int atlas_size_px, in
 /// The grid of a scene texture that is split (`split` on and more than two
 /// atlases of texels, by the size recorded at ingest); an empty grid
 /// (count() == 0) for one that stays whole.
-TileGrid splitGridOf(const TextureRef& texture, int atlas_size_px, bool split);
+TileGrid splitGridOf(const TextureInfo& texture, int atlas_size_px, bool split);
 
 /// The tileset textures a scene texture becomes, as their texels in it: the
 /// whole image first, then a split one's tiles (row-major), in the
 /// consecutive numbers tilesetTextureIndex (texture_blocks.h) gives them.
-std::vector<TexelRect> tilesetEntries(const TextureRef& texture, int atlas_size_px, bool split);
+std::vector<TexelRect> tilesetEntries(const TextureInfo& texture, int atlas_size_px, bool split);
 
 /// The texels of `rect` from `image` (rows top-down); texels outside the
 /// image wrap around (a rect of a repeating texture's grid) or are clamped

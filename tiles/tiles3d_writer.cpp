@@ -470,7 +470,7 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
                 if (it->second.ok) original_texture[t] = table.addShared(it->second, gltfSamplerWrap(te.wrap));
                 continue;
             }
-            const TextureRef& ref = x.scene.textures[static_cast<size_t>(te.scene_texture)];
+            const TextureRef ref = x.scene.textures.ref(static_cast<size_t>(te.scene_texture));
             WebImage image;
             if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_path.parent_path() / fmt::format(".{}-t{}", entry.id, t),
                           r, &image, &te, ref.wrap)
@@ -672,7 +672,7 @@ Status writeSharedOriginals(const ExportContext& x, const format::TilesetDocumen
     arena.execute([&] {
         tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
             const TextureEntry& te = x.plan.textures[static_cast<size_t>(list[k])];
-            const TextureRef& ref = x.scene.textures[static_cast<size_t>(te.scene_texture)];
+            const TextureRef ref = x.scene.textures.ref(static_cast<size_t>(te.scene_texture));
             WebImage image;
             TileResult& r = (*results)[k];
             if (!webImage(ref.path, ref.channels == 4 ? 4 : 3, x.params, out_dir / "textures" / fmt::format(".{}", list[k]), r,

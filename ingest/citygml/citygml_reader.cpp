@@ -1157,7 +1157,7 @@ private:
     std::optional<TexGen> georeferencedTexGen(const AppearanceStore& store, const GeoTexture& geo,
                                               const std::string& polygon_id) {
         const int32_t texture = sceneTexture(store, geo.image, geo.line, polygon_id);
-        const TextureRef* ref = texture >= 0 ? textures_.info(texture) : nullptr;
+        const std::optional<TextureRef> ref = textures_.info(texture);
         if (!ref || ref->width_px <= 0 || ref->height_px <= 0) return std::nullopt;  // texture_missing/unreadable
         std::array<double, 6> a = geo.pixel_to_world;
         if (!geo.has_georeference) {

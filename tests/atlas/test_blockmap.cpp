@@ -300,7 +300,7 @@ void expectColourMeans(double cell_m, int texture_px, bool reduced, double min_r
     std::uniform_real_distribution<double> u01(0, 1);
     std::map<int32_t, LinearImage> images;
     auto image = [&](int32_t t) -> const LinearImage& {
-        if (!images.count(t)) images[t] = readLinear(scene.textures[static_cast<size_t>(t)].path);
+        if (!images.count(t)) images[t] = readLinear(scene.textures.path(static_cast<size_t>(t)));
         return images[t];
     };
     struct Sum {

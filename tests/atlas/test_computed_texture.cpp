@@ -113,7 +113,7 @@ TEST(ComputedTexture, TexelsStandForThePointsThePhotoAtlasShows) {
                 const auto w = barycentric3(t.position_local, ts.point);
                 const Vec2d from_point{w[0] * t.uv[0].x + w[1] * t.uv[1].x + w[2] * t.uv[2].x,
                                        w[0] * t.uv[0].y + w[1] * t.uv[1].y + w[2] * t.uv[2].y};
-                const TextureRef& tex = c.scene.textures[static_cast<size_t>(t.texture)];
+                const TextureRef tex = c.scene.textures.ref(static_cast<size_t>(t.texture));
                 worst = std::max({worst, std::abs(from_atlas.x - from_point.x) * tex.width_px,
                                   std::abs(from_atlas.y - from_point.y) * tex.height_px});
             }

@@ -121,7 +121,7 @@ std::optional<TexelEdges> texelEdges(const TreeTriangle& t, const AtlasNode& n, 
     const Vec3d dp1 = t.tri.position_local[1] - t.tri.position_local[0];
     const Vec3d dp2 = t.tri.position_local[2] - t.tri.position_local[0];
     // The same inverse applied to uv: the texture step of one atlas texel.
-    const TextureRef& ref = scene.textures[static_cast<size_t>(t.tri.texture)];
+    const TextureRef ref = scene.textures.ref(static_cast<size_t>(t.tri.texture));
     const Vec2d du1{t.tri.uv[1].x - t.tri.uv[0].x, t.tri.uv[1].y - t.tri.uv[0].y};
     const Vec2d du2{t.tri.uv[2].x - t.tri.uv[0].x, t.tri.uv[2].y - t.tri.uv[0].y};
     auto texels = [&](double k1, double k2) {
@@ -495,7 +495,7 @@ CapCheck capCheck(const Built& b) {
     for (size_t id = 0; id < t.nodes.size(); ++id)
         for (const NodeLayer& l : t.nodes[id].layers)
             for (const PackedRegion& r : l.regions) {
-                const TextureRef& ref = b.scene.textures[static_cast<size_t>(r.texture)];
+                const TextureRef ref = b.scene.textures.ref(static_cast<size_t>(r.texture));
                 const double du = r.uv_max.x - r.uv_min.x, dv = r.uv_max.y - r.uv_min.y;
                 const double along_u = r.rotated ? r.h : r.w, along_v = r.rotated ? r.w : r.h;
                 ++c.regions;

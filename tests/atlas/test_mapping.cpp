@@ -257,9 +257,9 @@ protected:
                 for (uint32_t i = l.range.first; i < l.range.first + l.range.count && i < w.leaf_of.size(); ++i)
                     w.leaf_of[i] = static_cast<int32_t>(id);
         }
-        for (const TextureRef& t : w.scene.textures) {
+        for (size_t t = 0; t < w.scene.textures.size(); ++t) {
             LinearImage img;
-            if (!readLinear(t.path, &img, &w.error)) return;
+            if (!readLinear(w.scene.textures.path(t), &img, &w.error)) return;
             w.boxes.push_back(std::make_unique<PeriodicBox>(img));
             w.textures.push_back(std::move(img));
         }

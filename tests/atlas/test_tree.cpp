@@ -490,7 +490,7 @@ struct Checker {
             const Vec3d v1 = sub(t.tri.position_local[1], t.tri.position_local[0]);
             const Vec3d v2 = sub(t.tri.position_local[2], t.tri.position_local[0]);
             const Vec2d t1 = sub2(t.tri.uv[1], t.tri.uv[0]), t2 = sub2(t.tri.uv[2], t.tri.uv[0]);
-            const TextureRef& tex = scene.textures[static_cast<size_t>(t.tri.texture)];
+            const TextureRef tex = scene.textures.ref(static_cast<size_t>(t.tri.texture));
             for (int32_t id = leaf_of[i]; id >= 0; id = tree.nodes[id].parent) {
                 const AtlasNode& node = tree.nodes[id];
                 const NodeLayer& nl = node.layers[static_cast<int>(t.layer)];

@@ -55,7 +55,7 @@ void expectMatchesTruth(const fs::path& dir) {
         if (t.texture < 0) continue;
         ++textured;
         ASSERT_LT(static_cast<size_t>(t.texture), r->scene.textures.size());
-        ASSERT_TRUE(fs::is_regular_file(r->scene.textures[t.texture].path)) << r->scene.textures[t.texture].path;
+        ASSERT_TRUE(fs::is_regular_file(r->scene.textures.path(t.texture))) << r->scene.textures.path(t.texture);
     }
     EXPECT_GT(textured, 0u);
     EXPECT_EQ(r->state.diagnostics.total(), 0u) << "a valid synthetic town must ingest without warnings";
@@ -313,7 +313,7 @@ TEST(CityGmlReader, GlobalAppearanceStreamedGivesWhatTheSameAppearanceGivesInsid
         ASSERT_EQ(g->scene.triangles.size(), 10u);
         ASSERT_EQ(g->scene.triangles.size(), l->scene.triangles.size());
         ASSERT_EQ(g->scene.textures.size(), l->scene.textures.size()) << theme;
-        for (size_t t = 0; t < g->scene.textures.size(); ++t) EXPECT_EQ(g->scene.textures[t].path, l->scene.textures[t].path);
+        for (size_t t = 0; t < g->scene.textures.size(); ++t) EXPECT_EQ(g->scene.textures.path(t), l->scene.textures.path(t));
         ASSERT_EQ(g->scene.materials.size(), l->scene.materials.size()) << theme;
         for (size_t m = 0; m < g->scene.materials.size(); ++m) EXPECT_EQ(g->scene.materials[m], l->scene.materials[m]);
         for (size_t i = 0; i < g->scene.triangles.size(); ++i) {

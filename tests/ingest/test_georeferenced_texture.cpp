@@ -91,7 +91,7 @@ void expectRoofsOnTheirOrthophotoPixels(const Read& r, const Grid& g, const Imag
         if (t.semantic != SurfaceSemantic::Roof) continue;
         ++roofs;
         ASSERT_GE(t.texture, 0) << "roof triangle without the orthophoto";
-        EXPECT_EQ(fs::path(r.scene.textures[t.texture].path).filename(), "orthophoto.png");
+        EXPECT_EQ(fs::path(r.scene.textures.path(t.texture)).filename(), "orthophoto.png");
         for (int k = 0; k < 3; ++k) {
             const double x = t.position_local[k].x + o.x, y = t.position_local[k].y + o.y;
             const double col = (x - g.c) / g.a, row = (y - g.f) / g.e;  // pixel-centre units
@@ -214,7 +214,7 @@ TEST(GeoreferencedTexture, Sig3dAppearanceExample) {
             if (t.semantic != SurfaceSemantic::Roof) continue;
             ++roofs;
             ASSERT_GE(t.texture, 0);
-            const TextureRef& tex = r->scene.textures[t.texture];
+            const TextureRef tex = r->scene.textures.ref(t.texture);
             EXPECT_EQ(fs::path(tex.path).filename(), std::string("ground_") + (theme[0] == 'S' ? "summer" : "winter") + ".png");
             // referencePoint 458870 5438360 (upper left pixel centre), orientation 0.05 0 0 -0.05; 401 x 301 px.
             ASSERT_EQ(tex.width_px, 401);

@@ -112,7 +112,7 @@ std::string percentDecode(const std::string& s) {
 // Key of the primitive a triangle belongs to, as writeDebugGlb documents it:
 // textures first (index order), then materials, then the grey fallback.
 size_t groupOf(const Scene& s, const Triangle& t) {
-    if (t.texture >= 0 && static_cast<size_t>(t.texture) < s.textures.size() && !s.textures[t.texture].path.empty())
+    if (t.texture >= 0 && static_cast<size_t>(t.texture) < s.textures.size() && !s.textures.path(t.texture).empty())
         return static_cast<size_t>(t.texture);
     if (t.material >= 0 && static_cast<size_t>(t.material) < s.materials.size())
         return s.textures.size() + static_cast<size_t>(t.material);
@@ -261,7 +261,7 @@ void expectMatchesScene(const tinygltf::Model& m, const Scene& scene, const fs::
         const tinygltf::Material& mat = m.materials.at(prim.material);
         EXPECT_FALSE(mat.doubleSided);
         if (g < scene.textures.size()) {
-            const TextureRef& ref = scene.textures[g];
+            const TextureRef ref = scene.textures.ref(g);
             const int ti = mat.pbrMetallicRoughness.baseColorTexture.index;
             ASSERT_GE(ti, 0);
             const tinygltf::Texture& tex = m.textures.at(ti);

@@ -231,9 +231,11 @@ TEST(TextureResolver, PrefetchGivesTheSameTexturesAndWarnings) {
         }
         std::string out;
         for (int32_t i : indices) out += std::to_string(i) + " ";
-        for (const TextureRef& t : sink.scene.textures)
+        for (size_t k = 0; k < sink.scene.textures.size(); ++k) {
+            const TextureRef t = sink.scene.textures.ref(k);
             out += fs::path(t.path).filename().string() + ":" + std::to_string(t.width_px) + "x" +
                    std::to_string(t.height_px) + "x" + std::to_string(t.channels) + " ";
+        }
         for (const auto& [code, entry] : diagnostics.entries()) {
             out += code + "=" + std::to_string(entry.count) + "[";
             for (const DiagnosticExample& e : entry.examples) out += std::to_string(e.line) + ",";

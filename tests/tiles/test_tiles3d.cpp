@@ -358,7 +358,7 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
     const Scene& scene = e.town->scene;
     std::map<std::string, Pixels> sources;
     auto source = [&](int32_t texture) -> const Pixels& {
-        const std::string& path = scene.textures[static_cast<size_t>(texture)].path;
+        const std::string& path = scene.textures.path(static_cast<size_t>(texture));
         auto it = sources.find(path);
         if (it == sources.end()) it = sources.emplace(path, decodeImage(path)).first;
         return it->second;
@@ -410,7 +410,7 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
                 const auto [dist, index] = by_centroid.nearest(c);
                 ASSERT_LE(dist, 0.01) << "node " << id << ": a triangle not in the leaf";
                 const Triangle& tri = tree.triangles[index].tri;
-                const TextureRef& ref = scene.textures[static_cast<size_t>(tri.texture)];
+                const TextureRef ref = scene.textures.ref(static_cast<size_t>(tri.texture));
                 if (outside) {
                     ++beyond_unit;
                     EXPECT_EQ(wrap, samplerOf(ref.wrap)) << "node " << id << ": " << ref.path;
@@ -433,8 +433,8 @@ TEST(Tiles3d, LeavesCloseRangeDrawTheirOriginalTextures) {
                 EXPECT_EQ(im["uri"].get<std::string>().rfind("../textures/", 0), 0u);
                 ++by_uri;
             }
-            for (const TextureRef& ref : scene.textures)
-                if (readFile(ref.path) == bytes) {
+            for (size_t t = 0; t < scene.textures.size(); ++t)
+                if (readFile(scene.textures.path(t)) == bytes) {
                     ++embedded_as_is;
                     break;
                 }

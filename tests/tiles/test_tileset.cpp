@@ -337,7 +337,7 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
     ASSERT_EQ(plan.textures.size(), ca["textures"].size());
     double sum = 0;
     for (size_t t = 0; t < plan.textures.size(); ++t) {
-        const TextureRef& ref = b->scene.textures[static_cast<size_t>(plan.textures[t].scene_texture)];
+        const TextureRef ref = b->scene.textures.ref(static_cast<size_t>(plan.textures[t].scene_texture));
         const double p = psnrAgainst(b->dir / fmt::format("texture{}.dds", t), ref.path, ref.channels == 4 ? 4 : 3);
         EXPECT_GE(p, 25.0) << ref.path;
         sum += p;
@@ -386,7 +386,7 @@ TEST(Tileset, UnreadableOriginalsAreCountedAndLeaveNoEmptyBlocks) {
     const auto b = buildTown("unreadable", 40, {}, defaults(), 2000, [&](const Built& built) {
         // All but the last texture: every block but one is left with nothing readable.
         for (size_t t = 0; t + 1 < built.scene.textures.size(); ++t)
-            removed += fs::remove(built.scene.textures[t].path) ? 1 : 0;
+            removed += fs::remove(built.scene.textures.path(t)) ? 1 : 0;
     }, &diagnostics);
     ASSERT_FALSE(HasFailure());
     ASSERT_GT(removed, 0u);
@@ -428,7 +428,7 @@ TEST(Tileset, OriginalsKeepStraightAlphaAsTheClientBlendsIt) {
     uint64_t translucent = 0;
     double diff = 0;
     for (size_t st = 0; st < b->scene.textures.size(); ++st) {
-        const TextureRef& ref = b->scene.textures[st];
+        const TextureRef ref = b->scene.textures.ref(st);
         if (ref.channels != 4 || plan.texture_index[st] < 0) continue;
         const json& e = ca["textures"][static_cast<size_t>(plan.texture_index[st])];
         if (e["block"].is_null() || e["block"].get<int>() < 0) continue;
@@ -490,7 +490,7 @@ TEST(Tileset, ExactLeavesShowTheirTexturesAsWellAsTheOriginals) {
             for (uint32_t i = nl.range.first; i < nl.range.first + nl.range.count; ++i) {
                 const atlas::TreeTriangle& t = b->tree.triangles[i];
                 if (t.tri.texture < 0) continue;
-                const TextureRef& ref = b->scene.textures[static_cast<size_t>(t.tri.texture)];
+                const TextureRef ref = b->scene.textures.ref(static_cast<size_t>(t.tri.texture));
                 if (!png.count(t.tri.texture)) {
                     std::string why;
                     ASSERT_TRUE(readImage8(ref.path, channels, &png[t.tri.texture], &why)) << why;
