@@ -669,8 +669,9 @@ void writeTilesetDocument(const TilesetDocument& doc, std::ostream& os) {
     if (!doc.tiles.empty()) tileset["root"] = tileJson(doc, 0);
     tileset["extras"] = {{"cityatlas", ca}};
     std::vector<SplicedArray> arrays;
-    arrays.push_back({placeholder, doc.textures.size(), [&](size_t i) {
-                          return textureJson(doc.textures[i]).dump(1, ' ', false, json::error_handler_t::replace);
+    arrays.push_back({placeholder, doc.texture_at ? doc.texture_count : doc.textures.size(), [&](size_t i) {
+                          return textureJson(doc.texture_at ? doc.texture_at(i) : doc.textures[i])
+                              .dump(1, ' ', false, json::error_handler_t::replace);
                       }});
     for (size_t id = 0; id < doc.tiles.size(); ++id) {
         const std::vector<uint32_t>& dropped = doc.tiles[id].features_dropped;

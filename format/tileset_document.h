@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -182,6 +183,11 @@ struct TilesetDocument {
     BuildEntry build;
     std::vector<MaterialEntry> materials;
     std::vector<TextureEntry> textures;
+    /// For writers, in place of `textures`: their number and entry i, made as
+    /// the text goes out (as a vector a city's textures took ~200 bytes each;
+    /// readers fill `textures`).
+    size_t texture_count = 0;
+    std::function<TextureEntry(size_t)> texture_at;
     std::vector<FileEntry> texture_blocks;
     uint64_t feature_count = 0;
     int64_t feature_block_size = 1;

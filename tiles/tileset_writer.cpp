@@ -764,10 +764,14 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
 
     for (const Material& m : scene.materials)
         doc.materials.push_back({{m.diffuse[0], m.diffuse[1], m.diffuse[2]}, m.transparency});
+    doc.texture_count = blocks.textures.size();
+    doc.texture_at = [&blocks](size_t i) -> format::TextureEntry {
+        const TextureEntry& e = blocks.textures[i];
+        return {e.block, e.offset, e.bytes, std::max(e.width, 1), std::max(e.height, 1),
+                e.channels == 4 ? "BC3" : "BC1", std::max(e.mips, 1), std::string(wrapModeName(e.wrap)),
+                e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable"};
+    };
     for (const TextureEntry& e : blocks.textures) {
-        doc.textures.push_back({e.block, e.offset, e.bytes, std::max(e.width, 1), std::max(e.height, 1),
-                                e.channels == 4 ? "BC3" : "BC1", std::max(e.mips, 1), std::string(wrapModeName(e.wrap)),
-                                e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable"});
         if (e.block >= 0) ++stats.textures_written;
         else if (e.exact) ++stats.textures_exact;
         else ++stats.textures_unreadable;
