@@ -386,7 +386,7 @@ public:
 private:
     using Halves = std::array<std::optional<Canvas>, kLayerCount>;
 
-    bool isGiven(int32_t id) const { return given_ && given_->count(id); }
+    bool isGiven(int32_t id) const { return given_ && given_->nodes.count(id); }
 
     // The node layers this renderer draws: none at or below a given node.
     void countRendered(int32_t id) {
@@ -398,8 +398,11 @@ private:
     }
 
     Halves renderSubtree(int32_t id) {
-        if (given_)
-            if (auto it = given_->find(id); it != given_->end()) return it->second;
+        if (isGiven(id)) {
+            AtlasHalves given;
+            if (Status s = given_->load(id, &given); !s.ok()) noteError(s);
+            return given;
+        }
         const AtlasNode& node = tree_.nodes[id];
         std::array<Halves, 4> child_halves;
         if (!node.leaf()) {

@@ -6,6 +6,7 @@
 /// Internal to the atlas stage (buildAtlasTree calls it); exposed for tests.
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <set>
 #include <vector>
@@ -22,9 +23,13 @@ struct RenderResult {
 };
 
 /// Nodes whose atlases were rendered elsewhere (a sharded build's shard
-/// roots): their halves, by node. renderAtlases places these and does not
-/// descend below them.
-using GivenHalves = std::map<int32_t, AtlasHalves>;
+/// roots). renderAtlases places their halves and does not descend below
+/// them; `load` reads a node's halves when the level above is drawn, so a
+/// few are held at a time, not every shard's (their number grows with the city).
+struct GivenHalves {
+    std::set<int32_t> nodes;
+    std::function<Status(int32_t node, AtlasHalves* out)> load;
+};
 
 /// Renders and writes `tree`'s atlases (node.layers[l].atlas_path must be set
 /// for every present layer) under `output_dir`, in parallel on the current

@@ -1479,15 +1479,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         for (auto& [node, list] : m.leaf_textures) built.leaf_textures[static_cast<size_t>(base) + node] = std::move(list);
         for (auto& [node, list] : m.leaf_tiles) built.leaf_tiles[static_cast<size_t>(base) + node] = std::move(list);
         built.subtree_features[base] = std::move(m.root_subtree_features);
-        atlas::AtlasHalves halves;
-        for (int l = 0; l < atlas::kLayerCount; ++l) {
-            if (fs::exists(sd / layerFile("root-halves", l))) {
-                atlas::AtlasCanvas c;
-                if (Status s = atlas::readCanvas(sd / layerFile("root-halves", l), &c); !s.ok()) return s;
-                halves[static_cast<size_t>(l)] = std::move(c);
-            }
-        }
-        given[base] = std::move(halves);
+        given.nodes.insert(base);
         json timing = {{"steps", json::array()}, {"atlas_encode_seconds", json::array()}};  // a reused shard's were spent earlier
         if (fs::exists(sd / "steps.json"))
             if (Status s = readJson(sd / "steps.json", &timing); !s.ok()) return s;
@@ -1537,6 +1529,24 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     st.critical_triangles = globals.critical_triangles;
     st.enlarged_for_split_budget = globals.enlarged_for_split_budget;
 
+    // A shard's folder (kept in the cache by now) by its root, for what the top reads of it when it needs it.
+    const auto shardFolder = [&](int32_t root, fs::path* out) {
+        const auto shard = std::find(shard_root.begin(), shard_root.end(), root);
+        if (shard == shard_root.end()) return Status::Io(fmt::format("merge: node {} is no shard's root", root));
+        *out = cache / keys[static_cast<size_t>(shard - shard_root.begin())];
+        return Status::Ok();
+    };
+    given.load = [&](int32_t root, atlas::AtlasHalves* out) {
+        fs::path sd;
+        if (Status s = shardFolder(root, &sd); !s.ok()) return s;
+        for (int l = 0; l < atlas::kLayerCount; ++l) {
+            if (!fs::exists(sd / layerFile("root-halves", l))) continue;
+            atlas::AtlasCanvas c;
+            if (Status s = atlas::readCanvas(sd / layerFile("root-halves", l), &c); !s.ok()) return s;
+            (*out)[static_cast<size_t>(l)] = std::move(c);
+        }
+        return Status::Ok();
+    };
     // The top's atlases: the shard roots' halves placed, encoded as they are composed.
     tiles::AtlasHandOff hand_off(tp.bc_quality, out_dir, tp.atlas_png ? r.atlas_png_dir : fs::path());
     {
@@ -1602,11 +1612,10 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         return key.digest();
     };
     built.block_cache = &block_cache;
-    // A shard's root geometry from its folder (kept in the cache by now), when the top merges it.
+    // A shard's root geometry, when the top merges it.
     built.root_geometry = [&](int32_t root, std::array<std::unique_ptr<tiles::NodeGeometry>, atlas::kLayerCount>* out) {
-        const auto shard = std::find(shard_root.begin(), shard_root.end(), root);
-        if (shard == shard_root.end()) return Status::Io(fmt::format("merge: node {} is no shard's root", root));
-        const fs::path sd = cache / keys[static_cast<size_t>(shard - shard_root.begin())];
+        fs::path sd;
+        if (Status s = shardFolder(root, &sd); !s.ok()) return s;
         for (int l = 0; l < atlas::kLayerCount; ++l) {
             if (!fs::exists(sd / layerFile("root-geometry", l))) continue;
             auto geo = std::make_unique<tiles::NodeGeometry>();

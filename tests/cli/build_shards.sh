@@ -5,6 +5,9 @@
 #  2. the sharded folder passes inspect, and its leaves hold every triangle of
 #     the scene exactly once, as the single-shard build's do (the sum of the
 #     leaves' source triangles equals the scene's plus the critical splits);
+#     the root's atlas, drawn by the merge from the shard roots' halves, has
+#     their colours (halving keeps an image's mean; the root's packing adds
+#     some empty room, far from half of it);
 #  3. a shard worker killed mid-build: one error line naming the shard, exit 1,
 #     no output folder and no working folder left;
 #  4. `cityatlas shard` with an index outside the plan is a usage error.
@@ -22,6 +25,21 @@ echo "ok: --workers 0 and --workers 2 give byte-identical folders ($(find worker
 
 "$CITYATLAS" inspect -q workers > inspect.txt 2>&1 || { cat inspect.txt >&2; fail "inspect finds defects in the sharded folder"; }
 echo "ok: inspect passes on the sharded folder"
+"$PY" - workers <<'PYEOF' || fail "the merged root's atlas lost the shard roots' pixels"
+import json, sys
+import numpy as np
+from PIL import Image
+d = sys.argv[1]
+root = json.load(open(f"{d}/tileset.json"))["root"]
+def mean(uri):
+    return float(np.asarray(Image.open(f"{d}/{uri}").convert("RGB"), dtype=float).mean())
+def atlas(t):
+    return t["extras"]["cityatlas"]["layers"]["opaque"]["atlas"]["uri"]
+children = [mean(atlas(c)) for c in root["children"]]
+m = mean(atlas(root))
+print(f"ok: the root's atlas mean {m:.1f}, its children's {', '.join(f'{c:.1f}' for c in children)}")
+sys.exit(0 if m >= 0.5 * sum(children) / len(children) else 1)
+PYEOF
 "$CITYATLAS" build -q town/town.gml -o single > /dev/null || fail "the single-shard build failed"
 check_eq "single build's shard count" 1 "$(json single/build_report.json "j['shards']['count']")"
 leaf_sources() {  # the leaves' source triangles, both layers, over the tile tree
