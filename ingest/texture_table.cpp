@@ -86,15 +86,4 @@ size_t TextureTable::bytes() const {
     return b;
 }
 
-bool operator==(const TextureTable& a, const TextureTable& b) {
-    if (a.size() != b.size()) return false;
-    for (size_t i = 0; i < a.size(); ++i) {
-        const TextureInfo &x = a[i], &y = b[i];
-        if (x.width_px != y.width_px || x.height_px != y.height_px || x.channels != y.channels || x.wrap != y.wrap ||
-            a.path(i) != b.path(i))
-            return false;
-    }
-    return true;
-}
-
 }  // namespace cityatlas

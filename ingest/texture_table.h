@@ -6,11 +6,11 @@
 ///
 /// A city has millions of textures (a textured LOD2 model writes one image per
 /// wall: 15 to 25 a building), and every process of a build holds the table.
-/// As `std::vector<TextureRef>` a texture took ~150 bytes: the struct, the
+/// As `std::vector<TextureRef>` a texture took ~130 bytes: the struct, the
 /// vector's spare room and its path on the heap. `TextureTable` keeps the
 /// per-triangle fields inline (12 bytes), each folder once, and the file names
-/// packed in one buffer: ~40 bytes a texture for typical paths. Paths are
-/// therefore built on request (`path(i)`), not stored as strings.
+/// packed in 1 MiB chunks: ~43 bytes a texture for 48-character paths. Paths
+/// are therefore built on request (`path(i)`), not stored as strings.
 
 #include <cstdint>
 #include <deque>
@@ -61,8 +61,6 @@ public:
 
     /// Bytes held, spare room included (for memory budgets).
     size_t bytes() const;
-
-    friend bool operator==(const TextureTable& a, const TextureTable& b);
 
 private:
     struct Name {

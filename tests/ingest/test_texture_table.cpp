@@ -81,21 +81,5 @@ TEST(TextureTable, FirstOfPathFindsEachRepeatedPathsFirstEntry) {
     EXPECT_EQ(first, want);
 }
 
-TEST(TextureTable, EqualityComparesPathsAndFields) {
-    TextureTable a, b;
-    for (const TextureRef& t : samples()) a.push_back(t), b.push_back(t);
-    EXPECT_TRUE(a == b);
-    TextureRef other = samples()[2];
-    other.path = "relative/two.png";
-    b.set(2, other);
-    EXPECT_FALSE(a == b);
-    b.set(2, samples()[2]);
-    EXPECT_TRUE(a == b);
-    other = samples()[2];
-    other.channels = 4;
-    b.set(2, other);
-    EXPECT_FALSE(a == b);
-}
-
 }  // namespace
 }  // namespace cityatlas
