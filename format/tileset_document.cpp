@@ -434,6 +434,7 @@ json layerJson(const LayerEntry& l) {
 constexpr const char* kSplicePrefix = "cityatlas-splice-";
 std::string droppedPlaceholder(int32_t tile) { return fmt::format("{}dropped-{}", kSplicePrefix, tile); }
 std::string missingPlaceholder(int32_t tile) { return fmt::format("{}missing-{}", kSplicePrefix, tile); }
+std::string childrenPlaceholder(int32_t tile) { return fmt::format("{}children-{}", kSplicePrefix, tile); }
 
 json blockMapJson(const BlockMapEntry& b, int32_t tile) {
     return {{"uri", b.file.uri},
@@ -452,6 +453,7 @@ json blockMapJson(const BlockMapEntry& b, int32_t tile) {
             {"features_missing", b.features_missing.empty() ? json::array() : json(missingPlaceholder(tile))}};
 }
 
+// One tile without its children's text: they stand as a placeholder (writeTile).
 json tileJson(const TilesetDocument& doc, int32_t id) {
     const TileEntry& n = doc.tiles[static_cast<size_t>(id)];
     json layers = json::object();
@@ -481,13 +483,28 @@ json tileJson(const TilesetDocument& doc, int32_t id) {
         for (const std::string& u : n.contents) contents.push_back({{"uri", u}});
         t["contents"] = contents;
     }
-    if (!n.children.empty()) {
-        json children = json::array();
-        for (const int32_t c : n.children) children.push_back(tileJson(doc, c));
-        t["children"] = children;
-    }
+    if (!n.children.empty()) t["children"] = childrenPlaceholder(id);
     t["extras"] = {{"cityatlas", ca}};
     return t;
+}
+
+// Tile `id` and its subtree, each tile's text made as it goes out: as one DOM
+// a city's tiles took ~10 kB each (a million buildings: 260 MB at once).
+void writeTile(const TilesetDocument& doc, int32_t id, size_t pad, std::ostream& out) {
+    const TileEntry& n = doc.tiles[static_cast<size_t>(id)];
+    std::vector<SplicedArray> arrays;
+    if (!n.features_dropped.empty())
+        arrays.push_back({.placeholder = droppedPlaceholder(id), .count = n.features_dropped.size(),
+                          .element = [&n](size_t i) { return std::to_string(n.features_dropped[i]); }});
+    if (n.blockmap && !n.blockmap->features_missing.empty())
+        arrays.push_back({.placeholder = missingPlaceholder(id), .count = n.blockmap->features_missing.size(),
+                          .element = [&n](size_t i) { return std::to_string(n.blockmap->features_missing[i]); }});
+    if (!n.children.empty())
+        arrays.push_back({.placeholder = childrenPlaceholder(id),
+                          .count = n.children.size(),
+                          .write = [&](size_t i, size_t p, std::ostream& o) { writeTile(doc, n.children[i], p, o); }});
+    spliceArrays(tileJson(doc, id).dump(1, ' ', false, json::error_handler_t::replace), 1, kSplicePrefix, arrays, out,
+                 pad);
 }
 
 json buildJson(const BuildEntry& b) {
@@ -666,22 +683,20 @@ void writeTilesetDocument(const TilesetDocument& doc, std::ostream& os) {
                         {"tilesetVersion", doc.tileset_version},
                         {"gltfUpAxis", doc.gltf_up_axis}};
     tileset["geometricError"] = doc.geometric_error;
-    if (!doc.tiles.empty()) tileset["root"] = tileJson(doc, 0);
+    const std::string root = std::string(kSplicePrefix) + "root";
+    if (!doc.tiles.empty()) tileset["root"] = root;
     tileset["extras"] = {{"cityatlas", ca}};
     std::vector<SplicedArray> arrays;
-    arrays.push_back({placeholder, doc.texture_at ? doc.texture_count : doc.textures.size(), [&](size_t i) {
+    arrays.push_back({.placeholder = placeholder,
+                      .count = doc.texture_at ? doc.texture_count : doc.textures.size(),
+                      .element = [&](size_t i) {
                           return textureJson(doc.texture_at ? doc.texture_at(i) : doc.textures[i])
                               .dump(1, ' ', false, json::error_handler_t::replace);
                       }});
-    for (size_t id = 0; id < doc.tiles.size(); ++id) {
-        const std::vector<uint32_t>& dropped = doc.tiles[id].features_dropped;
-        if (!dropped.empty())
-            arrays.push_back({droppedPlaceholder(static_cast<int32_t>(id)), dropped.size(),
-                              [&dropped](size_t i) { return std::to_string(dropped[i]); }});
-        if (const auto& b = doc.tiles[id].blockmap; b && !b->features_missing.empty())
-            arrays.push_back({missingPlaceholder(static_cast<int32_t>(id)), b->features_missing.size(),
-                              [&b](size_t i) { return std::to_string(b->features_missing[i]); }});
-    }
+    arrays.push_back({.placeholder = root,
+                      .count = 1,
+                      .write = [&](size_t, size_t pad, std::ostream& out) { writeTile(doc, 0, pad, out); },
+                      .single = true});
     spliceArrays(tileset.dump(1, ' ', false, json::error_handler_t::replace), 1, kSplicePrefix, arrays, os);
     os << '\n';
 }

@@ -3,6 +3,7 @@
 // gives (the oracle), wherever the array sits and whatever the indent.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <sstream>
@@ -59,11 +60,58 @@ TEST(JsonSplice, SeveralArraysInAnyOrderGiveTheWholeDump) {
         whole["c"]["y"] = three;
         std::vector<SplicedArray> arrays;
         for (const auto& [name, value] : {std::pair{"p-three", &three}, std::pair{"p-one", &one}, std::pair{"p-two", &two}})
-            arrays.push_back({name, value->size(), [value, indent](size_t i) { return value->at(i).dump(indent); }});
+            arrays.push_back({.placeholder = name,
+                              .count = value->size(),
+                              .element = [value, indent](size_t i) { return value->at(i).dump(indent); }});
         std::ostringstream out;
         spliceArrays(doc.dump(indent), indent, "p-", arrays, out);
         EXPECT_EQ(out.str(), whole.dump(indent)) << "indent " << indent;
     }
+}
+
+// A tree written node by node (as tileset.json's tiles are): the root stands
+// for one value, each node's children for an array whose elements splice in
+// turn, at every depth's indent. The oracle: the dump of the whole tree.
+json treeNode(int depth, int id) {
+    json n = {{"id", id}, {"name", fmt::format("node \"{}\"", id)}, {"list", {id, id + 1}}};
+    if (depth > 0) {
+        n["children"] = json::array();
+        for (int c = 0; c < 1 + id % 3; ++c) n["children"].push_back(treeNode(depth - 1, id * 4 + c + 1));
+    }
+    return n;
+}
+
+void writeNode(const json& whole, int indent, size_t pad, std::ostream& out) {
+    json text = whole;
+    std::vector<SplicedArray> arrays;
+    if (whole.contains("children")) {
+        const std::string placeholder = fmt::format("p-children-{}", whole.at("id").get<int>());
+        text["children"] = placeholder;
+        arrays.push_back({.placeholder = placeholder,
+                          .count = whole.at("children").size(),
+                          .write = [&whole, indent](size_t i, size_t p, std::ostream& o) {
+                              writeNode(whole.at("children").at(i), indent, p, o);
+                          }});
+    }
+    spliceArrays(text.dump(indent), indent, "p-", arrays, out, pad);
+}
+
+TEST(JsonSplice, ElementsThatSpliceInTurnGiveTheWholeDump) {
+    for (int indent : {1, 2, 4})
+        for (int depth : {0, 1, 3}) {
+            const json tree = treeNode(depth, 1);
+            const json whole = {{"asset", {{"version", "1.1"}}}, {"root", tree}, {"tail", {{"x", json::array()}}}};
+            json doc = whole;
+            doc["root"] = "p-root";
+            std::ostringstream out;
+            spliceArrays(doc.dump(indent), indent, "p-",
+                         {{.placeholder = "p-root",
+                           .count = 1,
+                           .write = [&](size_t, size_t pad, std::ostream& o) { writeNode(tree, indent, pad, o); },
+                           .single = true}},
+                         out);
+            EXPECT_EQ(out.str(), whole.dump(indent)) << "indent " << indent << ", depth " << depth;
+        }
 }
 
 TEST(JsonSplice, LeavesATextWithoutThePlaceholderAlone) {
