@@ -649,7 +649,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     stats.atlas_psnr_min_db = std::numeric_limits<double>::infinity();
     std::function<void(int32_t, int32_t, int)> tile = [&](int32_t id, int32_t parent, int quadrant) {
         const AtlasNode& node = tree.nodes[static_cast<size_t>(id)];
-        const NodeRecord& rec = records[static_cast<size_t>(id)];
+        NodeRecord& rec = records[static_cast<size_t>(id)];
         const auto index = static_cast<int32_t>(doc.tiles.size());
         format::TileEntry t;
         t.parent = parent;
@@ -740,8 +740,10 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
             const auto table = static_cast<uint32_t>(f / bs);
             if (t.feature_tables.empty() || t.feature_tables.back() != table) t.feature_tables.push_back(table);
         }
+        // The record's lists are not needed after this: moved or freed (a city's are tens of MB).
         t.feature_count = rec.features.size();
-        t.features_dropped = rec.dropped;
+        std::vector<uint32_t>().swap(rec.features);
+        t.features_dropped = std::move(rec.dropped);
         for (const uint32_t b : blocks.node_blocks[static_cast<size_t>(id)]) t.texture_blocks.push_back(b);
         if (!blockmaps.empty()) t.blockmap = std::move(blockmaps[static_cast<size_t>(id)]);
         doc.tiles.push_back(std::move(t));
@@ -756,8 +758,8 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     };
     tile(0, -1, -1);
     doc.tiles[0].transform = scene.georef.local_to_ecef;
-    stats.root_features = records[0].features.size();
-    stats.root_features_dropped = records[0].dropped;
+    stats.root_features = doc.tiles[0].feature_count;
+    stats.root_features_dropped = doc.tiles[0].features_dropped;
     stats.atlas_psnr_mean_db = psnr_n ? psnr_sum / static_cast<double>(psnr_n) : 0;
     if (!psnr_n) stats.atlas_psnr_min_db = 0;
     stats.atlas_encode_mpix_per_s = atlas_seconds > 0 ? static_cast<double>(atlas_texels) / 1e6 / atlas_seconds : 0;
