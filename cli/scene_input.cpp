@@ -168,10 +168,11 @@ Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState&
             files->size() > 1 ? fmt::format("{} file {}/{}", pass, file_index + 1, files->size()) : std::string(pass);
         progress.update(step.c_str(), done, total, true);
     };
-    // Every building passes the overlap watch on its way to the caller's sink.
+    // With several inputs, every building passes the overlap watch on its way
+    // to the caller's sink (one input cannot overlap another: nothing held).
     SceneSink* sink = state.sink;
     OverlapWatch overlap(*sink);
-    state.sink = &overlap;
+    if (files->size() > 1) state.sink = &overlap;
     for (file_index = 0; file_index < files->size(); ++file_index) {
         const fs::path& f = (*files)[file_index];
         overlap.beginFile(f.string());

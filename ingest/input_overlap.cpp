@@ -17,8 +17,8 @@ uint32_t OverlapWatch::addFeature(Feature f) {
     // Building parts count with their building (the parent was added before them).
     const bool part = f.parent >= 0 && static_cast<size_t>(f.parent) < building_of_.size();
     const uint32_t building = part ? building_of_[static_cast<size_t>(f.parent)] : static_cast<uint32_t>(buildings_.size());
-    if (!part) buildings_.push_back({f.gml_id, file});
-    const std::string id = f.gml_id;
+    if (!part)
+        buildings_.push_back({.id_hash = std::hash<std::string>{}(f.gml_id), .file = file, .has_id = !f.gml_id.empty()});
     const uint32_t index = inner_.addFeature(std::move(f));
     if (building_of_.size() <= index) building_of_.resize(index + 1, 0);
     building_of_[index] = building;
@@ -30,8 +30,9 @@ void OverlapWatch::addTriangles(std::vector<Triangle>& triangles) {
         if (t.feature >= building_of_.size()) continue;
         Building& b = buildings_[building_of_[t.feature]];
         for (const Vec3d& p : t.position_local) {
-            b.min_x = std::min(b.min_x, p.x), b.max_x = std::max(b.max_x, p.x);
-            b.min_y = std::min(b.min_y, p.y), b.max_y = std::max(b.max_y, p.y);
+            const auto x = static_cast<float>(p.x), y = static_cast<float>(p.y);
+            b.min_x = std::min(b.min_x, x), b.max_x = std::max(b.max_x, x);
+            b.min_y = std::min(b.min_y, y), b.max_y = std::max(b.max_y, y);
         }
     }
     inner_.addTriangles(triangles);
@@ -43,7 +44,8 @@ constexpr double kSameIdDistance_m = 50.0;  // centres of two copies of one buil
 
 bool OverlapWatch::near(const Building& a, const Building& b) {
     if (a.min_x > a.max_x || b.min_x > b.max_x) return false;
-    const double dx = (a.min_x + a.max_x - b.min_x - b.max_x) / 2, dy = (a.min_y + a.max_y - b.min_y - b.max_y) / 2;
+    const double dx = (double{a.min_x} + a.max_x - b.min_x - b.max_x) / 2,
+                 dy = (double{a.min_y} + a.max_y - b.min_y - b.max_y) / 2;
     return dx * dx + dy * dy <= kSameIdDistance_m * kSameIdDistance_m;
 }
 
@@ -56,11 +58,11 @@ void OverlapWatch::report(Diagnostics& diagnostics) const {
     std::map<std::pair<uint32_t, uint32_t>, uint64_t> by_id, by_footprint;
     // The same gml:id counts where the two lie near each other: numbered ids
     // ("BLDG_1") repeat across tiles of other places.
-    std::unordered_map<std::string, uint32_t> first_with_id;
+    std::unordered_map<uint64_t, uint32_t> first_with_id;
     for (uint32_t i = 0; i < buildings_.size(); ++i) {
         const Building& b = buildings_[i];
-        if (b.gml_id.empty()) continue;
-        auto [it, inserted] = first_with_id.emplace(b.gml_id, i);
+        if (!b.has_id) continue;
+        auto [it, inserted] = first_with_id.emplace(b.id_hash, i);
         const Building& o = buildings_[it->second];
         if (!inserted && o.file != b.file && near(o, b)) by_id[{o.file, b.file}]++;
     }
@@ -72,7 +74,7 @@ void OverlapWatch::report(Diagnostics& diagnostics) const {
     for (uint32_t i = 0; i < buildings_.size(); ++i) {
         const Building& b = buildings_[i];
         if (b.min_x > b.max_x) continue;  // no geometry
-        const int64_t cx = cell((b.min_x + b.max_x) / 2), cy = cell((b.min_y + b.max_y) / 2);
+        const int64_t cx = cell((double{b.min_x} + b.max_x) / 2), cy = cell((double{b.min_y} + b.max_y) / 2);
         std::vector<uint32_t> matched_files;  // each other file once per building
         for (int64_t dx = -1; dx <= 1; ++dx)
             for (int64_t dy = -1; dy <= 1; ++dy) {
@@ -83,8 +85,9 @@ void OverlapWatch::report(Diagnostics& diagnostics) const {
                     if (o.file == b.file ||
                         std::find(matched_files.begin(), matched_files.end(), o.file) != matched_files.end())
                         continue;
-                    if (std::abs(o.min_x - b.min_x) <= kOverlapTolerance_m && std::abs(o.max_x - b.max_x) <= kOverlapTolerance_m &&
-                        std::abs(o.min_y - b.min_y) <= kOverlapTolerance_m && std::abs(o.max_y - b.max_y) <= kOverlapTolerance_m) {
+                    const auto within = [](float u, float v) { return std::abs(double{u} - v) <= kOverlapTolerance_m; };
+                    if (within(o.min_x, b.min_x) && within(o.max_x, b.max_x) && within(o.min_y, b.min_y) &&
+                        within(o.max_y, b.max_y)) {
                         by_footprint[{o.file, b.file}]++;
                         matched_files.push_back(o.file);
                     }

@@ -3,13 +3,14 @@
 /// Inputs that hold the same buildings twice (a synth folder's CityGML and its
 /// footprint shapefile; two exports of one district; a tile read twice under
 /// two names) would draw every such building twice. OverlapWatch sits between
-/// the readers and the real sink, keeps per building only its id, its file and
-/// its ground-plan box, and at the end names every pair of files that share
+/// the readers and the real sink, keeps per building only its id's hash, its
+/// file and its ground-plan box (32 bytes), and at the end names every pair of files that share
 /// most of their buildings: by gml:id (copies within 50 m of each other), or
 /// by footprint (ground-plan boxes equal within kOverlapTolerance_m). It warns; it does not drop anything, since which copy
 /// is the one wanted is the user's call.
 
 #include <cstdint>
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -38,16 +39,21 @@ public:
     void addTriangles(std::vector<Triangle>& triangles) override;
 
 private:
+    // A city's worth of these is held through the read: its id as a hash (a
+    // collision would count one false match among a file's thousands), its box
+    // in float (metres in the local frame: millimetres against a 1 m tolerance).
     struct Building {
-        std::string gml_id;
+        uint64_t id_hash = 0;
         uint32_t file = 0;
-        double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
+        bool has_id = false;
+        float min_x = 1e30f, min_y = 1e30f, max_x = -1e30f, max_y = -1e30f;
     };
+    static_assert(sizeof(Building) == 32);
     static bool near(const Building& a, const Building& b);
     SceneSink& inner_;
     std::vector<std::string> files_;
-    std::vector<Building> buildings_;       // top-level features only
-    std::vector<uint32_t> building_of_;     // feature index -> index into buildings_
+    std::deque<Building> buildings_;    // top-level features only; deques: no doubling while a city's worth grows
+    std::deque<uint32_t> building_of_;  // feature index -> index into buildings_
 };
 
 }  // namespace cityatlas
