@@ -14,9 +14,9 @@
 #include <fstream>
 #include <limits>
 #include <map>
-#include <set>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <type_traits>
 
 #include <fmt/format.h>
@@ -723,6 +723,34 @@ namespace {
 
 std::string targetFile(size_t k) { return fmt::format("computed-{}.target", k); }
 
+// Which shards use which entries of a table (textures, materials), for the
+// shards' keys. Most entries are one shard's (a wall's image), so per entry
+// its first shard and the few other (shard, entry) pairs aside: a byte per
+// shard and entry was shards x entries (160 shards x 10 M textures: 1.6 GB).
+class ShardUse {
+public:
+    explicit ShardUse(size_t entries) : first_(entries, -1) {}
+    void add(size_t shard, size_t entry) {
+        int32_t& f = first_[entry];
+        if (f < 0) f = static_cast<int32_t>(shard);
+        else if (static_cast<size_t>(f) != shard) also_.emplace(shard, entry);
+    }
+    bool used(size_t entry) const { return first_[entry] >= 0; }
+    /// Per shard, the entries it uses, ascending.
+    std::vector<std::vector<uint32_t>> byShard(size_t shards) const {
+        std::vector<std::vector<uint32_t>> out(shards);
+        for (size_t e = 0; e < first_.size(); ++e)
+            if (first_[e] >= 0) out[static_cast<size_t>(first_[e])].push_back(static_cast<uint32_t>(e));
+        for (const auto& [shard, entry] : also_) out[shard].push_back(static_cast<uint32_t>(entry));
+        for (std::vector<uint32_t>& list : out) std::sort(list.begin(), list.end());
+        return out;
+    }
+
+private:
+    std::vector<int32_t> first_;
+    std::set<std::pair<size_t, size_t>> also_;
+};
+
 // A visibility target's triangles (positions, in scene order).
 Status readTarget(const fs::path& spill, const atlas::ComputedSpec& spec, std::vector<std::array<Vec3d, 3>>* out) {
     const std::set<uint32_t> features(spec.target_features.begin(), spec.target_features.end());
@@ -815,9 +843,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         if (!files[k]) return Status::Io(fmt::format("{}: cannot create", (dir / shardName(static_cast<int>(k))).string()));
     }
     std::vector<ShardKey> keys(plan.shards());
-    std::vector<uint8_t> used(tables.textures.size(), 0);
-    std::vector<std::vector<uint8_t>> textures_of(plan.shards(), std::vector<uint8_t>(tables.textures.size(), 0));
-    std::vector<std::vector<uint8_t>> materials_of(plan.shards(), std::vector<uint8_t>(tables.materials.size(), 0));
+    ShardUse textures_used(tables.textures.size()), materials_used(tables.materials.size());
     uint64_t scene_triangles = 0, orphans = 0;
     std::vector<Box3d> shard_box(plan.shards());
     const Status read = forEachSpilled(spill, [&](const Triangle& t) {
@@ -832,8 +858,8 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         keys[k].add(t);
         for (const Vec3d& p : t.position_local) shard_box[k].extend(p);
         ++scene_triangles;
-        if (t.texture >= 0) used[static_cast<size_t>(t.texture)] = 1, textures_of[k][static_cast<size_t>(t.texture)] = 1;
-        if (t.material >= 0) materials_of[k][static_cast<size_t>(t.material)] = 1;
+        if (t.texture >= 0) textures_used.add(k, static_cast<size_t>(t.texture));
+        if (t.material >= 0) materials_used.add(k, static_cast<size_t>(t.material));
     }, "plan: shard files", progress);
     if (!read.ok()) return read;
     if (orphans > 0)
@@ -861,8 +887,11 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     json top = json::array();
     for (const atlas::PlanNode& n : plan.nodes)
         top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
+    std::vector<uint8_t> used(tables.textures.size(), 0);
+    for (size_t t = 0; t < used.size(); ++t) used[t] = textures_used.used(t) ? 1 : 0;
     const std::vector<int32_t> texture_index =
         tiles::tilesetTextureIndex(used, tables.textures, atlas_params.atlas_size_px, tiles_params.split_originals);
+    std::vector<uint8_t>().swap(used);
     json j = {{"format", kPlanFormat},
               {"kind", "cityatlas-shard-plan"},
               {"atlas", planAtlasParamsJson(atlas_params)},
@@ -890,23 +919,23 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     for (const atlas::PlanNode& n : plan.nodes)
         if (n.shard >= 0) level[static_cast<size_t>(n.shard)] = n.level;
     std::vector<std::string> key_list;
+    const std::vector<std::vector<uint32_t>> textures_of = textures_used.byShard(keys.size());
+    const std::vector<std::vector<uint32_t>> materials_of = materials_used.byShard(keys.size());
     for (size_t k = 0; k < keys.size(); ++k) {
         ShardKey& key = keys[k];
         key.add(common);
         key.addValue(level[k]);
-        for (size_t t = 0; t < tables.textures.size(); ++t) {
-            if (!textures_of[k][t]) continue;
+        for (const uint32_t t : textures_of[k]) {
             const TextureRef r = tables.textures.ref(t);
             const bool known = t < texture_digests.size() && texture_digests[t].readable;
             key.add(fmt::format("texture {} {} {} {} {} {} {} {} {}", t, r.path, r.width_px, r.height_px, r.channels,
                                 static_cast<int>(r.wrap), texture_index[t], globals.promote[t],
                                 known ? hexDigest(texture_digests[t].xxh3) : "unreadable"));
         }
-        for (size_t m = 0; m < tables.materials.size(); ++m)
-            if (materials_of[k][m])
-                key.add(fmt::format("material {} {} {} {} {}", m, tables.materials[m].diffuse[0],
-                                    tables.materials[m].diffuse[1], tables.materials[m].diffuse[2],
-                                    tables.materials[m].transparency));
+        for (const uint32_t m : materials_of[k])
+            key.add(fmt::format("material {} {} {} {} {}", m, tables.materials[m].diffuse[0],
+                                tables.materials[m].diffuse[1], tables.materials[m].diffuse[2],
+                                tables.materials[m].transparency));
         key_list.push_back(key.digest());
     }
     j["shard_keys"] = key_list;
