@@ -45,7 +45,7 @@ using format::TileMesh;
 
 namespace {
 
-constexpr int kPlanFormat = 4;  // 2: textures and their digests in textures.bin; 3: feature_bounds; 4: atlas_png
+constexpr int kPlanFormat = 5;  // 2: textures and their digests in textures.bin; 3: feature_bounds; 4: atlas_png; 5: texture_plan.bin
 static_assert(std::is_trivially_copyable_v<Triangle>, "shard files hold triangles as bytes");
 
 // --- Small serialization helpers. JSON numbers round-trip doubles exactly
@@ -162,8 +162,7 @@ json globalsJson(const atlas::GlobalDecisions& g) {
             {"textured_triangles", g.textured_triangles},
             {"degenerate_uv_triangles", g.degenerate_uv_triangles},
             {"critical_triangles", g.critical_triangles},
-            {"enlarged_for_split_budget", g.enlarged_for_split_budget},
-            {"promote", g.promote}};
+            {"enlarged_for_split_budget", g.enlarged_for_split_budget}};
 }
 atlas::GlobalDecisions globalsFrom(const json& j) {
     atlas::GlobalDecisions g;
@@ -182,8 +181,34 @@ atlas::GlobalDecisions globalsFrom(const json& j) {
     g.degenerate_uv_triangles = j.at("degenerate_uv_triangles");
     g.critical_triangles = j.at("critical_triangles");
     g.enlarged_for_split_budget = j.at("enlarged_for_split_budget");
-    g.promote = j.at("promote").get<std::vector<uint8_t>>();
     return g;
+}
+
+// Per texture, its tileset number and whether the plan promoted it, as
+// binary (texture_plan.bin): in plan.json they were two JSON arrays of a
+// city's textures, ~30 bytes a texture as a DOM in the plan, every shard and
+// the merge.
+constexpr const char* kTexturePlanFile = "texture_plan.bin";
+
+Status writeTexturePlan(const fs::path& dir, const std::vector<int32_t>& texture_index,
+                        const std::vector<uint8_t>& promote) {
+    const fs::path path = dir / kTexturePlanFile;
+    std::ofstream f(path, std::ios::binary);
+    if (!f) return Status::Io(fmt::format("{}: cannot create", path.string()));
+    writeVector(f, texture_index);
+    writeVector(f, promote);
+    f.close();
+    if (!f) return Status::Io(fmt::format("{}: cannot write (disk full?)", path.string()));
+    return Status::Ok();
+}
+
+Status readTexturePlan(const fs::path& dir, std::vector<int32_t>* texture_index, std::vector<uint8_t>* promote) {
+    const fs::path path = dir / kTexturePlanFile;
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
+    if (!readVector(f, texture_index) || !readVector(f, promote) || promote->size() != texture_index->size())
+        return Status::Io(fmt::format("{}: truncated or not a texture plan of this cityatlas version", path.string()));
+    return Status::Ok();
 }
 
 // --- Scene tables.
@@ -892,12 +917,12 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     const std::vector<int32_t> texture_index =
         tiles::tilesetTextureIndex(used, tables.textures, atlas_params.atlas_size_px, tiles_params.split_originals);
     std::vector<uint8_t>().swap(used);
+    if (Status s = writeTexturePlan(dir, texture_index, globals.promote); !s.ok()) return s;
     json j = {{"format", kPlanFormat},
               {"kind", "cityatlas-shard-plan"},
               {"atlas", planAtlasParamsJson(atlas_params)},
               {"tiles", tilesParamsJson(tiles_params)},
               {"globals", globalsJson(globals)},
-              {"texture_index", texture_index},
               {"top", top},
               {"shard_triangles", plan.shard_triangles},
               {"scene_triangles", scene_triangles},
@@ -1017,8 +1042,9 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     ap.keep_root_halves = true;
     tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
     tp.threads = threads;
-    const atlas::GlobalDecisions globals = globalsFrom(plan.at("globals"));
-    const std::vector<int32_t> texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
+    atlas::GlobalDecisions globals = globalsFrom(plan.at("globals"));
+    std::vector<int32_t> texture_index;
+    if (Status s = readTexturePlan(dir, &texture_index, &globals.promote); !s.ok()) return s;
 
     const fs::path part = dir / (shardName(shard) + ".part"), done = dir / shardName(shard);
     std::error_code ec;
@@ -1527,7 +1553,10 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         addDiagnostics(m.warnings, diagnostics);
         m = Manifest{};
     }
-    built.texture_index = plan.at("texture_index").get<std::vector<int32_t>>();
+    {
+        std::vector<uint8_t> unused_promote;
+        if (Status s = readTexturePlan(dir, &built.texture_index, &unused_promote); !s.ok()) return s;
+    }
     built.feature_tables = tiles::FeatureTables{};
     for (const json& e : plan.at("feature_tables")) built.feature_tables->tables.push_back({e.at(0), e.at(1)});
     for (const json& e : plan.at("feature_bounds")) built.feature_tables->bounds.push_back({e.at(0), e.at(1)});

@@ -8,7 +8,8 @@
 ///   numbering and the top cuts (atlas/shard_plan.h); writes the plan folder:
 ///   `plan.json` (parameters, decisions, the top, the build's directory),
 ///   `tables.json` (materials, georeference), `textures.bin` (the textures
-///   and their file digests, binary) and `shard-<k>.tri` (the shard's triangles, in
+///   and their file digests, binary), `texture_plan.bin` (per texture its
+///   tileset number and promotion, binary) and `shard-<k>.tri` (the shard's triangles, in
 ///   scene order), and the feature tables into the build's folder. The input
 ///   is read once into a spill file (PlanSink); the plan passes over that
 ///   file, so no step holds every triangle.
