@@ -6,6 +6,7 @@
 #  2. one facade texture's pixels changed (same size): only the shard holding
 #     its building and the original-texture block holding it are built
 #     again, the rest reused, and again the folder equals a full build;
+#  2b. the texture several shards share changed: each of them is built again;
 #  3. --force rebuilds every shard and gives the same folder.
 source "$(dirname "$0")/lib.sh" "$@"
 
@@ -57,15 +58,17 @@ echo "ok: b's building moved: texture blocks reused $(json out/build_report.json
 same_as_full "b's building moved"
 
 # 2. One of a's facade textures repainted (same size): only its shards are built.
-tex=$(ls a/textures/*.png | head -1)
-"$PY" - "$tex" <<'PYEOF'
+repaint() {  # repaint FILE R G B: a 64 x 64 RGB PNG of one flat colour (same size, other pixels)
+  "$PY" - "$@" <<'PYEOF'
 import struct, sys, zlib
-# A 64 x 64 RGB PNG, one flat colour: same size, other pixels.
 def chunk(t, d): return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
-raw = b"".join(b"\x00" + bytes([200, 40, 90]) * 64 for _ in range(64))
+raw = b"".join(b"\x00" + bytes([int(v) for v in sys.argv[2:5]]) * 64 for _ in range(64))
 png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 64, 64, 8, 2, 0, 0, 0)) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
 open(sys.argv[1], "wb").write(png)
 PYEOF
+}
+tex=$(ls a/textures/*.png | head -1)
+repaint "$tex" 200 40 90
 "$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the rebuild after a texture changed failed"
 # facade_000001.png is building 1's alone (synth: one facade texture per building).
 check_eq "texture changed: shards built (the one holding its building)" 1 "$(json out/build_report.json "j['shards']['built']")"
@@ -74,6 +77,16 @@ check_eq "texture changed: texture blocks encoded (the one holding it)" 1 \
 check_eq "texture changed: texture blocks reused" "$(( $(json out/build_report.json "j['counts']['texture_blocks']") - 1 ))" \
   "$(json out/build_report.json "j['shards']['texture_blocks_reused']")"
 same_as_full "texture changed"
+
+# 2b. The paving texture repainted: synth's one global appearance puts it on
+# roofs of many buildings, so several shards use it (each key lists it: a
+# shard that missed it would keep the old pixels, and differ from the full build).
+repaint a/textures/paving.png 30 160 60
+"$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" > /dev/null || fail "the rebuild after paving changed failed"
+built=$(json out/build_report.json "j['shards']['built']")
+[ "$built" -ge 2 ] || fail "paving changed: expected the several shards using it to be built, got $built"
+echo "ok: paving changed: $built of $total shards built"
+same_as_full "paving changed"
 
 # 3. --force: nothing reused, same folder.
 "$CITYATLAS" build a/town.gml b/town.gml -o out "${args[@]}" --force > /dev/null || fail "--force failed"
