@@ -489,7 +489,7 @@ json tileJson(const TilesetDocument& doc, int32_t id) {
 }
 
 // Tile `id` and its subtree, each tile's text made as it goes out: as one DOM
-// a city's tiles took ~10 kB each (a million buildings: 260 MB at once).
+// a city's tiles took ~10 kB each (a million buildings: ~250 MB at once).
 void writeTile(const TilesetDocument& doc, int32_t id, size_t pad, std::ostream& out) {
     const TileEntry& n = doc.tiles[static_cast<size_t>(id)];
     std::vector<SplicedArray> arrays;
