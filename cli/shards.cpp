@@ -758,7 +758,7 @@ public:
     void add(size_t shard, size_t entry) {
         int32_t& f = first_[entry];
         if (f < 0) f = static_cast<int32_t>(shard);
-        else if (static_cast<size_t>(f) != shard) also_.emplace(shard, entry);
+        else if (static_cast<size_t>(f) != shard) also_.insert({shard, entry});  // no node made when present
     }
     bool used(size_t entry) const { return first_[entry] >= 0; }
     /// Per shard, the entries it uses, ascending.
