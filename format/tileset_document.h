@@ -206,7 +206,8 @@ Status readTilesetDocument(const std::string& text, const std::string& where, Ti
 /// The text of tileset.json (one space of indent per level, newline at the end).
 std::string writeTilesetDocument(const TilesetDocument& doc);
 /// The same text written to `out` as it is made (a city's tileset.json is
-/// hundreds of megabytes: never held whole).
+/// hundreds of megabytes: never held whole, nor its tiles as one DOM: each
+/// tile's JSON is made as it goes out, its children spliced in after it).
 void writeTilesetDocument(const TilesetDocument& doc, std::ostream& out);
 
 }  // namespace cityatlas::format
