@@ -116,7 +116,8 @@ RunFn addIngestCommand(CLI::App& app) {
         "CityGML streams: with --report only, its memory holds one city object's geometry at a time; what grows\n"
         "with the file is its texture table, the ids of its geometry (for xlinks between city objects) and the\n"
         "texture coordinates of global appearances (about 0.3 kB a building on a synthetic town). Footprint\n"
-        "layers are held while read: party walls need the neighbours.");
+        "layers are read twice, the first time for the walls touching footprints share: what grows with a\n"
+        "layer is a table of its edges (20 bytes an edge) and its texture table.");
     addSceneInputOptions(cmd, &opt->input);
     cmd->add_option("-o,--output", opt->glb, "Debug view as glTF binary (.glb), textures referenced by relative URI");
     cmd->add_option("--report", opt->report, "Write a JSON report (schema: schemas/ingest_report.schema.json)");

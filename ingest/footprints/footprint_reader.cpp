@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <functional>
 #include <memory>
-#include <unordered_map>
 
 #include <cpl_error.h>
 #include <gdal_priv.h>
@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "ingest/footprints/extrude.h"
+#include "ingest/footprints/party_walls.h"
 #include "ingest/texture_resolver.h"
 #include "ingest/triangulate.h"
 
@@ -29,7 +30,6 @@ namespace {
 // Named tolerances.
 constexpr double kDuplicatePointTolerance_m = 1e-4;  // consecutive vertices closer than this are one
 constexpr double kMinFootprintArea_m2 = 0.01;        // smaller parts are slivers, skipped
-constexpr double kPartyWallSnap_m = 1e-3;            // shared edges match when endpoints agree to 1 mm
 
 // Common attribute names per role, lower case, tried in order.
 const std::map<std::string, std::vector<std::string>> kDefaultFieldNames = {
@@ -163,24 +163,38 @@ public:
         resolveFields();
         if (options_.base == FootprintOptions::Base::Terrain)
             if (Status s = Terrain::open(options_.terrain_dem, *state_.frame, &terrain_); !s.ok()) return s;
-        std::vector<Record> records;
-        layer_->ResetReading();
-        const GIntBig total = layer_->GetFeatureCount(FALSE);
-        uint64_t n = 0;
-        for (auto& feature : *layer_) {
-            Record r;
-            if (readFeature(*feature, &r)) records.push_back(std::move(r));
-            if (state_.progress && (++n & 255) == 0)
-                state_.progress("footprints", n, total > 0 ? static_cast<uint64_t>(total) : n);
-        }
-        markPartyWalls(records);
-        for (Record& r : records) emit(r);
+        // Two passes over the layer, so that no pass holds the footprints:
+        // the first finds the party walls (party_walls.h), the second reads
+        // each footprint again and extrudes it at once.
+        footprints::PartyWallIndex walls;
+        quiet_ = true;
+        forEachRecord("footprints: shared walls", [&](Record& r) { walls.add(r.parts, r.eave_z); });
+        quiet_ = false;
+        walls.finish();
+        uint32_t record = 0;
+        forEachRecord("footprints", [&](Record& r) {
+            r.wall_bottom = walls.wallBottoms(record++, r.parts, r.base_z, r.eave_z, &state_.counts.party_walls);
+            emit(r);
+        });
         state_.counts.textures_ok += textures_.resolved();
         state_.counts.textures_failed += textures_.failed();
         return Status::Ok();
     }
 
 private:
+    // Every footprint readFeature keeps, in layer order, handed to `fn`.
+    void forEachRecord(const char* step, const std::function<void(Record&)>& fn) {
+        layer_->ResetReading();
+        const GIntBig total = layer_->GetFeatureCount(FALSE);
+        uint64_t n = 0;
+        for (auto& feature : *layer_) {
+            Record r;
+            if (readFeature(*feature, &r)) fn(r);
+            if (state_.progress && (++n & 255) == 0)
+                state_.progress(step, n, total > 0 ? static_cast<uint64_t>(total) : n);
+        }
+    }
+
     const fs::path dataset_;
     OGRLayer* layer_;
     const FootprintOptions& options_;
@@ -190,10 +204,14 @@ private:
     std::unique_ptr<LocalFrame::Mapper> mapper_;
     std::unique_ptr<Terrain> terrain_;
     std::map<std::string, int> field_;  // role -> field index
+    // The party-wall pass: readFeature gives the same record (its geometry
+    // and heights), without warnings, counts, textures or attributes.
+    bool quiet_ = false;
 
     std::string where() const { return fmt::format("{} (layer {})", dataset_.string(), layer_->GetName()); }
 
     void warn(const char* code, int64_t fid, const std::string& id, std::string detail) {
+        if (quiet_) return;
         state_.diagnostics.warn(code, {where(), fid, id, std::move(detail)});
     }
 
@@ -315,13 +333,13 @@ private:
     }
 
     bool readFeature(OGRFeature& f, Record* r) {
-        state_.counts.footprints_read++;
+        if (!quiet_) state_.counts.footprints_read++;
         r->fid = f.GetFID();
         const std::string id_value = text(f, "id");
         r->feature.gml_id = id_value.empty() ? fmt::format("{}.{}", layer_->GetName(), r->fid) : id_value;
         const std::string& id = r->feature.gml_id;
         auto skip = [&](const char* code, std::string detail) {
-            state_.counts.footprints_skipped++;
+            if (!quiet_) state_.counts.footprints_skipped++;
             warn(code, r->fid, id, std::move(detail));
             return false;
         };
@@ -335,7 +353,7 @@ private:
         CPLPopErrorHandler();
         if (!valid) {
             if (!repaired || repaired->IsEmpty()) return skip(warn::kFootprintUnrepairable, "invalid and MakeValid gave nothing");
-            state_.counts.footprints_repaired++;
+            if (!quiet_) state_.counts.footprints_repaired++;
             warn(warn::kFootprintRepaired, r->fid, id, "invalid polygon repaired with MakeValid");
             geometry = repaired.get();
         }
@@ -444,6 +462,8 @@ private:
         r->eave_z = r->base_z + eave_m;
         r->ridge_z = r->base_z + std::max(ridge_m, eave_m);
 
+        if (quiet_) return true;  // what the party walls need is known
+
         // Textures, relative to the dataset's folder.
         const fs::path dir = dataset_.parent_path();
         if (std::string t = text(f, "facade_texture"); !t.empty())
@@ -460,46 +480,6 @@ private:
         for (int i = 0; i < f.GetFieldCount(); ++i)
             if (f.IsFieldSetAndNotNull(i)) r->feature.attributes[f.GetFieldDefnRef(i)->GetNameRef()] = f.GetFieldAsString(i);
         return true;
-    }
-
-    // Walls shared by two touching footprints (same edge, opposite direction)
-    // start at the lower building's eave: below it nobody can see them.
-    void markPartyWalls(std::vector<Record>& records) {
-        struct EdgeRef {
-            uint32_t record, part, ring, edge;
-        };
-        auto key = [](const Vec2d& a, const Vec2d& b) {
-            auto q = [](double v) { return static_cast<int64_t>(std::llround(v / kPartyWallSnap_m)); };
-            return fmt::format("{} {} {} {}", q(a.x), q(a.y), q(b.x), q(b.y));
-        };
-        std::unordered_map<std::string, EdgeRef> edges;
-        auto rings = [](const Footprint2d& p, uint32_t k) -> const std::vector<Vec2d>& { return k == 0 ? p.outer : p.holes[k - 1]; };
-        for (uint32_t r = 0; r < records.size(); ++r) {
-            Record& rec = records[r];
-            rec.wall_bottom.resize(rec.parts.size());
-            for (uint32_t p = 0; p < rec.parts.size(); ++p) {
-                const uint32_t ring_count = 1 + static_cast<uint32_t>(rec.parts[p].holes.size());
-                rec.wall_bottom[p].resize(ring_count);
-                for (uint32_t k = 0; k < ring_count; ++k) {
-                    const auto& ring = rings(rec.parts[p], k);
-                    rec.wall_bottom[p][k].assign(ring.size(), rec.base_z);
-                    for (uint32_t e = 0; e < ring.size(); ++e)
-                        edges.emplace(key(ring[e], ring[(e + 1) % ring.size()]), EdgeRef{r, p, k, e});
-                }
-            }
-        }
-        for (const auto& [k, ref] : edges) {
-            const auto& ring = rings(records[ref.record].parts[ref.part], ref.ring);
-            const Vec2d& a = ring[ref.edge];
-            const Vec2d& b = ring[(ref.edge + 1) % ring.size()];
-            auto other = edges.find(key(b, a));
-            if (other == edges.end() || other->second.record == ref.record) continue;
-            Record& me = records[ref.record];
-            const Record& them = records[other->second.record];
-            // Counted once per pair: from the side with the smaller record index.
-            if (ref.record < other->second.record) state_.counts.party_walls++;
-            me.wall_bottom[ref.part][ref.ring][ref.edge] = std::max(me.base_z, std::min(me.eave_z, them.eave_z));
-        }
     }
 
     void emit(Record& r) {

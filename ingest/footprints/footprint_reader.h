@@ -8,8 +8,10 @@
 /// touching footprints of the same layer are not generated below the lower
 /// building's eave ("party walls": nobody can see them).
 ///
-/// A layer is held in memory while it is read (party walls need the
-/// neighbours); the triangles go to the sink building by building.
+/// A layer is read twice (footprints/party_walls.h): the first pass finds
+/// the party walls, keeping only a table of edges (20 bytes an edge), the
+/// second reads each footprint again and hands its triangles to the sink at
+/// once. No footprint is held beyond its own turn.
 
 #include <filesystem>
 #include <map>
