@@ -9,13 +9,35 @@
 
 namespace cityatlas::tiles {
 
+namespace {
+// The float nearest below (above) `v`: a double box rounded outwards still
+// contains every vertex.
+float down(double v) {
+    float f = static_cast<float>(v);
+    if (static_cast<double>(f) > v) f = std::nextafter(f, -INFINITY);
+    return f;
+}
+float up(double v) {
+    float f = static_cast<float>(v);
+    if (static_cast<double>(f) < v) f = std::nextafter(f, INFINITY);
+    return f;
+}
+}  // namespace
+
 void FeatureBoundsAccumulator::add(const Triangle& t) {
     if (t.feature >= acc_.size()) acc_.resize(static_cast<size_t>(t.feature) + 1);
     Acc& a = acc_[t.feature];
     const auto& p = t.position_local;
-    for (const Vec3d& v : p) a.box.extend(v);
-    if (t.semantic == SurfaceSemantic::Ground)
-        a.ground_min_z = std::min({a.ground_min_z, p[0].z, p[1].z, p[2].z});
+    for (const Vec3d& v : p) {
+        const double c[3] = {v.x, v.y, v.z};
+        for (int k = 0; k < 3; ++k) {
+            a.lo[k] = std::min(a.lo[k], down(c[k]));
+            a.hi[k] = std::max(a.hi[k], up(c[k]));
+        }
+        const float z = static_cast<float>(v.z);
+        a.min_z = std::min(a.min_z, z);
+        if (t.semantic == SurfaceSemantic::Ground) a.ground_min_z = std::min(a.ground_min_z, z);
+    }
     if (t.texture >= 0) a.textured = true;
 
     const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);
@@ -31,10 +53,12 @@ void FeatureBoundsAccumulator::add(const Triangle& t) {
     if (az < 0) az += 360.0;
     if (az >= 360.0) az = 0.0;
     // Equal spans keep the smaller azimuth: the record does not depend on
-    // the order triangles come in (a streaming read and a reordered scene agree).
-    if (span < a.wall_span_m || (span == a.wall_span_m && az >= a.azimuth_deg)) return;
+    // the order triangles come in (a streaming read and a reordered scene
+    // agree). Compared in float: two azimuths equal in float give one record.
+    const float az_f = static_cast<float>(az);
+    if (span < a.wall_span_m || (span == a.wall_span_m && az_f >= a.azimuth_deg)) return;
     a.wall_span_m = span;
-    a.azimuth_deg = az;
+    a.azimuth_deg = az_f;
 }
 
 std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t features) const {
@@ -45,26 +69,17 @@ std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t
 
 format::FeatureBoundsRecord FeatureBoundsAccumulator::record(size_t f) const {
     format::FeatureBoundsRecord r;
-    {
-        if (f >= acc_.size() || acc_[f].box.empty()) return r;
-        const Acc& a = acc_[f];
-        const double lo[3] = {a.box.min.x, a.box.min.y, a.box.min.z}, hi[3] = {a.box.max.x, a.box.max.y, a.box.max.z};
-        // Rounded outwards: the float box still contains every vertex.
-        for (int k = 0; k < 3; ++k) {
-            r.min[k] = static_cast<float>(lo[k]);
-            if (static_cast<double>(r.min[k]) > lo[k]) r.min[k] = std::nextafter(r.min[k], -INFINITY);
-            r.max[k] = static_cast<float>(hi[k]);
-            if (static_cast<double>(r.max[k]) < hi[k]) r.max[k] = std::nextafter(r.max[k], INFINITY);
-        }
-        r.base_z = static_cast<float>(a.ground_min_z < 1e300 ? a.ground_min_z : a.box.min.z);
-        r.flags = format::FeatureBoundsRecord::kHasGeometry;
-        if (a.textured) r.flags |= format::FeatureBoundsRecord::kTextured;
-        if (a.wall_span_m >= 0) {
-            r.flags |= format::FeatureBoundsRecord::kHasWall;
-            // binary16 rounds 359.9 up to 360: that is north, 0.
-            const unsigned short h = meshopt_quantizeHalf(static_cast<float>(a.azimuth_deg));
-            r.azimuth_half = h == meshopt_quantizeHalf(360.0F) ? 0 : h;
-        }
+    if (f >= acc_.size() || acc_[f].empty()) return r;
+    const Acc& a = acc_[f];
+    for (int k = 0; k < 3; ++k) r.min[k] = a.lo[k], r.max[k] = a.hi[k];
+    r.base_z = a.ground_min_z < INFINITY ? a.ground_min_z : a.min_z;
+    r.flags = format::FeatureBoundsRecord::kHasGeometry;
+    if (a.textured) r.flags |= format::FeatureBoundsRecord::kTextured;
+    if (a.wall_span_m >= 0) {
+        r.flags |= format::FeatureBoundsRecord::kHasWall;
+        // binary16 rounds 359.9 up to 360: that is north, 0.
+        const unsigned short h = meshopt_quantizeHalf(a.azimuth_deg);
+        r.azimuth_half = h == meshopt_quantizeHalf(360.0F) ? 0 : h;
     }
     return r;
 }

@@ -14,7 +14,15 @@
 /// outward normal is the triangle's (corners counter-clockwise seen from
 /// outside, ingest/scene.h). Equal spans keep the smaller azimuth, so the
 /// records do not depend on the order the triangles come in.
+///
+/// What a feature holds while triangles come is what its record needs, 48
+/// bytes: the box already rounded outwards to float and the lowest z's
+/// already rounded to float (rounding is monotone: the rounded minimum is
+/// the minimum of the rounded values, so the records are those of the
+/// double box), the longest span in double (which wall is longest is
+/// decided exactly) and its azimuth in float.
 
+#include <cmath>
 #include <cstddef>
 #include <deque>
 #include <vector>
@@ -37,12 +45,16 @@ public:
 
 private:
     struct Acc {
-        Box3d box;
-        double ground_min_z = 1e300;
-        double wall_span_m = -1;    ///< horizontal span of the longest wall triangle so far; < 0: none
-        double azimuth_deg = 0;
+        float lo[3] = {INFINITY, INFINITY, INFINITY};     ///< the box, rounded down
+        float hi[3] = {-INFINITY, -INFINITY, -INFINITY};  ///< rounded up
+        float ground_min_z = INFINITY;  ///< lowest ground corner, rounded to nearest; inf: none
+        float min_z = INFINITY;         ///< lowest corner, rounded to nearest (the base without ground)
+        double wall_span_m = -1;        ///< horizontal span of the longest wall triangle so far; < 0: none
+        float azimuth_deg = 0;          ///< its azimuth, rounded to nearest
         bool textured = false;
+        bool empty() const { return !(lo[0] <= hi[0]); }
     };
+    static_assert(sizeof(Acc) == 48);
     std::deque<Acc> acc_;  // grows a block at a time: no doubling, no copy while a city's worth moves
 };
 
