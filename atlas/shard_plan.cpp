@@ -33,20 +33,30 @@ void FeatureSummaries::add(const Triangle& t) {
 ShardPlan planShards(const Scene& scene, uint64_t max_triangles) {
     FeatureSummaries s;
     for (const Triangle& t : scene.triangles) s.add(t);
-    return planShards(s, scene.features.size(), max_triangles);
+    return planShards(std::move(s), scene.features.size(), max_triangles);
 }
 
-ShardPlan planShards(const FeatureSummaries& summaries, size_t features, uint64_t max_triangles) {
+namespace {
+// A summary column as a vector (what the cuts index), its deque freed at
+// once: one column is held twice at a time, not the whole summaries.
+template <class T>
+std::vector<T> column(std::deque<T>& in, size_t n, const T& none) {
+    std::vector<T> out(n, none);
+    std::copy_n(in.begin(), std::min(n, in.size()), out.begin());
+    std::deque<T>().swap(in);
+    return out;
+}
+}  // namespace
+
+ShardPlan planShards(FeatureSummaries&& summaries, size_t features, uint64_t max_triangles) {
     ShardPlan plan;
     const size_t nf = features;
-    std::vector<uint64_t> count(nf, 0);
-    std::vector<double> weight(nf, 0);
+    const std::vector<uint64_t> count = column(summaries.count, nf, uint64_t{0});
+    const std::vector<double> weight = column(summaries.weight, nf, 0.0);
     std::vector<Vec3d> point(nf, Vec3d{0, 0, 0});
-    for (size_t f = 0; f < std::min(nf, summaries.count.size()); ++f) {
-        count[f] = summaries.count[f];
-        weight[f] = summaries.weight[f];
+    for (size_t f = 0; f < std::min(nf, summaries.point.size()); ++f)
         if (count[f] > 0) point[f] = (1.0 / summaries.area[f]) * summaries.point[f];
-    }
+    summaries = {};
     std::vector<uint32_t> all;
     for (uint32_t f = 0; f < nf; ++f)
         if (count[f] > 0) all.push_back(f);

@@ -54,8 +54,9 @@ struct FeatureSummaries {
 /// Cuts `scene` into shards of at most `max_triangles` triangles (a single
 /// feature larger than that is a shard of its own). Deterministic.
 ShardPlan planShards(const Scene& scene, uint64_t max_triangles);
-/// The same from summaries of `features` features.
-ShardPlan planShards(const FeatureSummaries& summaries, size_t features, uint64_t max_triangles);
+/// The same from summaries of `features` features (taken: freed as the cut
+/// takes its columns from them).
+ShardPlan planShards(FeatureSummaries&& summaries, size_t features, uint64_t max_triangles);
 
 /// The whole tree from the plan's top and the shards' trees (each numbered
 /// from 0 at its root, with levels from 0, without triangles): nodes in

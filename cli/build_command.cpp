@@ -680,8 +680,19 @@ int runBuild(const BuildCliOptions& opt_in) {
     atlas::AtlasTree single_tree;
     tiles::TilesStats ts;
     ordered_json shard_reuse;
-    const atlas::ShardPlan shard_plan = atlas::planShards(sink.features, feature_count, opt.shard_triangles);
-    sink.features = {};
+    // The feature tables need nothing of the tree: written first, from the
+    // read's feature spill, a block in memory at a time, and before the plan
+    // so that the features' boxes are freed before its cut needs memory.
+    tiles::FeatureTables feature_tables;
+    {
+        tiles::FeatureTablesWriter writer(tmp, opt.tiles.feature_block_size);
+        const Status spilled = sink.feature_spill.forEach(
+            [&](uint32_t id, Feature&& f) { return writer.add(std::move(f), sink.bounds.record(id)); });
+        if (!spilled.ok()) return abandon(spilled);
+        if (Status s = writer.finish(&feature_tables); !s.ok()) return abandon(s);
+    }
+    sink.bounds.clear();
+    const atlas::ShardPlan shard_plan = atlas::planShards(std::move(sink.features), feature_count, opt.shard_triangles);
     // Computed textures are made by the shards (their occluders come with the
     // plan), so a build with them is a plan, shards and a merge even at one shard.
     const bool sharded = shard_plan.shards() > 1 || opt.slurm || !opt.computed_specs.empty();
@@ -703,17 +714,6 @@ int runBuild(const BuildCliOptions& opt_in) {
         for (const auto& [k, v] : shard_reuse.items()) rec.shards[k] = v;
         return rec;
     };
-    // The feature tables need nothing of the tree: written first, from the
-    // read's feature spill, a block in memory at a time.
-    tiles::FeatureTables feature_tables;
-    {
-        tiles::FeatureTablesWriter writer(tmp, opt.tiles.feature_block_size);
-        const Status spilled = sink.feature_spill.forEach(
-            [&](uint32_t id, Feature&& f) { return writer.add(std::move(f), sink.bounds.record(id)); });
-        if (!spilled.ok()) return abandon(spilled);
-        if (Status s = writer.finish(&feature_tables); !s.ok()) return abandon(s);
-    }
-    sink.bounds.clear();
     // A visibility target is a building by gml:id, with its parts.
     for (atlas::ComputedSpec& c : opt.computed_specs) {
         if (c.model != atlas::ComputedModel::Visibility) continue;
