@@ -626,6 +626,7 @@ int runBuild(const BuildCliOptions& opt_in) {
 
     // --- Read.
     IngestState state;
+    state.options.scratch_dir = plan_dir;  // beside the spill: the build's disk, not /tmp
     PlanSink sink(spill, plan_dir / "features.spill");
     state.sink = &sink;
     std::vector<fs::path> read_files;

@@ -17,6 +17,7 @@
 
 #include <fmt/format.h>
 
+#include "core/external_sort.h"
 #include "ingest/citygml/appearance.h"
 #include "ingest/citygml/xml_input.h"
 #include "ingest/citygml/xml_scan.h"
@@ -173,10 +174,18 @@ private:
     AppearanceStore global_appearances_;
     std::string theme_;
 
-    // Cross-object xlinks: (id hash, member) pairs from the index pass.
-    // Chunked, not one array: a vector's growth copies it whole, 1.5 to 2x its
-    // size for a moment (0.8 GB at a million buildings).
-    std::deque<std::pair<uint64_t, uint32_t>> id_owner_, href_user_;
+    // Cross-object xlinks: (id hash, member) pairs from the index pass. A
+    // file's geometry ids are sorted with bounded memory (16 bytes an id: 1.6
+    // GB for a million LOD2 buildings of a hundred polygons each), in the
+    // scratch folder beyond 32 MB; the references to other city objects are
+    // few, held in a deque (chunked: no doubling copy).
+    struct IdOwner {
+        uint64_t hash;
+        uint32_t member;
+        bool operator<(const IdOwner& o) const { return hash < o.hash || (hash == o.hash && member < o.member); }
+    };
+    ExternalSorter<IdOwner> id_owner_{state_.options.scratch_dir};
+    std::deque<std::pair<uint64_t, uint32_t>> href_user_;
     std::vector<uint64_t> member_ids_, member_hrefs_;  // the city object being indexed: its ids and references
     std::unordered_set<uint64_t> foreign_needed_;
     std::unordered_map<std::string, std::vector<RawPolygon>> foreign_geometry_;
@@ -349,7 +358,7 @@ private:
         if (const std::string_view id = e.attributeView("id", kGmlNamespace, &scratch); !id.empty()) {
             const uint64_t hash = std::hash<std::string_view>{}(id);
             member_ids_.push_back(hash);
-            if (isGeometryElement(n)) id_owner_.emplace_back(hash, scan.member);
+            if (isGeometryElement(n)) (void)id_owner_.push({hash, scan.member});  // a failure comes back when sorted
         }
         const std::string_view href = e.attributeView("href", kXlinkNamespace, &scratch);
         if (!href.empty()) member_hrefs_.push_back(std::hash<std::string_view>{}(href[0] == '#' ? href.substr(1) : href));
@@ -546,19 +555,24 @@ private:
         if (scan.current != RootChild::Other) flushMemberRefs(scan.member);
         if (state_.progress) state_.progress("index", summary_.bytes, summary_.bytes);
 
-        // References whose target lives in another city object.
-        std::sort(id_owner_.begin(), id_owner_.end());
-        for (const auto& [hash, user] : href_user_) {
-            auto it = std::lower_bound(id_owner_.begin(), id_owner_.end(), std::make_pair(hash, 0u));
-            if (it != id_owner_.end() && it->first == hash && it->second != user) foreign_needed_.insert(hash);
-        }
-        // Same geometry id in two city objects.
-        for (size_t i = 1; i < id_owner_.size(); ++i)
-            if (id_owner_[i].first == id_owner_[i - 1].first && id_owner_[i].second != id_owner_[i - 1].second)
-                duplicate_across_members_.insert(id_owner_[i].first);
-        // Neither is needed past this pass (the read pass holds the two sets above).
-        std::deque<std::pair<uint64_t, uint32_t>>().swap(href_user_);
-        std::deque<std::pair<uint64_t, uint32_t>>().swap(id_owner_);
+        // One walk over the ids in order: a reference whose target's first
+        // owner (the smallest member holding that id) is another city object,
+        // and an id that two city objects hold.
+        std::sort(href_user_.begin(), href_user_.end());
+        size_t h = 0;
+        std::optional<IdOwner> previous;
+        const Status sorted = id_owner_.forEachSorted([&](const IdOwner& e) {
+            if (previous && previous->hash == e.hash) {
+                if (previous->member != e.member) duplicate_across_members_.insert(e.hash);
+            } else {
+                while (h < href_user_.size() && href_user_[h].first < e.hash) ++h;
+                for (; h < href_user_.size() && href_user_[h].first == e.hash; ++h)
+                    if (href_user_[h].second != e.member) foreign_needed_.insert(e.hash);
+            }
+            previous = e;
+        });
+        std::deque<std::pair<uint64_t, uint32_t>>().swap(href_user_);  // the read pass holds the two sets above
+        if (!sorted.ok()) return sorted;
         return Status::Ok();
     }
     std::unordered_set<uint64_t> duplicate_across_members_;

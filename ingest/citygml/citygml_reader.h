@@ -35,6 +35,9 @@ struct CityGmlOptions {
     int lod = 0;                  ///< 0 = best available <= 2 per building; 1 or 2 = only that LOD
     std::string theme;            ///< appearance theme; empty = the first textured one
     std::string fallback_crs;     ///< srsName for files that declare none (e.g. "EPSG:25832")
+    /// Where a reader sorts what outgrows memory (a file's geometry ids);
+    /// empty: the system's temporary folder.
+    std::filesystem::path scratch_dir;
 };
 
 /// What an ingest read, skipped and chose; the report is made from it.

@@ -144,6 +144,21 @@ TEST(CityGmlReader, ForwardXlinkToAnotherCityObjectIsResolved) {
     EXPECT_EQ(r->state.diagnostics.count(warn::kXlinkUnresolved), 0u);
 }
 
+TEST(CityGmlReader, AGeometryIdInTwoCityObjectsIsWarnedInEach) {
+    // Two buildings with a polygon of the same gml:id, a third apart: the
+    // index pass's sorted walk over the ids finds the pair.
+    std::string body;
+    for (const auto& [b, p] : {std::pair{"b1", "dup"}, std::pair{"b2", "dup"}, std::pair{"b3", "own"}})
+        body += std::string(R"(<core:cityObjectMember><bldg:Building gml:id=")") + b +
+                R"("><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>)" + square(p, 2) +
+                R"(</gml:surfaceMember></gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>)";
+    const auto r = ingest(writeDoc("duplicate_across", body));
+    ASSERT_TRUE(r->status.ok()) << r->status.error;
+    EXPECT_EQ(r->state.diagnostics.count(warn::kDuplicateGmlId), 2u) << "once in each of the two buildings";
+    EXPECT_EQ(r->scene.triangles.size(), 6u) << "each building keeps its own polygon";
+    EXPECT_EQ(r->state.counts.xlinks_cross_object, 0u);
+}
+
 TEST(CityGmlReader, UnresolvedXlinkIsACountedWarning) {
     const auto r = ingest(writeDoc("dangling", R"(<core:cityObjectMember><bldg:Building gml:id="b1"><bldg:lod2MultiSurface><gml:MultiSurface>
 <gml:surfaceMember xlink:href="#nowhere"/><gml:surfaceMember>)" + square("p", 1) +
