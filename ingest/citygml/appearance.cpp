@@ -48,6 +48,12 @@ void mergeInto(ThemeData& to, const ThemeData& from) {
     to.materials.insert(from.materials.begin(), from.materials.end());
 }
 
+void mergeInto(ThemeData& to, const AppearanceStore::SurfaceDataById& from) {
+    for (const auto* ring : from.rings) to.ring_texcoords.insert(*ring);
+    for (const auto* material : from.materials) to.materials.insert(*material);
+    if (from.rest) mergeInto(to, *from.rest);
+}
+
 }  // namespace
 
 uint32_t AppearanceStore::image(const std::string& uri, WrapMode wrap) {
@@ -69,11 +75,40 @@ void AppearanceStore::addAppearance(xmlNodePtr appearance) {
             const uint64_t unsupported_before = theme.unsupported;
             addSurfaceData(data, theme);
             const std::string id = gmlId(data);
-            if (!id.empty() && theme.unsupported == unsupported_before) addSurfaceData(data, surface_data_by_id_[id]);
+            if (!id.empty() && theme.unsupported == unsupported_before) keepById(data, theme, surface_data_by_id_[id]);
         } else if (auto it = surface_data_by_id_.find(xlinkHref(member)); it != surface_data_by_id_.end()) {
             mergeInto(theme, it->second);
         }
     }
+}
+
+// What `data` (just added to `theme`) gives, for a later reference by id:
+// parsed again on its own, each ring whose coordinates its theme now holds
+// points at that entry (entries are never changed or erased, and nodes of
+// the maps never move); the rest is copied.
+void AppearanceStore::keepById(xmlNodePtr data, const ThemeData& theme, SurfaceDataById& by_id) {
+    ThemeData own;
+    addSurfaceData(data, own);
+    auto rest = [&]() -> ThemeData& {
+        if (!by_id.rest) by_id.rest = std::make_unique<ThemeData>();
+        return *by_id.rest;
+    };
+    // Each of own's entries: the theme's when equal, else kept in `rest`.
+    auto point = [&](auto& own_map, const auto& theme_map, auto& pointers, const auto& rest_map, const auto& same) {
+        for (auto& entry : own_map) {
+            const auto it = theme_map.find(entry.first);
+            if (it != theme_map.end() && same(it->second, entry.second))
+                pointers.push_back(&*it);
+            else
+                rest_map().insert(std::move(entry));
+        }
+        own_map.clear();
+    };
+    point(own.ring_texcoords, theme.ring_texcoords, by_id.rings, [&]() -> auto& { return rest().ring_texcoords; },
+          [](const RingTexcoords& a, const RingTexcoords& b) { return a.image == b.image && a.uv == b.uv; });
+    point(own.materials, theme.materials, by_id.materials, [&]() -> auto& { return rest().materials; },
+          [](const Material& a, const Material& b) { return a == b; });
+    if (!own.texgen.empty() || !own.georeferenced.empty()) mergeInto(rest(), own);
 }
 
 void AppearanceStore::addSurfaceData(xmlNodePtr data, ThemeData& theme) {

@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -69,14 +70,27 @@ struct AppearanceStore {
     /// texture) gets the same data.
     void addAppearance(xmlNodePtr appearance);
 
+    /// Surface data kept by gml:id for a later surfaceDataMember that points
+    /// at it: its rings and material targets as the entries its theme holds
+    /// for them (8 bytes each; a city's surface data have ids in 3DCityDB and
+    /// FME exports), and a copy of whatever else it gave (generated
+    /// coordinates, georeferenced textures, an entry its theme had from
+    /// another surface data).
+    struct SurfaceDataById {
+        std::vector<const std::pair<const std::string, RingTexcoords>*> rings;
+        std::vector<const std::pair<const std::string, Material>*> materials;
+        std::unique_ptr<ThemeData> rest;
+    };
+
 private:
     std::map<std::pair<std::string, int>, uint32_t> image_index_;  // (uri, wrap) -> index
-    std::unordered_map<std::string, ThemeData> surface_data_by_id_;
+    std::unordered_map<std::string, SurfaceDataById> surface_data_by_id_;
     std::unordered_map<std::string, std::vector<std::pair<std::string, std::vector<Vec2d>>>> texcoord_lists_by_id_;
     uint32_t image(const std::string& uri, WrapMode wrap);
     void addSurfaceData(xmlNodePtr data, ThemeData& theme);
     void addParameterizedTexture(xmlNodePtr data, ThemeData& theme);
     void addGeoreferencedTexture(xmlNodePtr data, ThemeData& theme);
+    void keepById(xmlNodePtr data, const ThemeData& theme, SurfaceDataById& by_id);
 };
 
 /// Theme names in document order and whether each has a texture (for the

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <set>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "ingest/synth/town.h"
@@ -343,6 +344,15 @@ TEST(CityGmlReader, GlobalAppearanceStreamedGivesWhatTheSameAppearanceGivesInsid
             for (size_t i = 0; i < 10; ++i) EXPECT_EQ(g->scene.triangles[i].texture, texture[i]) << "triangle " << i;
             EXPECT_EQ(g->scene.materials[static_cast<size_t>(g->scene.triangles[4].material)].diffuse[1], 1.0f);
         }
+        if (std::string(theme) == "night") {
+            // The day texture by reference: p1 and p2, with their own coordinates (p2's reach 2).
+            const std::vector<int32_t> texture = {0, 0, 0, 0, -1, -1, -1, -1, -1, -1};
+            for (size_t i = 0; i < 10; ++i) EXPECT_EQ(g->scene.triangles[i].texture, texture[i]) << "night triangle " << i;
+            double p2_max = 0;
+            for (size_t i = 2; i < 4; ++i)
+                for (const Vec2d& t : g->scene.triangles[i].uv) p2_max = std::max({p2_max, t.x, t.y});
+            EXPECT_EQ(p2_max, 2.0);
+        }
     }
     // A header element after the targets it should have applied to (against
     // the schema's order) is a counted warning; whole, the DOM would apply it to all.
@@ -355,6 +365,65 @@ TEST(CityGmlReader, GlobalAppearanceStreamedGivesWhatTheSameAppearanceGivesInsid
     ASSERT_TRUE(w->status.ok()) << w->status.error;
     EXPECT_EQ(w->state.diagnostics.count(warn::kAppearanceUnsupported), 1u);
     EXPECT_EQ(w->scene.triangles[0].texture, 0) << "the target before it keeps its texture";
+}
+
+TEST(CityGmlReader, SurfaceDataByReferenceGivesItsOwnDataWhereItsThemeHadAnothers) {
+    // Day: texture "a" on p1 (coordinates up to 1), then texture "pt" on p1
+    // again (up to 2: day keeps a's) and on p2, material "m" on p3. Night
+    // refers to pt and m: p1 gets pt's own texture and coordinates, not
+    // what day kept. (The store keeps a surface data by id as pointers to
+    // its theme's entries, and copies only what differs from them.)
+    const fs::path dir = scratch("by_reference");
+    fs::create_directories(dir);
+    synth::TownSettings ts;
+    ts.buildings = 1;
+    ts.texture_size_px = 16;
+    ASSERT_TRUE(synth::writeTown(synth::generateTown(ts), dir / "town", true, nullptr).ok());
+    for (const char* name : {"t.png", "u.png"})
+        fs::copy_file(dir / "town" / "textures" / "paving.png", dir / name, fs::copy_options::overwrite_existing);
+    std::string surfaces;
+    for (int i = 1; i <= 3; ++i) surfaces += "<gml:surfaceMember>" + square("p" + std::to_string(i), 5.0 * i) + "</gml:surfaceMember>";
+    auto target = [](const char* p, const char* uv) {
+        return fmt::format(R"(<app:target uri="#{0}"><app:TexCoordList><app:textureCoordinates ring="#{0}_r">{1})"
+                           R"(</app:textureCoordinates></app:TexCoordList></app:target>)", p, uv);
+    };
+    const std::string appearances =
+        std::string(R"(<app:appearanceMember><app:Appearance><app:theme>day</app:theme>)"
+                    R"(<app:surfaceDataMember><app:ParameterizedTexture gml:id="a"><app:imageURI>t.png</app:imageURI>)") +
+        target("p1", "0 0 1 0 1 1 0 1 0 0") +
+        R"(</app:ParameterizedTexture></app:surfaceDataMember>)"
+        R"(<app:surfaceDataMember><app:ParameterizedTexture gml:id="pt"><app:imageURI>u.png</app:imageURI>)" +
+        target("p1", "0 0 2 0 2 2 0 2 0 0") + target("p2", "0 0 1 0 1 1 0 1 0 0") +
+        R"(</app:ParameterizedTexture></app:surfaceDataMember>)"
+        R"(<app:surfaceDataMember><app:X3DMaterial gml:id="m"><app:diffuseColor>0 1 0</app:diffuseColor><app:target>#p3</app:target></app:X3DMaterial></app:surfaceDataMember>)"
+        R"(</app:Appearance></app:appearanceMember>)"
+        R"(<app:appearanceMember><app:Appearance><app:theme>night</app:theme><app:surfaceDataMember xlink:href="#pt"/>)"
+        R"(<app:surfaceDataMember xlink:href="#m"/></app:Appearance></app:appearanceMember>)";
+    const fs::path file = dir / "by_reference.gml";
+    std::ofstream(file) << kHeader2 << R"(<core:cityObjectMember><bldg:Building gml:id="b"><bldg:lod2MultiSurface><gml:MultiSurface>)"
+                        << surfaces << "</gml:MultiSurface></bldg:lod2MultiSurface></bldg:Building></core:cityObjectMember>\n"
+                        << appearances << "</core:CityModel>\n";
+    auto maxUv = [](const auto& r, size_t first) {
+        double m = 0;
+        for (size_t i = first; i < first + 2; ++i)
+            for (const Vec2d& t : r.scene.triangles[i].uv) m = std::max({m, t.x, t.y});
+        return m;
+    };
+    CityGmlOptions day, night;
+    day.theme = "day";
+    night.theme = "night";
+    const auto d = ingest(file, day), n = ingest(file, night);
+    ASSERT_TRUE(d->status.ok()) << d->status.error;
+    ASSERT_TRUE(n->status.ok()) << n->status.error;
+    ASSERT_EQ(d->scene.triangles.size(), 6u);
+    ASSERT_EQ(n->scene.triangles.size(), 6u);
+    EXPECT_EQ(fs::path(d->scene.textures.path(static_cast<size_t>(d->scene.triangles[0].texture))).filename(), "t.png");
+    EXPECT_EQ(maxUv(*d, 0), 1.0) << "day keeps the first texture given to p1";
+    EXPECT_EQ(fs::path(n->scene.textures.path(static_cast<size_t>(n->scene.triangles[0].texture))).filename(), "u.png");
+    EXPECT_EQ(maxUv(*n, 0), 2.0) << "night: pt's own coordinates for p1";
+    EXPECT_EQ(fs::path(n->scene.textures.path(static_cast<size_t>(n->scene.triangles[2].texture))).filename(), "u.png");
+    ASSERT_GE(n->scene.triangles[4].material, 0);
+    EXPECT_EQ(n->scene.materials[static_cast<size_t>(n->scene.triangles[4].material)].diffuse[1], 1.0f) << "m by reference";
 }
 
 TEST(CityGmlReader, CityGml1NamespaceAndPosElementsAnd2dCoordinates) {
