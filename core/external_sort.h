@@ -19,6 +19,7 @@
 #include <functional>
 #include <queue>
 #include <string>
+#include <system_error>
 #include <type_traits>
 #include <vector>
 
@@ -88,7 +89,12 @@ private:
     uint64_t size_ = 0;
     Status failed_;
 
-    std::string where() const { return dir_.empty() ? std::filesystem::temp_directory_path().string() : dir_.string(); }
+    std::string where() const {
+        if (!dir_.empty()) return dir_.string();
+        std::error_code ec;  // TMPDIR naming no folder: /tmp, and an error there if it is missing too
+        const std::filesystem::path tmp = std::filesystem::temp_directory_path(ec);
+        return ec ? std::string("/tmp") : tmp.string();
+    }
 
     Status spill() {
         std::sort(buffer_.begin(), buffer_.end());

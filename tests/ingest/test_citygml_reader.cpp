@@ -264,23 +264,36 @@ TEST(CityGmlReader, TexCoordGenAndThemesAndMaterialFallback) {
     EXPECT_FALSE(ingest(docFor("t.png"), bad)->status.ok());
 }
 
+// A scratch folder holding two readable textures, t.png and u.png (a
+// synthetic town's paving), for appearances to point at.
+fs::path twoTextureFolder(const std::string& name) {
+    const fs::path dir = scratch(name);
+    fs::create_directories(dir);
+    synth::TownSettings ts;
+    ts.buildings = 1;
+    ts.texture_size_px = 16;
+    EXPECT_TRUE(synth::writeTown(synth::generateTown(ts), dir / "town", true, nullptr).ok());
+    for (const char* texture : {"t.png", "u.png"})
+        fs::copy_file(dir / "town" / "textures" / "paving.png", dir / texture, fs::copy_options::overwrite_existing);
+    return dir;
+}
+
+// Surface members p1 .. pn: squares at heights 5, 10, ... (rings p<i>_r).
+std::string squareSurfaces(int n) {
+    std::string surfaces;
+    // (fmt rather than operator+: GCC 12 warns falsely, bug 105329.)
+    for (int i = 1; i <= n; ++i) surfaces += fmt::format("<gml:surfaceMember>{}</gml:surfaceMember>", square(fmt::format("p{}", i), 5.0 * i));
+    return surfaces;
+}
+
 TEST(CityGmlReader, GlobalAppearanceStreamedGivesWhatTheSameAppearanceGivesInsideTheBuilding) {
     // The index pass hands a global appearanceMember to the store a piece at
     // a time (its theme, each surface data's header, each target alone);
     // an appearance inside a city object still goes whole. The same
     // appearances either way must give the same scene: textures, materials
     // and uvs per triangle, per theme, and the same theme list.
-    const fs::path dir = scratch("global_streamed");
-    fs::create_directories(dir);
-    synth::TownSettings ts;
-    ts.buildings = 1;
-    ts.texture_size_px = 16;
-    ASSERT_TRUE(synth::writeTown(synth::generateTown(ts), dir / "town", true, nullptr).ok());
-    fs::copy_file(dir / "town" / "textures" / "paving.png", dir / "t.png", fs::copy_options::overwrite_existing);
-    fs::copy_file(dir / "town" / "textures" / "paving.png", dir / "u.png", fs::copy_options::overwrite_existing);
-    std::string surfaces;
-    for (int i = 1; i <= 5; ++i)
-        surfaces += "<gml:surfaceMember>" + square("p" + std::to_string(i), 5.0 * i) + "</gml:surfaceMember>";
+    const fs::path dir = twoTextureFolder("global_streamed");
+    const std::string surfaces = squareSurfaces(5);
     const std::string uv = "0 0 1 0 1 1 0 1 0 0";
     // Day: a texture (with an id, reused by night) with two targets, one
     // TexCoordList with an id; a material; a texture whose target comes
@@ -373,16 +386,8 @@ TEST(CityGmlReader, SurfaceDataByReferenceGivesItsOwnDataWhereItsThemeHadAnother
     // refers to pt and m: p1 gets pt's own texture and coordinates, not
     // what day kept. (The store keeps a surface data by id as pointers to
     // its theme's entries, and copies only what differs from them.)
-    const fs::path dir = scratch("by_reference");
-    fs::create_directories(dir);
-    synth::TownSettings ts;
-    ts.buildings = 1;
-    ts.texture_size_px = 16;
-    ASSERT_TRUE(synth::writeTown(synth::generateTown(ts), dir / "town", true, nullptr).ok());
-    for (const char* name : {"t.png", "u.png"})
-        fs::copy_file(dir / "town" / "textures" / "paving.png", dir / name, fs::copy_options::overwrite_existing);
-    std::string surfaces;
-    for (int i = 1; i <= 3; ++i) surfaces += "<gml:surfaceMember>" + square("p" + std::to_string(i), 5.0 * i) + "</gml:surfaceMember>";
+    const fs::path dir = twoTextureFolder("by_reference");
+    const std::string surfaces = squareSurfaces(3);
     auto target = [](const char* p, const char* uv) {
         return fmt::format(R"(<app:target uri="#{0}"><app:TexCoordList><app:textureCoordinates ring="#{0}_r">{1})"
                            R"(</app:textureCoordinates></app:TexCoordList></app:target>)", p, uv);
