@@ -101,7 +101,7 @@ private:
         if (fd_ < 0) {
             std::string path = (std::filesystem::path(where()) / "cityatlas-sort-XXXXXX").string();
             fd_ = mkstemp(path.data());
-            if (fd_ < 0) return Status::Io(fmt(path, "cannot create the sort's run file"));
+            if (fd_ < 0) return ioError(path, "cannot create the sort's run file");
             unlink(path.c_str());  // anonymous from now on: closed, it is gone
         }
         runs_.push_back(Run{written_, buffer_.size(), 0, {}, 0});
@@ -111,7 +111,7 @@ private:
         while (left > 0) {
             const ssize_t n = ::pwrite(fd_, p, left, offset);
             if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) return Status::Io(fmt(where(), "cannot write a sort run"));
+            if (n <= 0) return ioError(where(), "cannot write a sort run", n == 0 ? ENOSPC : errno);
             p += n, left -= static_cast<size_t>(n), offset += n;
         }
         written_ += buffer_.size();
@@ -133,7 +133,7 @@ private:
             const ssize_t got = ::pread(fd_, p, left, offset);
             if (got < 0 && errno == EINTR) continue;
             if (got <= 0) {
-                *error = Status::Io(fmt(where(), "cannot read a sort run back"));
+                *error = ioError(where(), "cannot read a sort run back", got == 0 ? EIO : errno);
                 return false;
             }
             p += got, left -= static_cast<size_t>(got), offset += got;
@@ -168,8 +168,9 @@ private:
         runs_.clear();
     }
 
-    static std::string fmt(const std::string& where, const char* what) {
-        return where + ": " + what + ": " + std::strerror(errno);
+    // "folder: what: reason" (a write or read that returns 0 sets no errno: its reason is given).
+    static Status ioError(const std::string& where, const char* what, int error = errno) {
+        return Status::Io(where + ": " + what + ": " + std::strerror(error));
     }
 };
 

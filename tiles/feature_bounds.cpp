@@ -24,6 +24,23 @@ float up(double v) {
 }
 }  // namespace
 
+std::optional<WallSpan> wallSpan(const Triangle& t) {
+    const auto& p = t.position_local;
+    const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);
+    const double n2 = dot(n, n);
+    const bool vertical = n2 > 0 && n.z * n.z <= 0.01 * n2;  // within ~5.7 degrees of vertical
+    const bool wall = t.semantic == SurfaceSemantic::Wall || (t.semantic == SurfaceSemantic::Unclassified && vertical);
+    if (!wall || !(n.x != 0 || n.y != 0)) return std::nullopt;
+    WallSpan w;
+    for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j) w.span_m = std::max(w.span_m, std::hypot(p[i].x - p[j].x, p[i].y - p[j].y));
+    // Clockwise from +y: atan2(east, north).
+    w.azimuth_deg = std::atan2(n.x, n.y) * 180.0 / std::numbers::pi;
+    if (w.azimuth_deg < 0) w.azimuth_deg += 360.0;
+    if (w.azimuth_deg >= 360.0) w.azimuth_deg = 0.0;
+    return w;
+}
+
 void FeatureBoundsAccumulator::add(const Triangle& t) {
     if (t.feature >= acc_.size()) acc_.resize(static_cast<size_t>(t.feature) + 1);
     Acc& a = acc_[t.feature];
@@ -40,22 +57,13 @@ void FeatureBoundsAccumulator::add(const Triangle& t) {
     }
     if (t.texture >= 0) a.textured = true;
 
-    const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);
-    const double n2 = dot(n, n);
-    const bool vertical = n2 > 0 && n.z * n.z <= 0.01 * n2;  // within ~5.7 degrees of vertical
-    const bool wall = t.semantic == SurfaceSemantic::Wall || (t.semantic == SurfaceSemantic::Unclassified && vertical);
-    if (!wall || !(n.x != 0 || n.y != 0)) return;
-    double span = 0;
-    for (int i = 0; i < 3; ++i)
-        for (int j = i + 1; j < 3; ++j) span = std::max(span, std::hypot(p[i].x - p[j].x, p[i].y - p[j].y));
-    // Clockwise from +y: atan2(east, north).
-    double az = std::atan2(n.x, n.y) * 180.0 / std::numbers::pi;
-    if (az < 0) az += 360.0;
-    if (az >= 360.0) az = 0.0;
+    const std::optional<WallSpan> w = wallSpan(t);
+    if (!w) return;
+    const double span = w->span_m;
     // Equal spans keep the smaller azimuth: the record does not depend on
     // the order triangles come in (a streaming read and a reordered scene
     // agree). Compared in float: two azimuths equal in float give one record.
-    const float az_f = static_cast<float>(az);
+    const float az_f = static_cast<float>(w->azimuth_deg);
     if (span < a.wall_span_m || (span == a.wall_span_m && az_f >= a.azimuth_deg)) return;
     a.wall_span_m = span;
     a.azimuth_deg = az_f;

@@ -25,12 +25,22 @@
 #include <cmath>
 #include <cstddef>
 #include <deque>
+#include <optional>
 #include <vector>
 
 #include "format/feature_bounds.h"
 #include "ingest/scene.h"
 
 namespace cityatlas::tiles {
+
+/// A wall triangle's horizontal span (its corners' farthest apart) and the
+/// azimuth of its outward normal, degrees clockwise from +y in [0, 360).
+struct WallSpan {
+    double span_m = 0;
+    double azimuth_deg = 0;
+};
+/// `t`'s span and azimuth when it counts as a wall (above), else nothing.
+std::optional<WallSpan> wallSpan(const Triangle& t);
 
 class FeatureBoundsAccumulator {
 public:

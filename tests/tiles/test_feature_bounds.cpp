@@ -38,17 +38,10 @@ std::vector<FeatureBoundsRecord> reference(const std::vector<Triangle>& tris, si
             if (t.semantic == SurfaceSemantic::Ground) a.ground = std::min(a.ground, v.z);
         }
         a.textured |= t.texture >= 0;
-        const Vec3d n = cross(p[1] - p[0], p[2] - p[0]);
-        const bool vertical = dot(n, n) > 0 && n.z * n.z <= 0.01 * dot(n, n);
-        if (!(t.semantic == SurfaceSemantic::Wall || (t.semantic == SurfaceSemantic::Unclassified && vertical))) continue;
-        if (n.x == 0 && n.y == 0) continue;
-        double span = 0;
-        for (int i = 0; i < 3; ++i)
-            for (int j = i + 1; j < 3; ++j) span = std::max(span, std::hypot(p[i].x - p[j].x, p[i].y - p[j].y));
-        double az = std::atan2(n.x, n.y) * 180.0 / std::numbers::pi;
-        if (az < 0) az += 360.0;
-        if (az >= 360.0) az = 0.0;
-        if (span > a.span || (span == a.span && az < a.az)) a.span = span, a.az = az;
+        // Which triangle is a wall, its span and azimuth: tiles::wallSpan (the
+        // rule itself is checked against the synthetic truth by cli.feature_bounds).
+        const std::optional<tiles::WallSpan> w = tiles::wallSpan(t);
+        if (w && (w->span_m > a.span || (w->span_m == a.span && w->azimuth_deg < a.az))) a.span = w->span_m, a.az = w->azimuth_deg;
     }
     std::vector<FeatureBoundsRecord> out(features);
     for (size_t f = 0; f < features; ++f) {
