@@ -120,6 +120,17 @@ Vertex vertexOf(const TileMesh& m, uint32_t i) {
     return v;
 }
 
+// What a merge to simplify holds while it runs, per triangle merged: the
+// merged mesh, the simplifier's arrays, two meshoptimizer runs side by side,
+// the compacted result and its encoding (heaptrack, the 100,000-building
+// town's root at the default d_min: ~1 GB for ~2.1 M triangles merged).
+constexpr size_t kMergeBytesPerTriangle = 480;
+// Such merges run side by side only while their estimates add up to at most
+// this; a larger one runs alone. Near the top of a large city several are
+// ready at once (400,000 buildings at the default d_min: the level-1 merges,
+// ~2 M triangles each: two at once took the merge to 1.67 GB).
+constexpr size_t kMergeBudgetBytes = size_t{1} << 30;
+
 // Only referenced vertices, in first-reference order.
 TileMesh compactMesh(const TileMesh& in, const std::vector<uint32_t>& indices) {
     MeshBuilder b(!in.uv_original.empty());
@@ -197,6 +208,18 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
     g.mesh = b.take();
     g.triangles_source = range.count;
     return g;
+}
+
+size_t mergeEstimateBytes(const std::array<std::unique_ptr<NodeGeometry>, 4>& children, size_t budget) {
+    size_t incoming = 0;
+    for (const auto& c : children)
+        if (c) incoming += c->mesh.indices.size() / 3;
+    return incoming <= budget ? 0 : incoming * kMergeBytesPerTriangle;
+}
+
+MemoryGate& mergeGate() {
+    static MemoryGate gate(kMergeBudgetBytes);
+    return gate;
 }
 
 NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
+#include "core/memory_gate.h"
 #include "ingest/scene.h"
 #include "tiles/glb_writer.h"
 
@@ -67,6 +68,13 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
 /// they are the build's largest meshes).
 NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
                            std::array<std::unique_ptr<NodeGeometry>, 4> children, size_t budget, double world_texel_m);
+/// What merging these children (innerGeometry), simplifying and encoding the
+/// result holds at most, bytes; 0 when there is nothing to simplify (at most
+/// `budget` triangles: a small merge).
+size_t mergeEstimateBytes(const std::array<std::unique_ptr<NodeGeometry>, 4>& children, size_t budget);
+/// The gate merges to simplify wait on, with their estimates: side by side
+/// only within a fixed budget (1 GB), a larger one alone, over the process.
+MemoryGate& mergeGate();
 /// Distinct feature ids of a mesh, ascending.
 std::vector<uint32_t> distinctFeatures(const TileMesh& mesh);
 

@@ -7,11 +7,9 @@
 #include <bit>
 #include <cassert>
 #include <cmath>
-#include <condition_variable>
 #include <cstddef>
 #include <iterator>
 #include <limits>
-#include <mutex>
 #include <numeric>
 #include <optional>
 #include <tuple>
@@ -24,6 +22,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+
+#include "core/memory_gate.h"
 
 namespace cityatlas::tiles {
 namespace {
@@ -42,28 +42,8 @@ constexpr size_t kMeshoptBytesPerIndex = 56;
 // time); the gate only bites above ~3 M triangles in one merge.
 constexpr size_t kMeshoptBudgetBytes = size_t{1} << 30;
 
-class MeshoptGate {
-public:
-    void acquire(size_t bytes) {
-        std::unique_lock lock(mutex_);
-        free_.wait(lock, [&] { return in_use_ == 0 || in_use_ + bytes <= kMeshoptBudgetBytes; });
-        in_use_ += bytes;
-    }
-    void release(size_t bytes) {
-        {
-            std::lock_guard lock(mutex_);
-            in_use_ -= bytes;
-        }
-        free_.notify_all();
-    }
-
-private:
-    std::mutex mutex_;
-    std::condition_variable free_;
-    size_t in_use_ = 0;
-};
-MeshoptGate& meshoptGate() {
-    static MeshoptGate gate;
+MemoryGate& meshoptGate() {
+    static MemoryGate gate(kMeshoptBudgetBytes);
     return gate;
 }
 

@@ -222,21 +222,17 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
         NodeRecord& rec = records[static_cast<size_t>(id)];
         const double texel = node.min_distance_m / ppm;
         const Vec3d centre = centreOf(node.bounds);
-        for (int li = 0; li < atlas::kLayerCount; ++li) {
-            if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
+        // One layer: its geometry (a leaf's triangles, or the children's
+        // merged) encoded and written.
+        auto buildLayer = [&](const int li, std::array<std::unique_ptr<NodeGeometry>, 4> children) {
             const auto layer = static_cast<Layer>(li);
             std::unique_ptr<NodeGeometry> g;
-            if (node.leaf()) {
+            if (node.leaf())
                 g = std::make_unique<NodeGeometry>(leafGeometry(scene, tree, id, layer, texture_index, params.split_originals));
-            } else {
-                std::array<std::unique_ptr<NodeGeometry>, 4> children{};  // merged, then freed
-                for (size_t q = 0; q < 4; ++q)
-                    if (node.children[q] >= 0)
-                        children[q] = std::move(geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)]);
+            else
                 g = std::make_unique<NodeGeometry>(
                     innerGeometry(tree, id, layer, std::move(children), params.node_triangles, texel));
-            }
-            if (g->empty()) continue;
+            if (g->empty()) return;
             TileMesh mesh = g->mesh;  // the file's copy: inner nodes draw with the atlas only
             if (!node.leaf()) mesh.texture_id.clear();
             GlbResult glb;
@@ -251,7 +247,7 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
             double texels = 0;  // of the leaf's largest texture
             if (node.leaf() && !mesh.uv_original.empty())
                 draco.uv_original_bits = uvOriginalBitsFor(mesh, texture_sizes, uv_target, draco.uv_bits, &texels);
-            if (drawableTriangles(mesh, centre) == 0) continue;  // every triangle degenerate in float32
+            if (drawableTriangles(mesh, centre) == 0) return;  // every triangle degenerate in float32
             Status st = encodeTileGlb(mesh, centre, draco, &glb, extras);
             // The predictions leave room for float32 rounding; should they not
             // suffice, the measurements decide.
@@ -267,14 +263,14 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
             }
             if (!st.ok()) {
                 rec.error = fmt::format("node {} ({}): {}", id, atlas::layerName(layer), st.error);
-                continue;
+                return;
             }
             LayerRecord& lr = rec.layers[static_cast<size_t>(li)];
             lr.present = true;
             lr.geometry_uri = fmt::format("geometry/{}/{}.glb", atlas::layerName(layer), id);
             if (Status w = writeBytes(out_dir / lr.geometry_uri, glb.bytes.data(), glb.bytes.size()); !w.ok()) {
                 rec.error = w.error;
-                continue;
+                return;
             }
             lr.geometry_bytes = glb.bytes.size();
             lr.triangles = glb.triangles;
@@ -291,6 +287,24 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
             }
             rec.features = unionOf(rec.features, encodedFeatures(mesh, centre));
             geometry[static_cast<size_t>(id)][static_cast<size_t>(li)] = std::move(g);
+        };
+        for (int li = 0; li < atlas::kLayerCount; ++li) {
+            if (node.layers[static_cast<size_t>(li)].range.count == 0) continue;
+            std::array<std::unique_ptr<NodeGeometry>, 4> children{};  // merged, then freed
+            if (!node.leaf())
+                for (size_t q = 0; q < 4; ++q)
+                    if (node.children[q] >= 0)
+                        children[q] = std::move(geometry[static_cast<size_t>(node.children[q])][static_cast<size_t>(li)]);
+            const size_t estimate = mergeEstimateBytes(children, params.node_triangles);
+            if (estimate == 0) {
+                buildLayer(li, std::move(children));
+                continue;
+            }
+            // A large merge waits until it fits beside the others running;
+            // isolated, so its thread takes no other node's merge while its
+            // own parallel work finishes (core/memory_gate.h).
+            const MemoryGate::Held held(mergeGate(), estimate);
+            tbb::this_task_arena::isolate([&] { buildLayer(li, std::move(children)); });
         }
         report("tiles: geometry", ++nodes_done, n_nodes);
     };
@@ -770,7 +784,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     doc.texture_at = [&blocks](size_t i) -> format::TextureEntry {
         const TextureEntry& e = blocks.textures[i];
         return {e.block, e.offset, e.bytes, std::max(e.width, 1), std::max(e.height, 1),
-                e.channels == 4 ? "BC3" : "BC1", std::max(e.mips, 1), std::string(wrapModeName(e.wrap)),
+                e.channels == 4 ? "BC3" : "BC1", std::max<int>(e.mips, 1), std::string(wrapModeName(e.wrap)),
                 e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable"};
     };
     for (const TextureEntry& e : blocks.textures) {
