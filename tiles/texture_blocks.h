@@ -31,16 +31,20 @@
 
 namespace cityatlas::tiles {
 
+// One a used texture (or tile) of the whole city, held by the merge: 56
+// bytes (72 before its small fields were narrowed and put together).
 struct TextureEntry {
     int32_t scene_texture = -1;
     int32_t tile = -1;                ///< a split texture's tile (texture_tiles.h); -1: the whole texture
     TexelRect tile_rect;              ///< the tile's texels in the scene texture
     int32_t block = -1;               ///< -1: not written (exact, or unreadable)
+    int width = 0, height = 0;
+    uint8_t channels = 0, mips = 0;
+    WrapMode wrap = WrapMode::Wrap;
     bool exact = false;               ///< the atlases hold it at full resolution: no original is written
     uint64_t offset = 0, bytes = 0;   ///< the DDS inside its block
-    int width = 0, height = 0, channels = 0, mips = 0;
-    WrapMode wrap = WrapMode::Wrap;
 };
+static_assert(sizeof(TextureEntry) <= 56, "the merge holds one a texture of the city");
 
 struct TextureBlocks {
     std::vector<TextureEntry> textures;       ///< tileset order
