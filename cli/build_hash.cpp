@@ -75,7 +75,9 @@ std::vector<TextureDigest> digestTextures(const TextureTable& textures) {
             continue;
         }
         TextureDigest& d = out[t];
-        d.readable = hashFile(textures.path(t), &d.xxh3, &d.bytes).ok();  // unreadable ones are ingest warnings
+        uint64_t bytes = 0;
+        d.readable = hashFile(textures.path(t), &d.xxh3, &bytes).ok();  // unreadable ones are ingest warnings
+        d.bytes = bytes;
     }
     return out;
 }

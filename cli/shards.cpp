@@ -252,14 +252,16 @@ Status readTextureTable(const fs::path& path, TextureTable* textures, std::vecto
         uint32_t len = 0;
         int32_t w = 0, h = 0, c = 0;
         uint8_t wrap = 0, readable = 0;
+        uint64_t bytes = 0;
         TextureDigest d;
         if (!get(&len) || len > (1u << 20)) return bad("truncated");
         TextureRef r;
         r.path.resize(len);
         if (!f.read(r.path.data(), len) || !get(&w) || !get(&h) || !get(&c) || !get(&wrap) || !get(&readable) ||
-            !get(&d.xxh3) || !get(&d.bytes))
+            !get(&d.xxh3) || !get(&bytes))
             return bad("truncated");
         r.width_px = w, r.height_px = h, r.channels = c, r.wrap = static_cast<WrapMode>(wrap);
+        d.bytes = bytes;
         d.readable = readable != 0;
         textures->push_back(std::move(r));
         if (digests) digests->push_back(d);
