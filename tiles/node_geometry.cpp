@@ -128,7 +128,7 @@ constexpr size_t kMergeBytesPerTriangle = 480;
 // Such merges run side by side only while their estimates add up to at most
 // this; a larger one runs alone. Near the top of a large city several are
 // ready at once (400,000 buildings at the default d_min: the level-1 merges,
-// ~2 M triangles each: two at once took the merge to 1.67 GB).
+// ~2 M triangles each: two at once took the merge to 1.54-1.73 GB).
 constexpr size_t kMergeBudgetBytes = size_t{1} << 30;
 
 // Only referenced vertices, in first-reference order.
