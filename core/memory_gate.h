@@ -11,7 +11,6 @@
 /// gate: run it under tbb::this_task_arena::isolate when it spawns tasks, or
 /// a task stolen while it waits could block on the gate its own thread holds.
 
-#include <algorithm>
 #include <condition_variable>
 #include <cstddef>
 #include <mutex>
@@ -28,7 +27,6 @@ public:
         std::unique_lock lock(mutex_);
         free_.wait(lock, [&] { return in_use_ == 0 || in_use_ + bytes <= budget_; });
         in_use_ += bytes;
-        peak_ = std::max(peak_, in_use_);
     }
     void release(size_t bytes) {
         {
@@ -36,11 +34,6 @@ public:
             in_use_ -= bytes;
         }
         free_.notify_all();
-    }
-    /// The most held at once so far (for tests and reports).
-    size_t peak() const {
-        std::lock_guard lock(mutex_);
-        return peak_;
     }
 
     /// Holds `bytes` of the gate for its lifetime.
@@ -58,10 +51,9 @@ public:
 
 private:
     const size_t budget_;
-    mutable std::mutex mutex_;
+    std::mutex mutex_;
     std::condition_variable free_;
     size_t in_use_ = 0;
-    size_t peak_ = 0;
 };
 
 }  // namespace cityatlas
