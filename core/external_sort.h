@@ -9,20 +9,14 @@
 /// runs with a small buffer each (the budget shared among them, at least
 /// 4 KiB a run). An input that fits the budget never touches the disk.
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <queue>
-#include <string>
-#include <system_error>
 #include <type_traits>
 #include <vector>
 
+#include "core/scratch_file.h"
 #include "core/status.h"
 
 namespace cityatlas {
@@ -35,7 +29,7 @@ public:
     /// Runs go to `dir` (empty: the system's temporary folder); at most
     /// `budget_bytes` of records are held before a run is written.
     explicit ExternalSorter(std::filesystem::path dir, size_t budget_bytes = size_t{32} << 20)
-        : dir_(std::move(dir)), cap_(std::max<size_t>(1, budget_bytes / sizeof(T))) {}
+        : file_(std::move(dir), "cityatlas-sort"), cap_(std::max<size_t>(1, budget_bytes / sizeof(T))) {}
     ~ExternalSorter() { closeFile(); }
     ExternalSorter(const ExternalSorter&) = delete;
     ExternalSorter& operator=(const ExternalSorter&) = delete;
@@ -79,41 +73,20 @@ private:
         size_t at = 0;  // in buffer
     };
 
-    std::filesystem::path dir_;
+    ScratchFile file_;  // the runs
     size_t cap_;
     std::vector<T> buffer_;
     std::vector<Run> runs_;
-    int fd_ = -1;          // the runs' file
     uint64_t written_ = 0;  // records in it
     size_t read_records_ = 1;  // a run's read buffer while merging
     uint64_t size_ = 0;
     Status failed_;
 
-    std::string where() const {
-        if (!dir_.empty()) return dir_.string();
-        std::error_code ec;  // TMPDIR naming no folder: /tmp, and an error there if it is missing too
-        const std::filesystem::path tmp = std::filesystem::temp_directory_path(ec);
-        return ec ? std::string("/tmp") : tmp.string();
-    }
-
     Status spill() {
         std::sort(buffer_.begin(), buffer_.end());
-        if (fd_ < 0) {
-            std::string path = (std::filesystem::path(where()) / "cityatlas-sort-XXXXXX").string();
-            fd_ = mkstemp(path.data());
-            if (fd_ < 0) return ioError(path, "cannot create the sort's run file");
-            unlink(path.c_str());  // anonymous from now on: closed, it is gone
-        }
         runs_.push_back(Run{written_, buffer_.size(), 0, {}, 0});
-        const char* p = reinterpret_cast<const char*>(buffer_.data());
-        size_t left = buffer_.size() * sizeof(T);
-        off_t offset = static_cast<off_t>(written_ * sizeof(T));
-        while (left > 0) {
-            const ssize_t n = ::pwrite(fd_, p, left, offset);
-            if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) return ioError(where(), "cannot write a sort run", n == 0 ? ENOSPC : errno);
-            p += n, left -= static_cast<size_t>(n), offset += n;
-        }
+        if (Status s = file_.write(written_ * sizeof(T), buffer_.data(), buffer_.size() * sizeof(T), "sort runs"); !s.ok())
+            return s;
         written_ += buffer_.size();
         buffer_.clear();
         return Status::Ok();
@@ -126,17 +99,9 @@ private:
         const uint64_t n = std::min<uint64_t>(r.count - r.next, read_records_);
         if (n == 0) return false;
         r.buffer.resize(n);
-        char* p = reinterpret_cast<char*>(r.buffer.data());
-        size_t left = n * sizeof(T);
-        off_t offset = static_cast<off_t>((r.first + r.next) * sizeof(T));
-        while (left > 0) {
-            const ssize_t got = ::pread(fd_, p, left, offset);
-            if (got < 0 && errno == EINTR) continue;
-            if (got <= 0) {
-                *error = ioError(where(), "cannot read a sort run back", got == 0 ? EIO : errno);
-                return false;
-            }
-            p += got, left -= static_cast<size_t>(got), offset += got;
+        if (Status s = file_.read((r.first + r.next) * sizeof(T), r.buffer.data(), n * sizeof(T), "sort runs"); !s.ok()) {
+            *error = s;
+            return false;
         }
         r.next += n;
         return true;
@@ -162,15 +127,9 @@ private:
     }
 
     void closeFile() {
-        if (fd_ >= 0) ::close(fd_);
-        fd_ = -1;
+        file_.close();
         written_ = 0;
         runs_.clear();
-    }
-
-    // "folder: what: reason" (a write or read that returns 0 sets no errno: its reason is given).
-    static Status ioError(const std::string& where, const char* what, int error = errno) {
-        return Status::Io(where + ": " + what + ": " + std::strerror(error));
     }
 };
 
