@@ -4,87 +4,239 @@
 #include "atlas/shard_plan.h"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "atlas/placement.h"
 #include "atlas/subdivide.h"
+#include "core/external_sort.h"
+#include "core/scratch_file.h"
 
 namespace cityatlas::atlas {
 
 void FeatureSummaries::add(const Triangle& t) {
-    const size_t f = t.feature;
-    if (f >= count.size()) {
-        const size_t n = f + 1;
-        count.resize(n, 0), weight.resize(n, 0), area.resize(n, 0), point.resize(n, Vec3d{0, 0, 0});
-    }
+    FeatureSummary& s = records.at(t.feature);
     const double a = triangleArea(t.position_local);
     const Vec3d c = (1.0 / 3.0) * (t.position_local[0] + t.position_local[1] + t.position_local[2]);
-    ++count[f];
+    ++s.count;
     // Every triangle places its feature (a zero-area one still counts a little);
     // only textured area weighs in the cut, as in the tree (tree_build.cpp).
     const double w = a > 0 ? a : 1e-300;
-    point[f] = point[f] + w * c;
-    area[f] += w;
-    if (t.texture >= 0) weight[f] += a;
+    s.point = s.point + w * c;
+    s.area += w;
+    if (t.texture >= 0) s.weight += a;
 }
 
 ShardPlan planShards(const Scene& scene, uint64_t max_triangles) {
-    FeatureSummaries s;
+    FeatureSummaries s({}, scene.features.size() + 1);  // the scene is in memory: so are its summaries
     for (const Triangle& t : scene.triangles) s.add(t);
-    return planShards(std::move(s), scene.features.size(), max_triangles);
+    ShardPlan plan;
+    const Status st = planShards(std::move(s), scene.features.size(), max_triangles, {}, &plan);
+    if (!st.ok()) throw std::runtime_error(st.error);  // only a failing temporary disk
+    return plan;
 }
 
 namespace {
-// A summary column as a vector (what the cuts index), its deque freed at
-// once: one column is held twice at a time, not the whole summaries.
-template <class T>
-std::vector<T> column(std::deque<T>& in, size_t n, const T& none) {
-    std::vector<T> out(n, none);
-    std::copy_n(in.begin(), std::min(n, in.size()), out.begin());
-    std::deque<T>().swap(in);
-    return out;
+
+// A feature as the cut sees it; ordered by its coordinate along the axis
+// being cut (`key`), ties by id, as subdivide.cpp's sortAlong orders.
+struct CutItem {
+    double key = 0;
+    uint32_t id = 0;
+    Vec3d point{0, 0, 0};
+    double weight = 0;
+    uint64_t count = 0;
+    bool operator<(const CutItem& o) const { return key < o.key || (!(o.key < key) && id < o.id); }
+};
+
+// A group of features, written once and read in order: in memory up to
+// `memory_bytes`, beyond that in a scratch file (core/scratch_file.h)
+// written a block at a time. Its triangles and its points' box are kept as
+// it is written.
+class Group {
+public:
+    Group(const std::filesystem::path& dir, size_t memory_bytes)
+        : file_(dir, "cityatlas-cut"), in_memory_(std::max<size_t>(kBlock, memory_bytes / sizeof(CutItem))) {}
+    Status push(const CutItem& item) {
+        ++size_, triangles_ += item.count;
+        box_.extend(item.point);
+        items_.push_back(item);
+        if (items_.size() < (spilled_ ? kBlock : in_memory_)) return Status::Ok();
+        return flush();
+    }
+    Status forEach(const std::function<void(const CutItem&)>& fn) {
+        if (!spilled_) {
+            for (const CutItem& item : items_) fn(item);
+            return Status::Ok();
+        }
+        if (Status s = flush(); !s.ok()) return s;
+        std::vector<CutItem> block;
+        for (uint64_t first = 0; first < size_; first += kBlock) {
+            block.resize(static_cast<size_t>(std::min<uint64_t>(kBlock, size_ - first)));
+            if (Status s = file_.read(first * sizeof(CutItem), block.data(), block.size() * sizeof(CutItem), kWhat);
+                !s.ok())
+                return s;
+            for (const CutItem& item : block) fn(item);
+        }
+        return Status::Ok();
+    }
+    uint64_t size() const { return size_; }
+    uint64_t triangles() const { return triangles_; }
+    const Box3d& box() const { return box_; }
+    void clear() {
+        std::vector<CutItem>().swap(items_);
+        file_.close();
+        spilled_ = false, size_ = 0, written_ = 0, triangles_ = 0, box_ = {};
+    }
+
+private:
+    static constexpr size_t kBlock = 1024;
+    static constexpr const char* kWhat = "the shard plan's groups of features";
+    ScratchFile file_;
+    size_t in_memory_;
+    std::vector<CutItem> items_;  // all of them, or those not written yet
+    bool spilled_ = false;
+    uint64_t size_ = 0, written_ = 0, triangles_ = 0;
+    Box3d box_;
+
+    Status flush() {
+        spilled_ = true;
+        if (Status s = file_.write(written_ * sizeof(CutItem), items_.data(), items_.size() * sizeof(CutItem), kWhat);
+            !s.ok())
+            return s;
+        written_ += items_.size();
+        items_.clear();
+        return Status::Ok();
+    }
+};
+
+// Where the cut works and with how much memory: its sorts take
+// `sort_bytes`, a group keeps `group_bytes` in memory (a few groups are
+// alive at a time: the node's, its halves and quarters, and the quarters
+// waiting at each level above).
+struct CutMemory {
+    std::filesystem::path dir;
+    size_t sort_bytes;
+    size_t group_bytes;
+    Group group() const { return Group(dir, group_bytes); }
+};
+
+double coordinate(const Vec3d& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
+
+// `in` sorted along `axis` and cut in two non-empty parts with the first
+// one's weight as close as possible to half the total (subdivide.cpp's
+// balancedCut: the total summed in sorted order; all-zero weights count
+// items). `in` is consumed.
+Status cutAlong(Group& in, int axis, const CutMemory& memory, Group* low, Group* high) {
+    ExternalSorter<CutItem> sorter(memory.dir, memory.sort_bytes);
+    Status pushed;
+    if (Status s = in.forEach([&](const CutItem& item) {
+            CutItem keyed = item;
+            keyed.key = coordinate(item.point, axis);
+            if (pushed.ok()) pushed = sorter.push(keyed);
+        });
+        !s.ok())
+        return s;
+    if (!pushed.ok()) return pushed;
+    in.clear();
+    Group sorted = memory.group();
+    double total = 0;
+    if (Status s = sorter.forEachSorted([&](const CutItem& item) {
+            total += item.weight;
+            if (pushed.ok()) pushed = sorted.push(item);
+        });
+        !s.ok())
+        return s;
+    if (!pushed.ok()) return pushed;
+    const uint64_t n = sorted.size();
+    const bool by_count = !(total > 0);
+    if (by_count) total = static_cast<double>(n);
+    double run = 0, best_gap = 1e300;
+    uint64_t best = 1, k = 0;
+    if (Status s = sorted.forEach([&](const CutItem& item) {
+            if (++k >= n) return;  // a cut after item k - 1 leaves items k.. on the other side
+            run += by_count ? 1.0 : item.weight;
+            const double gap = std::abs(run - 0.5 * total);
+            if (gap < best_gap) best_gap = gap, best = k;
+        });
+        !s.ok())
+        return s;
+    k = 0;
+    if (Status s = sorted.forEach([&](const CutItem& item) {
+            if (pushed.ok()) pushed = (k++ < best ? low : high)->push(item);
+        });
+        !s.ok())
+        return s;
+    return pushed;
 }
+
+// subdivide.cpp's splitAlong on a group: cut along the longest axis of its
+// box, then each half (of two or more) along the second longest.
+Status splitInFour(Group& in, const CutMemory& memory, std::array<Group, 4>* groups) {
+    const Box3d box = in.box();
+    const std::array<double, 3> extent{box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z};
+    std::array<int, 3> axes{0, 1, 2};
+    std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return extent[a] > extent[b]; });
+    std::array<Group, 2> halves{memory.group(), memory.group()};
+    if (Status s = cutAlong(in, axes[0], memory, &halves[0], &halves[1]); !s.ok()) return s;
+    for (int h = 0; h < 2; ++h) {
+        Group& half = halves[h];
+        if (half.size() >= 2) {
+            if (Status s = cutAlong(half, axes[1], memory, &(*groups)[h], &(*groups)[h + 2]); !s.ok()) return s;
+            continue;
+        }
+        Status pushed;
+        if (Status s = half.forEach([&](const CutItem& item) { pushed = (*groups)[h].push(item); }); !s.ok()) return s;
+        if (!pushed.ok()) return pushed;
+    }
+    return Status::Ok();
+}
+
 }  // namespace
 
-ShardPlan planShards(FeatureSummaries&& summaries, size_t features, uint64_t max_triangles) {
-    ShardPlan plan;
+Status planShards(FeatureSummaries&& summaries, size_t features, uint64_t max_triangles,
+                  const std::filesystem::path& scratch_dir, ShardPlan* out, size_t memory_bytes) {
+    ShardPlan& plan = *out;
+    plan = {};
     const size_t nf = features;
-    const std::vector<uint64_t> count = column(summaries.count, nf, uint64_t{0});
-    const std::vector<double> weight = column(summaries.weight, nf, 0.0);
-    std::vector<Vec3d> point(nf, Vec3d{0, 0, 0});
-    for (size_t f = 0; f < std::min(nf, summaries.point.size()); ++f)
-        if (count[f] > 0) point[f] = (1.0 / summaries.area[f]) * summaries.point[f];
-    summaries = {};
-    std::vector<uint32_t> all;
-    for (uint32_t f = 0; f < nf; ++f)
-        if (count[f] > 0) all.push_back(f);
+    const CutMemory memory{scratch_dir, memory_bytes, memory_bytes / 8};
+    Group all = memory.group();
+    for (size_t f = 0; f < nf; ++f) {
+        const FeatureSummary s = summaries.records.get(f);
+        if (s.count == 0) continue;
+        if (Status st = all.push({0, static_cast<uint32_t>(f), (1.0 / s.area) * s.point, s.weight, s.count}); !st.ok())
+            return st;
+    }
+    if (Status st = summaries.records.status(); !st.ok()) return st;
+    summaries.records.clear();
     plan.shard_of_feature.assign(nf, -1);
-    std::function<int32_t(std::vector<uint32_t>, int32_t, int)> cut = [&](std::vector<uint32_t> ids, int32_t parent,
-                                                                          int level) {
+    std::function<Status(Group&, int32_t, int, int32_t*)> cut = [&](Group& group, int32_t parent, int level,
+                                                                    int32_t* made) {
         const auto id = static_cast<int32_t>(plan.nodes.size());
+        *made = id;
         plan.nodes.push_back({parent, {-1, -1, -1, -1}, level, -1});
-        uint64_t triangles = 0;
-        for (uint32_t f : ids) triangles += count[f];
-        if (triangles <= max_triangles || ids.size() < 2) {
+        if (group.triangles() <= max_triangles || group.size() < 2) {
             const auto shard = static_cast<int32_t>(plan.shard_triangles.size());
             plan.nodes[static_cast<size_t>(id)].shard = shard;
-            plan.shard_triangles.push_back(triangles);
-            for (uint32_t f : ids) plan.shard_of_feature[f] = shard;
-            return id;
+            plan.shard_triangles.push_back(group.triangles());
+            return group.forEach([&](const CutItem& item) { plan.shard_of_feature[item.id] = shard; });
         }
-        auto groups = splitIntoFourAt(ids, point, weight);
-        std::vector<uint32_t>().swap(ids);
+        std::array<Group, 4> groups{memory.group(), memory.group(), memory.group(), memory.group()};
+        if (Status s = splitInFour(group, memory, &groups); !s.ok()) return s;
         for (size_t q = 0; q < 4; ++q) {
-            if (groups[q].empty()) continue;
-            const int32_t c = cut(std::move(groups[q]), id, level + 1);
+            if (groups[q].size() == 0) continue;
+            int32_t c = -1;
+            if (Status s = cut(groups[q], id, level + 1, &c); !s.ok()) return s;
+            groups[q].clear();
             plan.nodes[static_cast<size_t>(id)].children[q] = c;
         }
-        return id;
+        return Status::Ok();
     };
-    cut(std::move(all), -1, 0);
-    return plan;
+    int32_t root = -1;
+    return cut(all, -1, 0, &root);
 }
 
 void assembleTree(const ShardPlan& plan, const std::vector<AtlasTree>& shards, const AtlasParams& params,

@@ -18,10 +18,12 @@
 
 #include <array>
 #include <cstdint>
-#include <deque>
+#include <filesystem>
 #include <vector>
 
 #include "atlas/atlas_tree.h"
+#include "core/status.h"
+#include "core/windowed_records.h"
 #include "ingest/scene.h"
 
 namespace cityatlas::atlas {
@@ -40,23 +42,38 @@ struct ShardPlan {
     size_t shards() const { return shard_triangles.size(); }
 };
 
-/// What the plan needs of each feature, gathered one triangle at a time.
-/// Deques, not vectors: a city's columns grow a block at a time, without a
-/// vector's doubling (up to twice the features) or the copy while it moves.
+/// What the plan needs of a feature, gathered one triangle at a time.
+struct FeatureSummary {
+    uint64_t count = 0;       ///< triangles
+    double weight = 0;        ///< textured area (the cut's weight)
+    double area = 0;          ///< all area (zero-area triangles a little)
+    Vec3d point{0, 0, 0};     ///< area-weighted sum of triangle centroids
+};
+static_assert(sizeof(FeatureSummary) == 48);
+
+/// Every feature's summary: the newest features' in memory while their
+/// triangles come, older ones in a scratch file in `scratch_dir`
+/// (core/windowed_records.h), so a city's worth is never held.
 struct FeatureSummaries {
-    std::deque<uint64_t> count;      ///< triangles
-    std::deque<double> weight;       ///< textured area (the cut's weight)
-    std::deque<double> area;         ///< all area (zero-area triangles a little)
-    std::deque<Vec3d> point;         ///< area-weighted sum of triangle centroids
+    explicit FeatureSummaries(std::filesystem::path scratch_dir = {}, size_t window = size_t{1} << 16)
+        : records(std::move(scratch_dir), window) {}
+    WindowedRecords<FeatureSummary> records;
     void add(const Triangle& t);
 };
 
 /// Cuts `scene` into shards of at most `max_triangles` triangles (a single
 /// feature larger than that is a shard of its own). Deterministic.
 ShardPlan planShards(const Scene& scene, uint64_t max_triangles);
-/// The same from summaries of `features` features (taken: freed as the cut
-/// takes its columns from them).
-ShardPlan planShards(FeatureSummaries&& summaries, size_t features, uint64_t max_triangles);
+/// The same from the summaries of `features` features (freed as the cut
+/// starts). The cut works on disk, in `scratch_dir`: a group of features is
+/// sorted along an axis with core/external_sort.h and cut where its running
+/// weight is closest to half, as atlas/subdivide.h's splitIntoFourAt cuts
+/// points in memory (the same groups, bit for bit), so its memory is a few
+/// tens of MB (`memory_bytes` for its sorts, an eighth of that for each
+/// group of features it holds) and 4 bytes a feature (the result's
+/// shard_of_feature) whatever the city. An error only when the scratch disk fails.
+Status planShards(FeatureSummaries&& summaries, size_t features, uint64_t max_triangles,
+                  const std::filesystem::path& scratch_dir, ShardPlan* out, size_t memory_bytes = size_t{32} << 20);
 
 /// The whole tree from the plan's top and the shards' trees (each numbered
 /// from 0 at its root, with levels from 0, without triangles): nodes in

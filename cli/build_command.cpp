@@ -691,9 +691,13 @@ int runBuild(const BuildCliOptions& opt_in) {
             [&](uint32_t id, Feature&& f) { return writer.add(std::move(f), sink.bounds.record(id)); });
         if (!spilled.ok()) return abandon(spilled);
         if (Status s = writer.finish(&feature_tables); !s.ok()) return abandon(s);
+        if (Status s = sink.bounds.status(); !s.ok()) return abandon(s);
     }
     sink.bounds.clear();
-    const atlas::ShardPlan shard_plan = atlas::planShards(std::move(sink.features), feature_count, opt.shard_triangles);
+    atlas::ShardPlan shard_plan;
+    if (Status s = atlas::planShards(std::move(sink.features), feature_count, opt.shard_triangles, plan_dir, &shard_plan);
+        !s.ok())
+        return abandon(s);
     // Computed textures are made by the shards (their occluders come with the
     // plan), so a build with them is a plan, shards and a merge even at one shard.
     const bool sharded = shard_plan.shards() > 1 || opt.slurm || !opt.computed_specs.empty();

@@ -61,8 +61,9 @@ using ShardProgressFn = std::function<void(const char* step, uint64_t done, uint
 
 /// Reading straight into a plan: the triangles go to a spill file as they
 /// come, in scene order, and the features to another (ingest/feature_spill.h);
-/// the tables (textures, materials, georeference) and what the plan needs of
-/// each feature (about 130 bytes) stay in memory.
+/// the tables (textures, materials, georeference) stay in memory, and what
+/// the plan needs of each feature (its summary and bounds, 96 bytes) while
+/// its triangles come: older features' wait in scratch files beside the spill.
 class PlanSink : public SceneCollector {
 public:
     PlanSink(std::filesystem::path spill, std::filesystem::path feature_spill);

@@ -42,8 +42,7 @@ std::optional<WallSpan> wallSpan(const Triangle& t) {
 }
 
 void FeatureBoundsAccumulator::add(const Triangle& t) {
-    if (t.feature >= acc_.size()) acc_.resize(static_cast<size_t>(t.feature) + 1);
-    Acc& a = acc_[t.feature];
+    Acc& a = acc_.at(t.feature);
     const auto& p = t.position_local;
     for (const Vec3d& v : p) {
         const double c[3] = {v.x, v.y, v.z};
@@ -69,16 +68,16 @@ void FeatureBoundsAccumulator::add(const Triangle& t) {
     a.azimuth_deg = az_f;
 }
 
-std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t features) const {
+std::vector<format::FeatureBoundsRecord> FeatureBoundsAccumulator::finish(size_t features) {
     std::vector<format::FeatureBoundsRecord> out(features);
     for (size_t f = 0; f < features; ++f) out[f] = record(f);
     return out;
 }
 
-format::FeatureBoundsRecord FeatureBoundsAccumulator::record(size_t f) const {
+format::FeatureBoundsRecord FeatureBoundsAccumulator::record(size_t f) {
     format::FeatureBoundsRecord r;
-    if (f >= acc_.size() || acc_[f].empty()) return r;
-    const Acc& a = acc_[f];
+    const Acc a = acc_.get(f);
+    if (a.empty()) return r;
     for (int k = 0; k < 3; ++k) r.min[k] = a.lo[k], r.max[k] = a.hi[k];
     r.base_z = a.ground_min_z < INFINITY ? a.ground_min_z : a.min_z;
     r.flags = format::FeatureBoundsRecord::kHasGeometry;
@@ -93,7 +92,7 @@ format::FeatureBoundsRecord FeatureBoundsAccumulator::record(size_t f) const {
 }
 
 std::vector<format::FeatureBoundsRecord> featureBounds(const Scene& scene) {
-    FeatureBoundsAccumulator acc;
+    FeatureBoundsAccumulator acc({}, scene.features.size() + 1);  // the scene is in memory: so are its records
     for (const Triangle& t : scene.triangles) acc.add(t);
     return acc.finish(scene.features.size());
 }

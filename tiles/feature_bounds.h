@@ -24,10 +24,12 @@
 
 #include <cmath>
 #include <cstddef>
-#include <deque>
+#include <filesystem>
 #include <optional>
 #include <vector>
 
+#include "core/status.h"
+#include "core/windowed_records.h"
 #include "format/feature_bounds.h"
 #include "ingest/scene.h"
 
@@ -42,16 +44,24 @@ struct WallSpan {
 /// `t`'s span and azimuth when it counts as a wall (above), else nothing.
 std::optional<WallSpan> wallSpan(const Triangle& t);
 
+/// A feature's 48 bytes stay in memory while its triangles come (the
+/// newest `window` features); older ones wait in a scratch file in
+/// `scratch_dir` (core/windowed_records.h): a city's worth is not held.
 class FeatureBoundsAccumulator {
 public:
+    explicit FeatureBoundsAccumulator(std::filesystem::path scratch_dir = {}, size_t window = size_t{1} << 16)
+        : acc_(std::move(scratch_dir), window) {}
     void add(const Triangle& t);
     /// Records for features 0 .. features - 1 (those no triangle named are
     /// all zero, without kHasGeometry).
-    std::vector<format::FeatureBoundsRecord> finish(size_t features) const;
-    /// Feature `f`'s record alone (all zero when no triangle named it).
-    format::FeatureBoundsRecord record(size_t f) const;
+    std::vector<format::FeatureBoundsRecord> finish(size_t features);
+    /// Feature `f`'s record alone (all zero when no triangle named it);
+    /// asking in id order reads the scratch file a block at a time.
+    format::FeatureBoundsRecord record(size_t f);
+    /// A failed write or read of the scratch file (disk full), if any.
+    const Status& status() const { return acc_.status(); }
     /// Frees what add() gathered.
-    void clear() { std::deque<Acc>().swap(acc_); }
+    void clear() { acc_.clear(); }
 
 private:
     struct Acc {
@@ -65,7 +75,7 @@ private:
         bool empty() const { return !(lo[0] <= hi[0]); }
     };
     static_assert(sizeof(Acc) == 48);
-    std::deque<Acc> acc_;  // grows a block at a time: no doubling, no copy while a city's worth moves
+    WindowedRecords<Acc> acc_;
 };
 
 /// The records of a whole scene in memory.
