@@ -73,6 +73,25 @@ bool readVector(std::ifstream& f, std::vector<T>* v) {
     v->resize(n);
     return static_cast<bool>(f.read(reinterpret_cast<char*>(v->data()), static_cast<std::streamsize>(n * sizeof(T))));
 }
+// The elements at `only` (ascending indices) of a vector writeVector wrote,
+// read through a block at a time: a city's worth is never held.
+template <typename T>
+bool readVectorAt(std::ifstream& f, const std::vector<int32_t>& only, std::vector<T>* v) {
+    uint64_t n = 0;
+    if (!f.read(reinterpret_cast<char*>(&n), sizeof n) || n > (uint64_t{1} << 34) / sizeof(T)) return false;
+    v->clear();
+    v->reserve(only.size());
+    std::vector<T> block;
+    size_t k = 0;
+    for (uint64_t first = 0; first < n; first += block.size()) {
+        block.resize(static_cast<size_t>(std::min<uint64_t>(n - first, 1 << 16)));
+        if (!f.read(reinterpret_cast<char*>(block.data()), static_cast<std::streamsize>(block.size() * sizeof(T))))
+            return false;
+        for (; k < only.size() && static_cast<uint64_t>(only[k]) < first + block.size(); ++k)
+            v->push_back(block[static_cast<size_t>(static_cast<uint64_t>(only[k]) - first)]);
+    }
+    return k == only.size();
+}
 
 Status readJson(const fs::path& path, json* out) {
     std::ifstream f(path);
@@ -202,11 +221,15 @@ Status writeTexturePlan(const fs::path& dir, const std::vector<int32_t>& texture
     return Status::Ok();
 }
 
-Status readTexturePlan(const fs::path& dir, std::vector<int32_t>* texture_index, std::vector<uint8_t>* promote) {
+// With `only` (ascending scene textures), theirs alone, in that order.
+Status readTexturePlan(const fs::path& dir, std::vector<int32_t>* texture_index, std::vector<uint8_t>* promote,
+                       const std::vector<int32_t>* only = nullptr) {
     const fs::path path = dir / kTexturePlanFile;
     std::ifstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
-    if (!readVector(f, texture_index) || !readVector(f, promote) || promote->size() != texture_index->size())
+    const bool read = only ? readVectorAt(f, *only, texture_index) && readVectorAt(f, *only, promote)
+                           : readVector(f, texture_index) && readVector(f, promote);
+    if (!read || promote->size() != texture_index->size())
         return Status::Io(fmt::format("{}: truncated or not a texture plan of this cityatlas version", path.string()));
     return Status::Ok();
 }
@@ -237,7 +260,9 @@ Status writeTextureTable(const fs::path& path, const TextureTable& textures,
     return Status::Ok();
 }
 
-Status readTextureTable(const fs::path& path, TextureTable* textures, std::vector<TextureDigest>* digests) {
+// With `only` (ascending scene textures), theirs alone, in that order.
+Status readTextureTable(const fs::path& path, TextureTable* textures, std::vector<TextureDigest>* digests,
+                        const std::vector<int32_t>* only = nullptr) {
     std::ifstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
     auto get = [&](auto* v) { return static_cast<bool>(f.read(reinterpret_cast<char*>(v), sizeof *v)); };
@@ -247,7 +272,8 @@ Status readTextureTable(const fs::path& path, TextureTable* textures, std::vecto
     if (!f.read(magic.data(), static_cast<std::streamsize>(magic.size())) || magic != kTextureTableMagic || !get(&n))
         return bad("not a texture table of this cityatlas version");
     textures->clear();
-    if (digests) digests->clear(), digests->reserve(n);
+    if (digests) digests->clear(), digests->reserve(only ? only->size() : n);
+    size_t k = 0;  // in `only`
     for (uint64_t t = 0; t < n; ++t) {
         uint32_t len = 0;
         int32_t w = 0, h = 0, c = 0;
@@ -255,6 +281,12 @@ Status readTextureTable(const fs::path& path, TextureTable* textures, std::vecto
         uint64_t bytes = 0;
         TextureDigest d;
         if (!get(&len) || len > (1u << 20)) return bad("truncated");
+        const bool wanted = !only || (k < only->size() && static_cast<uint64_t>((*only)[k]) == t);
+        if (!wanted) {
+            if (!f.ignore(len + 3 * sizeof(int32_t) + 2 * sizeof(uint8_t) + sizeof d.xxh3 + sizeof bytes)) return bad("truncated");
+            continue;
+        }
+        ++k;
         TextureRef r;
         r.path.resize(len);
         if (!f.read(r.path.data(), len) || !get(&w) || !get(&h) || !get(&c) || !get(&wrap) || !get(&readable) ||
@@ -266,6 +298,7 @@ Status readTextureTable(const fs::path& path, TextureTable* textures, std::vecto
         textures->push_back(std::move(r));
         if (digests) digests->push_back(d);
     }
+    if (only && k != only->size()) return bad("names fewer textures than the shard's triangles use");
     return Status::Ok();
 }
 
@@ -647,7 +680,11 @@ Status readSpill(const fs::path& spill, std::vector<Triangle>* out) {
 }
 
 PlanSink::PlanSink(fs::path spill, fs::path feature_spill_path)
-    : feature_spill(std::move(feature_spill_path)), spill_(std::move(spill)), file_(spill_, std::ios::binary) {}
+    : feature_spill(std::move(feature_spill_path)),
+      features(spill.parent_path()),
+      bounds(spill.parent_path()),
+      spill_(std::move(spill)),
+      file_(spill_, std::ios::binary) {}
 
 void PlanSink::addTriangles(std::vector<Triangle>& t) {
     for (const Triangle& tri : t) {
@@ -1011,6 +1048,21 @@ Status reuseShards(const fs::path& dir, const fs::path& cache, std::vector<int>*
     return Status::Ok();
 }
 
+namespace {
+// The scene textures `triangles` name, ascending; each triangle's texture
+// becomes its position in that list.
+std::vector<int32_t> renumberTextures(std::vector<Triangle>* triangles) {
+    std::vector<int32_t> used;
+    for (const Triangle& t : *triangles)
+        if (t.texture >= 0) used.push_back(t.texture);
+    std::sort(used.begin(), used.end());
+    used.erase(std::unique(used.begin(), used.end()), used.end());
+    for (Triangle& t : *triangles)
+        if (t.texture >= 0) t.texture = static_cast<int32_t>(std::lower_bound(used.begin(), used.end(), t.texture) - used.begin());
+    return used;
+}
+}  // namespace
+
 Status runShard(const fs::path& dir, int shard, int threads, const ShardProgressFn& progress) {
     json plan;
     if (Status s = readJson(dir / "plan.json", &plan); !s.ok()) return s;
@@ -1020,7 +1072,11 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     if (shard < 0 || static_cast<size_t>(shard) >= shards)
         return Status::Usage(fmt::format("shard {}: the plan has shards 0..{}", shard, shards - 1));
     Scene scene;
-    if (Status s = readPlanTables(dir, &scene, nullptr); !s.ok()) return s;
+    {
+        json tables;
+        if (Status s = readJson(dir / "tables.json", &tables); !s.ok()) return s;
+        tablesFromJson(tables, &scene);
+    }
     {
         const fs::path tri = dir / fmt::format("{}.tri", shardName(shard));
         std::ifstream f(tri, std::ios::binary | std::ios::ate);
@@ -1044,9 +1100,20 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     ap.keep_root_halves = true;
     tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
     tp.threads = threads;
+    // The shard's textures alone: its triangles name a few thousand of the
+    // city's millions. The table, tileset numbers and promotions are read for
+    // those, and the triangles renumbered to them in the same order (every
+    // comparison of texture numbers, and so the build, stays the same); the
+    // scene texture numbers the shard writes out are the city's again.
+    const std::vector<int32_t> city_texture = renumberTextures(&scene.triangles);
+    if (Status s = readTextureTable(dir / "textures.bin", &scene.textures, nullptr, &city_texture); !s.ok()) return s;
     atlas::GlobalDecisions globals = globalsFrom(plan.at("globals"));
     std::vector<int32_t> texture_index;
-    if (Status s = readTexturePlan(dir, &texture_index, &globals.promote); !s.ok()) return s;
+    if (Status s = readTexturePlan(dir, &texture_index, &globals.promote, &city_texture); !s.ok()) return s;
+    auto cityTextures = [&](std::vector<int32_t> local) {
+        for (int32_t& t : local) t = city_texture[static_cast<size_t>(t)];
+        return local;
+    };
 
     const fs::path part = dir / (shardName(shard) + ".part"), done = dir / shardName(shard);
     std::error_code ec;
@@ -1132,9 +1199,11 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     const std::vector<std::vector<int32_t>> used = tiles::leafTextures(tree);
     const std::vector<std::vector<int32_t>> tiles_used = tiles::leafTiles(scene, tree, texture_index, tp.split_originals);
     for (size_t i = 0; i < tree.nodes.size(); ++i) {
-        nodes.push_back(nodeJson(tree.nodes[i]));
+        atlas::AtlasNode& node = tree.nodes[i];
+        node.originals = cityTextures(std::move(node.originals));
+        nodes.push_back(nodeJson(node));
         records.push_back(recordJson(files.records[i]));
-        if (!used[i].empty()) leaf_textures[std::to_string(i)] = used[i];
+        if (!used[i].empty()) leaf_textures[std::to_string(i)] = cityTextures(used[i]);
         if (!tiles_used[i].empty()) leaf_tiles[std::to_string(i)] = tiles_used[i];
     }
     for (int l = 0; l < atlas::kLayerCount; ++l) {

@@ -75,34 +75,42 @@ int bitsFor(const TileMesh& m, const Vec3d& centre, double target) {
     return 30;
 }
 
-// Texels per unit of u or v (the larger side) of each tileset texture; 0 unknown.
-std::vector<double> textureSizes(const Scene& scene, const std::vector<int32_t>& texture_index, int atlas_size_px,
-                                 bool split) {
-    std::vector<double> sizes;
+// Texels per unit of u or v (the larger side) of the scene's tileset
+// textures, by tileset number, ascending: a shard's scene holds its own
+// textures, numbered as the whole city's tileset numbers them.
+using TextureSizes = std::vector<std::pair<int32_t, double>>;
+TextureSizes textureSizes(const Scene& scene, const std::vector<int32_t>& texture_index, int atlas_size_px, bool split) {
+    TextureSizes sizes;
     for (size_t s = 0; s < texture_index.size(); ++s) {
         const int32_t t = texture_index[s];
         if (t < 0) continue;
         const std::vector<TexelRect> entries = tilesetEntries(scene.textures[s], atlas_size_px, split);
-        if (sizes.size() < static_cast<size_t>(t) + entries.size()) sizes.resize(static_cast<size_t>(t) + entries.size(), 0.0);
         for (size_t k = 0; k < entries.size(); ++k)
-            sizes[static_cast<size_t>(t) + k] = std::max(entries[k].width(), entries[k].height());
+            sizes.emplace_back(t + static_cast<int32_t>(k), std::max(entries[k].width(), entries[k].height()));
     }
+    std::sort(sizes.begin(), sizes.end());
     return sizes;
+}
+// Tileset texture `t`'s size in `sizes`; 0 unknown.
+double textureSize(const TextureSizes& sizes, int32_t t) {
+    const auto it = std::lower_bound(sizes.begin(), sizes.end(), std::pair<int32_t, double>{t, -1e300});
+    return it != sizes.end() && it->first == t ? it->second : 0.0;
 }
 
 // The fewest bits for a leaf's original uvs whose worst-case error (half a
 // step over the uv extent) stays within 90 % of `target` texels of the largest
 // texture the leaf uses; at least `floor`. A texture repeated hundreds of
 // times in one triangle widens the extent far beyond [0, 1].
-int uvOriginalBitsFor(const TileMesh& m, const std::vector<double>& texture_sizes, double target, int floor,
+int uvOriginalBitsFor(const TileMesh& m, const TextureSizes& texture_sizes, double target, int floor,
                       double* largest_texture) {
     double lo = 1e300, hi = -1e300, texels = 0;
+    int32_t last = -1;  // vertices come a texture's triangles at a time: one look-up each
     for (size_t v = 0; v < m.uv_original.size(); ++v) {
         const int32_t t = m.texture_id[v];
         if (t < 0) continue;
         lo = std::min({lo, m.uv_original[v].x, m.uv_original[v].y});
         hi = std::max({hi, m.uv_original[v].x, m.uv_original[v].y});
-        if (static_cast<size_t>(t) < texture_sizes.size()) texels = std::max(texels, texture_sizes[static_cast<size_t>(t)]);
+        if (t != last) texels = std::max(texels, textureSize(texture_sizes, t)), last = t;
     }
     *largest_texture = texels;
     if (hi < lo || texels <= 0 || target <= 0) return floor;
@@ -207,7 +215,13 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
         if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / dir).string(), ec.message()));
     }
     auto isBuilt = [&](size_t id) { return built && id < built->built.size() && built->built[id]; };
-    const std::vector<double> texture_sizes = textureSizes(scene, texture_index, tree.params.atlas_size_px, params.split_originals);
+    // Only a leaf's uv bits need the textures' sizes (one a texture of the
+    // city): a merge, whose nodes are all inner ones, does without.
+    bool makes_leaves = false;
+    for (size_t id = 0; id < n_nodes && !makes_leaves; ++id) makes_leaves = !isBuilt(id) && tree.nodes[id].leaf();
+    const TextureSizes texture_sizes =
+        makes_leaves ? textureSizes(scene, texture_index, tree.params.atlas_size_px, params.split_originals)
+                     : TextureSizes{};
 
     // --- Geometry, children before their parent: a node merges its
     // children's geometry, which goes as soon as it is merged. Subtrees

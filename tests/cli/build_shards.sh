@@ -62,6 +62,16 @@ check_eq "sharded leaves' source triangles" "$s_single" "$s_sharded"
 for d in single workers; do
   check_eq "$d: features in tileset.json" 60 "$(json $d/tileset.json "j['extras']['cityatlas']['features']['count']")"
 done
+# The originals each leaf needs, named by a shard with the city's texture
+# numbers (a shard numbers only its own textures while it builds): the
+# textures written as originals are the single build's, here all of them,
+# and with --originals all too (the leaves' textures, not their needs).
+written() { json "$1/tileset.json" "[i for i, t in enumerate(j['extras']['cityatlas']['textures']) if t['original'] == 'written']"; }
+check_eq "textures written as originals, sharded" "$(written single)" "$(written workers)"
+"$CITYATLAS" build -q town/town.gml -o single-all --originals all > /dev/null || fail "--originals all failed"
+"$CITYATLAS" build -q town/town.gml -o sharded-all --originals all --shard-triangles 1000 > /dev/null ||
+  fail "--originals all, sharded, failed"
+check_eq "textures written as originals, sharded, --originals all" "$(written single-all)" "$(written sharded-all)"
 
 # 3. A worker killed: the build fails cleanly.
 "$CITYATLAS" synth -q --buildings 120 --seed 6 --texture-size 256 -o big > /dev/null
