@@ -11,7 +11,6 @@
 #include <fmt/format.h>
 
 #include "atlas/placement.h"
-#include "atlas/subdivide.h"
 #include "core/external_sort.h"
 #include "core/scratch_file.h"
 
