@@ -19,13 +19,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 N="${1:-10000}"; DMIN="${2:-400}"; RUNS="${3:-all}"; PX="${4:-512}"
-if [ -z "${CITYATLAS:-}" ]; then ./scripts/build > /dev/null; fi
-export CITYATLAS="${CITYATLAS:-./build/cli/cityatlas}"
-mkdir -p out/benchmarks
-TOWN="out/benchmarks/synth-$N-$PX"
-if [ ! -f "$TOWN/truth.json" ]; then
-  "$CITYATLAS" synth --buildings "$N" --texture-size "$PX" --lod 2 --seed 1 -q --overwrite -o "$TOWN" > /dev/null
-fi
+source benchmarks/synth_town.sh
+synth_town "$N" "$PX"
 TAG="$N-${DMIN//\//_}"
 [ "$PX" = 512 ] || TAG="$TAG-${PX}px"
 /usr/bin/python3 - "$TOWN" "$DMIN" "$TAG" "$RUNS" <<'PY'

@@ -14,13 +14,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 N="${1:-100000}"; DMIN="${2:-default}"; PX="${3:-32}"
-if [ -z "${CITYATLAS:-}" ]; then ./scripts/build > /dev/null; fi
-export CITYATLAS="${CITYATLAS:-./build/cli/cityatlas}"
-mkdir -p out/benchmarks
-TOWN="out/benchmarks/synth-$N-$PX"
-if [ ! -f "$TOWN/truth.json" ]; then
-  "$CITYATLAS" synth --buildings "$N" --texture-size "$PX" --lod 2 --seed 1 -q --overwrite -o "$TOWN" > /dev/null
-fi
+source benchmarks/synth_town.sh
+synth_town "$N" "$PX"
 STUB=$(mktemp -d)
 trap 'rm -rf "$STUB"' EXIT
 printf '#!/bin/sh\necho 1\n' > "$STUB/sbatch"  # the job ids the build prints; nothing is run
