@@ -12,7 +12,7 @@
 
 #include "atlas/placement.h"
 #include "core/external_sort.h"
-#include "core/scratch_file.h"
+#include "core/windowed_records.h"
 
 namespace cityatlas::atlas {
 
@@ -51,65 +51,36 @@ struct CutItem {
     bool operator<(const CutItem& o) const { return key < o.key || (!(o.key < key) && id < o.id); }
 };
 
-// A group of features, written once and read in order: in memory up to
-// `memory_bytes`, beyond that in a scratch file (core/scratch_file.h)
-// written a block at a time. Its triangles and its points' box are kept as
-// it is written.
+// A group of features, written once and read in order: a WindowedRecords
+// whose window is `memory_bytes` (core/windowed_records.h: beyond it the
+// older items wait in a scratch file and come back a block at a time). Its
+// triangles and its points' box are kept as it is written.
 class Group {
 public:
     Group(const std::filesystem::path& dir, size_t memory_bytes)
-        : file_(dir, "cityatlas-cut"), in_memory_(std::max<size_t>(kBlock, memory_bytes / sizeof(CutItem))) {}
+        : items_(dir, std::max<size_t>(1024, memory_bytes / sizeof(CutItem))) {}
     Status push(const CutItem& item) {
-        ++size_, triangles_ += item.count;
+        triangles_ += item.count;
         box_.extend(item.point);
-        items_.push_back(item);
-        if (items_.size() < (spilled_ ? kBlock : in_memory_)) return Status::Ok();
-        return flush();
+        items_.at(items_.size()) = item;
+        return items_.status();
     }
     Status forEach(const std::function<void(const CutItem&)>& fn) {
-        if (!spilled_) {
-            for (const CutItem& item : items_) fn(item);
-            return Status::Ok();
-        }
-        if (Status s = flush(); !s.ok()) return s;
-        std::vector<CutItem> block;
-        for (uint64_t first = 0; first < size_; first += kBlock) {
-            block.resize(static_cast<size_t>(std::min<uint64_t>(kBlock, size_ - first)));
-            if (Status s = file_.read(first * sizeof(CutItem), block.data(), block.size() * sizeof(CutItem), kWhat);
-                !s.ok())
-                return s;
-            for (const CutItem& item : block) fn(item);
-        }
-        return Status::Ok();
+        for (size_t i = 0; i < items_.size(); ++i) fn(items_.get(i));
+        return items_.status();
     }
-    uint64_t size() const { return size_; }
+    uint64_t size() const { return items_.size(); }
     uint64_t triangles() const { return triangles_; }
     const Box3d& box() const { return box_; }
     void clear() {
-        std::vector<CutItem>().swap(items_);
-        file_.close();
-        spilled_ = false, size_ = 0, written_ = 0, triangles_ = 0, box_ = {};
+        items_.clear();
+        triangles_ = 0, box_ = {};
     }
 
 private:
-    static constexpr size_t kBlock = 1024;
-    static constexpr const char* kWhat = "the shard plan's groups of features";
-    ScratchFile file_;
-    size_t in_memory_;
-    std::vector<CutItem> items_;  // all of them, or those not written yet
-    bool spilled_ = false;
-    uint64_t size_ = 0, written_ = 0, triangles_ = 0;
+    WindowedRecords<CutItem> items_;
+    uint64_t triangles_ = 0;
     Box3d box_;
-
-    Status flush() {
-        spilled_ = true;
-        if (Status s = file_.write(written_ * sizeof(CutItem), items_.data(), items_.size() * sizeof(CutItem), kWhat);
-            !s.ok())
-            return s;
-        written_ += items_.size();
-        items_.clear();
-        return Status::Ok();
-    }
 };
 
 // Where the cut works and with how much memory: its sorts take
