@@ -439,9 +439,9 @@ int finishBuild(const BuildRecord& rec, const TextureTable& textures,
         return fail(progress, s);
     };
     // The texture digests (a million at city scale) as text, not as a DOM.
-    std::vector<size_t> listed;
+    std::vector<uint32_t> listed;  // 4 bytes a texture of the city, at the merge's end
     forEachFingerprintTexture(textures, texture_digests, [&](size_t t) {
-        if (!isGenerated(textures.path(t), rec.working)) listed.push_back(t);
+        if (!isGenerated(textures.path(t), rec.working)) listed.push_back(static_cast<uint32_t>(t));
     });
     const size_t count = listed.size() + rec.source_textures.size();
     std::string text = format::spliceArray(report.dump(2), 2, "textures", kFingerprintTextures, count, [&](size_t i) {

@@ -1724,19 +1724,19 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     tiles::BlockCache block_cache;
     block_cache.from = previous_cache.empty() ? fs::path() : previous_cache / "blocks";
     block_cache.to = out_dir / kBlockCache;
-    block_cache.key = [&](const std::vector<const tiles::TextureEntry*>& textures) {
+    block_cache.key = [&](const std::vector<tiles::TextureEntry>& textures) {
         ShardKey key;
         key.add(fmt::format("block {} writer {}", tiles::bcQualityName(tp.bc_quality), tiles::kWriterRevision));
-        for (const tiles::TextureEntry* e : textures) {
-            const auto t = static_cast<size_t>(e->scene_texture);
+        for (const tiles::TextureEntry& e : textures) {
+            const auto t = static_cast<size_t>(e.scene_texture);
             const TextureRef ref = r.tables.textures.ref(t);
             const TextureDigest& digest = texture_digests[t];
             if (!digest.readable) return std::string();  // unknown content: not kept
             key.add(fmt::format("{} {} {} {} {} {}", ref.path, hexDigest(digest.xxh3), ref.width_px, ref.height_px,
                                 ref.channels, static_cast<int>(ref.wrap)));
-            if (e->tile >= 0)
-                key.add(fmt::format("tile {} {} {} {} {}", e->tile, e->tile_rect.x0, e->tile_rect.y0, e->tile_rect.x1,
-                                    e->tile_rect.y1));
+            if (e.tile >= 0)
+                key.add(fmt::format("tile {} {} {} {} {}", e.tile, e.tile_rect.x0, e.tile_rect.y0, e.tile_rect.x1,
+                                    e.tile_rect.y1));
         }
         return key.digest();
     };

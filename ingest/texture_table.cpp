@@ -64,17 +64,38 @@ TextureRef TextureTable::ref(size_t i) const {
 }
 
 std::vector<uint32_t> TextureTable::firstOfPath() const {
+    // By sorting (path hash, entry) pairs, 16 bytes a texture while it runs:
+    // a hash map of the same took ~44 (its buckets and nodes), the most a
+    // merge held per texture at its end.
+    struct Keyed {
+        uint64_t hash;
+        uint32_t t;
+        bool operator<(const Keyed& o) const { return hash != o.hash ? hash < o.hash : t < o.t; }
+    };
     std::vector<uint32_t> first(size());
-    std::unordered_multimap<size_t, uint32_t> by_hash;  // path hash -> first entries (compared whole: exact)
-    by_hash.reserve(size());
-    for (size_t t = 0; t < size(); ++t) {
-        const std::string p = path(t);
-        const size_t h = std::hash<std::string>{}(p);
-        first[t] = static_cast<uint32_t>(t);
-        const auto [from, to] = by_hash.equal_range(h);
-        for (auto it = from; it != to && first[t] == t; ++it)
-            if (path(it->second) == p) first[t] = it->second;
-        if (first[t] == t) by_hash.emplace(h, static_cast<uint32_t>(t));
+    std::vector<Keyed> keyed(size());
+    for (size_t t = 0; t < size(); ++t) keyed[t] = {std::hash<std::string>{}(path(t)), static_cast<uint32_t>(t)};
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::pair<std::string, uint32_t>> seen;  // the distinct paths of one hash (compared whole: exact), first entries
+    for (size_t i = 0; i < keyed.size();) {
+        size_t end = i + 1;
+        while (end < keyed.size() && keyed[end].hash == keyed[i].hash) ++end;
+        first[keyed[i].t] = keyed[i].t;
+        if (end > i + 1) {
+            // Entries in ascending order: each is the first of its path or repeats an earlier one.
+            seen.clear();
+            for (size_t k = i; k < end; ++k) {
+                std::string p = path(keyed[k].t);
+                const auto it = std::find_if(seen.begin(), seen.end(), [&](const auto& s) { return s.first == p; });
+                if (it != seen.end()) {
+                    first[keyed[k].t] = it->second;
+                } else {
+                    first[keyed[k].t] = keyed[k].t;
+                    seen.emplace_back(std::move(p), keyed[k].t);
+                }
+            }
+        }
+        i = end;
     }
     return first;
 }

@@ -12,7 +12,9 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <numeric>
 #include <set>
+#include <span>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -129,56 +131,92 @@ std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree) {
     return used;
 }
 
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split) {
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split,
+                                const fs::path& scratch_dir) {
     std::vector<uint8_t> used(scene.textures.size(), 0);
     for (const atlas::TreeTriangle& t : tree.triangles)
         if (t.tri.texture >= 0) used[static_cast<size_t>(t.tri.texture)] = 1;
-    const std::vector<int32_t> index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, split);
-    return planTextureBlocks(scene, tree, all, split, index, leafTextures(tree), leafTiles(scene, tree, index, split));
+    std::vector<int32_t> index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, split);
+    std::vector<std::vector<int32_t>> tiles = leafTiles(scene, tree, index, split);
+    return planTextureBlocks(scene, tree, all, split, std::move(index), leafTextures(tree), tiles, scratch_dir);
+}
+
+TextureEntry TextureBlocks::planned(const TextureTable& textures, size_t t) const {
+    const auto st = static_cast<size_t>(scene_texture[t]);
+    const TextureInfo& ref = textures[st];
+    TextureEntry e;
+    e.scene_texture = scene_texture[t];
+    e.width = ref.width_px;
+    e.height = ref.height_px;
+    e.channels = ref.channels == 4 ? 4 : 3;
+    e.wrap = ref.wrap;
+    e.block = std::max(block[t], -1);
+    e.exact = block[t] == kExact;
+    if (const auto k = static_cast<int32_t>(t) - texture_index[st]; k > 0) {
+        // A tile is sampled clamped: its overlap holds what lies beyond its core.
+        e.tile = k - 1;
+        e.tile_rect = tilesetEntries(ref, atlas_size_px, split).at(static_cast<size_t>(k));
+        e.width = e.tile_rect.width(), e.height = e.tile_rect.height();
+        e.wrap = WrapMode::Clamp;
+    }
+    return e;
+}
+
+TextureEntry WrittenTextures::at(size_t t) {
+    TextureEntry e = blocks_.planned(textures_, t);
+    if (e.block < 0 || !status_.ok()) return e;
+    const size_t first = t / kChunk * kChunk;
+    if (first != chunk_first_) {
+        // The file holds every texture up to the last written one (holes read as zeros).
+        size_t last = first;
+        for (size_t k = std::min(first + kChunk, blocks_.size()); k > first; --k)
+            if (blocks_.block[k - 1] >= 0) {
+                last = k;
+                break;
+            }
+        chunk_.assign(last - first, {});
+        status_ = blocks_.written.read(first * sizeof(WrittenTexture), chunk_.data(), chunk_.size() * sizeof(WrittenTexture),
+                                       "the written textures' entries");
+        chunk_first_ = status_.ok() ? first : SIZE_MAX;
+        if (!status_.ok()) return e;
+    }
+    const WrittenTexture& w = chunk_[t - first];
+    e.offset = w.offset, e.bytes = w.bytes;
+    e.width = w.width, e.height = w.height;  // the real size wins over the one recorded at ingest
+    e.mips = static_cast<uint8_t>(w.mips);
+    return e;
 }
 
 TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split,
-                                const std::vector<int32_t>& texture_index,
+                                std::vector<int32_t> texture_index,
                                 const std::vector<std::vector<int32_t>>& leaf_textures,
-                                const std::vector<std::vector<int32_t>>& leaf_tiles) {
+                                const std::vector<std::vector<int32_t>>& leaf_tiles, const fs::path& scratch_dir) {
     TextureBlocks b;
-    b.texture_index = texture_index;
+    b.texture_index = std::move(texture_index);
+    b.atlas_size_px = tree.params.atlas_size_px;
+    b.split = split;
+    b.written = ScratchFile(scratch_dir, "cityatlas-textures");
     b.node_blocks.resize(tree.nodes.size());
     b.node_textures.resize(tree.nodes.size());
     const uint64_t block_texels = static_cast<uint64_t>(tree.params.atlas_size_px) * tree.params.atlas_size_px;
     uint64_t current_texels = 0;
     int32_t current = -1;
-    // The entries' number, from the last used texture (the index counts up in scene order): made at their size.
-    for (size_t st = texture_index.size(); st-- > 0;)
-        if (texture_index[st] >= 0) {
-            b.textures.reserve(static_cast<size_t>(texture_index[st]) +
-                               tilesetEntries(scene.textures[st], tree.params.atlas_size_px, split).size());
+    // Every used texture has its entries (the leaves' geometry names them by
+    // their rank among the used ones); exact until some leaf needs its original.
+    size_t entries = 0;
+    for (size_t st = b.texture_index.size(); st-- > 0;)
+        if (b.texture_index[st] >= 0) {
+            entries = static_cast<size_t>(b.texture_index[st]) + 1 +
+                      splitGridOf(scene.textures[st], tree.params.atlas_size_px, split).count();
             break;
         }
-    // Every used texture has its entry (the leaves' geometry names them by
-    // their rank among the used ones); exact until some leaf needs its original.
-    for (size_t st = 0; st < texture_index.size(); ++st) {
-        const int32_t ti = texture_index[st];
+    b.scene_texture.assign(entries, -1);
+    b.block.assign(entries, TextureBlocks::kExact);
+    for (size_t st = 0; st < b.texture_index.size(); ++st) {
+        const int32_t ti = b.texture_index[st];
         if (ti < 0) continue;
-        const TextureInfo& ref = scene.textures[st];
-        const std::vector<TexelRect> entries = tilesetEntries(ref, tree.params.atlas_size_px, split);
-        if (b.textures.size() < static_cast<size_t>(ti) + entries.size()) b.textures.resize(static_cast<size_t>(ti) + entries.size());
-        for (size_t k = 0; k < entries.size(); ++k) {
-            TextureEntry& e = b.textures[static_cast<size_t>(ti) + k];
-            e.scene_texture = static_cast<int32_t>(st);
-            e.width = ref.width_px;
-            e.height = ref.height_px;
-            e.channels = ref.channels == 4 ? 4 : 3;
-            e.wrap = ref.wrap;
-            e.exact = true;
-            if (k > 0) {
-                // A tile is sampled clamped: its overlap holds what lies beyond its core.
-                e.tile = static_cast<int32_t>(k) - 1;
-                e.tile_rect = entries[k];
-                e.width = e.tile_rect.width(), e.height = e.tile_rect.height();
-                e.wrap = WrapMode::Clamp;
-            }
-        }
+        const int tiles = splitGridOf(scene.textures[st], tree.params.atlas_size_px, split).count();
+        for (int k = 0; k <= tiles; ++k) b.scene_texture[static_cast<size_t>(ti + k)] = static_cast<int32_t>(st);
     }
     // Nodes are in depth-first preorder, so leaves come in depth-first order:
     // a block holds the originals of neighbouring leaves.
@@ -190,7 +228,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
         // tiles of a split one that its triangles use.
         std::vector<int32_t> needed;
         for (const int32_t st : all ? leaf_textures[ni] : node.originals) {
-            const int32_t ti = texture_index[static_cast<size_t>(st)];
+            const int32_t ti = b.texture_index[static_cast<size_t>(st)];
             if (ti < 0) continue;
             const int tiles = splitGridOf(scene.textures[static_cast<size_t>(st)], tree.params.atlas_size_px, split).count();
             if (tiles == 0) {
@@ -202,12 +240,12 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
                     if (t >= ti && t <= ti + tiles) needed.push_back(t);
         }
         for (const int32_t ti : needed) {
-            TextureEntry& e = b.textures[static_cast<size_t>(ti)];
-            if (e.exact) {
-                e.exact = false;
+            int32_t& blk = b.block[static_cast<size_t>(ti)];
+            if (blk == TextureBlocks::kExact) {
+                const TextureEntry e = b.planned(scene.textures, static_cast<size_t>(ti));
                 const uint64_t texels = static_cast<uint64_t>(std::max(e.width, 1)) * std::max(e.height, 1);
                 if (texels >= block_texels) {
-                    e.block = static_cast<int32_t>(b.block_bytes.size());  // a block of its own
+                    blk = static_cast<int32_t>(b.block_bytes.size());  // a block of its own
                     b.block_bytes.push_back(0);
                 } else {
                     if (current < 0 || current_texels + texels > block_texels) {
@@ -216,11 +254,11 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
                         current_texels = 0;
                     }
                     current_texels += texels;
-                    e.block = current;
+                    blk = current;
                 }
             }
-            const auto blk = static_cast<uint32_t>(e.block);
-            if (std::find(mine.begin(), mine.end(), blk) == mine.end()) mine.push_back(blk);
+            const auto ub = static_cast<uint32_t>(blk);
+            if (std::find(mine.begin(), mine.end(), ub) == mine.end()) mine.push_back(ub);
             b.node_textures[ni].push_back(ti);
         }
         std::sort(mine.begin(), mine.end());
@@ -264,9 +302,20 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     fs::create_directories(out_dir / "textures", ec);
     if (ec) return Status::Io(fmt::format("{}: cannot create: {}", (out_dir / "textures").string(), ec.message()));
     const size_t nblocks = blocks->block_bytes.size();
-    std::vector<std::vector<size_t>> members(nblocks);
-    for (size_t t = 0; t < blocks->textures.size(); ++t)
-        if (blocks->textures[t].block >= 0) members[static_cast<size_t>(blocks->textures[t].block)].push_back(t);
+    // Each block's textures (tileset numbers, ascending): one list cut by block, 4 bytes a written texture.
+    std::vector<uint64_t> first_member(nblocks + 1, 0);
+    for (const int32_t blk : blocks->block)
+        if (blk >= 0) ++first_member[static_cast<size_t>(blk) + 1];
+    std::partial_sum(first_member.begin(), first_member.end(), first_member.begin());
+    std::vector<uint32_t> member_list(first_member.back());
+    {
+        std::vector<uint64_t> at(first_member.begin(), first_member.end() - 1);
+        for (size_t t = 0; t < blocks->size(); ++t)
+            if (const int32_t blk = blocks->block[t]; blk >= 0) member_list[at[static_cast<size_t>(blk)]++] = static_cast<uint32_t>(t);
+    }
+    const auto members = [&](size_t blk) {
+        return std::span<const uint32_t>(member_list.data() + first_member[blk], first_member[blk + 1] - first_member[blk]);
+    };
 
     struct Encoded {
         std::vector<uint8_t> dds;
@@ -283,8 +332,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         fs::create_directories(cache->to, mk);
         if (mk) return Status::Io(fmt::format("{}: cannot create: {}", cache->to.string(), mk.message()));
         for (size_t blk = 0; blk < nblocks; ++blk) {
-            std::vector<const TextureEntry*> textures;
-            for (size_t t : members[blk]) textures.push_back(&blocks->textures[t]);
+            std::vector<TextureEntry> textures;
+            for (const uint32_t t : members(blk)) textures.push_back(blocks->planned(scene.textures, t));
             keys[blk] = cache->key(textures);
         }
     }
@@ -295,7 +344,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         if (!meta || !fs::exists(cache->from / (keys[blk] + ".bin"))) return false;
         try {
             const nlohmann::json j = nlohmann::json::parse(meta);
-            if (j.size() != members[blk].size()) return false;
+            if (j.size() != members(blk).size()) return false;
             enc->assign(j.size(), {});
             for (size_t k = 0; k < j.size(); ++k) {
                 Encoded& e = (*enc)[k];
@@ -310,11 +359,11 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     SplitSources split_sources;
     // Encodes one block's textures (in parallel: a block may hold a single large original).
     auto encodeBlock = [&](size_t blk) {
-        const std::vector<size_t>& list = members[blk];
+        const std::span<const uint32_t> list = members(blk);
         std::vector<Encoded> enc(list.size());
         if (cached(blk, &enc)) return enc;
         tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
-            const TextureEntry& e = blocks->textures[list[k]];
+            const TextureEntry e = blocks->planned(scene.textures, list[k]);
             const TextureRef ref = scene.textures.ref(static_cast<size_t>(e.scene_texture));
             Image8 img;
             // Straight alpha, as the client blends (GL_SRC_ALPHA): OpenImageIO
@@ -340,7 +389,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     };
     uint64_t done = 0;
     const auto exact = static_cast<uint64_t>(
-        std::count_if(blocks->textures.begin(), blocks->textures.end(), [](const TextureEntry& e) { return e.exact; }));
+        std::count(blocks->block.begin(), blocks->block.end(), TextureBlocks::kExact));
     // A block whose textures are all unreadable is not written; the others are
     // renumbered densely so every block in the index has a file of >= 1 byte.
     // Writes one encoded block, in block order (the numbering and the bytes do not
@@ -349,7 +398,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     std::set<int32_t> warned_split;
     Status write_status = Status::Ok();
     auto writeBlock = [&](size_t blk, std::vector<Encoded>& enc) {
-        const std::vector<size_t>& list = members[blk];
+        const std::span<const uint32_t> list = members(blk);
         const bool any_readable = std::any_of(enc.begin(), enc.end(), [](const Encoded& x) { return x.why.empty(); });
         const bool all_readable = std::all_of(enc.begin(), enc.end(), [](const Encoded& x) { return x.why.empty(); });
         const bool reused = !enc.empty() && enc.front().dds.empty() && enc.front().bytes > 0;
@@ -370,31 +419,43 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             f.open(path, std::ios::binary);
         }
         uint64_t offset = 0;
+        std::vector<WrittenTexture> written(list.size());
         for (size_t k = 0; k < list.size(); ++k) {
-            TextureEntry& e = blocks->textures[list[k]];
+            int32_t& block = blocks->block[list[k]];
             if (!enc[k].why.empty()) {
-                e.block = -1;
+                block = TextureBlocks::kUnreadable;
+                const TextureEntry e = blocks->planned(scene.textures, list[k]);
                 if (e.tile >= 0 && !warned_split.insert(e.scene_texture).second) continue;  // once per texture, not per tile
                 diagnostics.warn(warn::kTextureUnreadable,
                                  {scene.textures.path(static_cast<size_t>(e.scene_texture)), 0, "",
                                   "original texture for near views not written (leaves draw their atlas): " + enc[k].why});
-                e.block = -1;
                 continue;
             }
-            e.block = index;
+            block = index;
+            WrittenTexture& w = written[k];
             // The real size wins over the one recorded at ingest.
-            e.width = enc[k].width, e.height = enc[k].height;
+            w.width = enc[k].width, w.height = enc[k].height;
             if (!reused)
                 f.write(reinterpret_cast<const char*>(enc[k].dds.data()), static_cast<std::streamsize>(enc[k].dds.size()));
-            e.offset = offset;
-            e.bytes = reused ? enc[k].bytes : enc[k].dds.size();
-            e.mips = enc[k].mips;
-            offset += e.bytes;
+            w.offset = offset;
+            w.bytes = reused ? enc[k].bytes : enc[k].dds.size();
+            w.mips = enc[k].mips;
+            offset += w.bytes;
             blocks->texels_encoded += enc[k].texels;
             blocks->encode_seconds += enc[k].seconds;
         }
+        // Kept by tileset number, a run of consecutive numbers at a time.
+        for (size_t k = 0, run = 0; k < list.size(); k = run) {
+            for (run = k + 1; run < list.size() && list[run] == list[run - 1] + 1;) ++run;
+            if (Status s = blocks->written.write(uint64_t{list[k]} * sizeof(WrittenTexture), &written[k],
+                                                 (run - k) * sizeof(WrittenTexture), "the written textures' entries");
+                !s.ok()) {
+                write_status = s;
+                return;
+            }
+        }
         done += list.size();
-        if (progress) progress(done, blocks->textures.size() - exact);
+        if (progress) progress(done, blocks->size() - exact);
         if (!any_readable) return;
         if (!reused) {
             f.close();
@@ -414,9 +475,9 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
             if (ke) fs::copy_file(path, bin, fs::copy_options::overwrite_existing, ke);
             nlohmann::json meta = nlohmann::json::array();
             for (size_t k = 0; k < list.size(); ++k) {
-                const TextureEntry& e = blocks->textures[list[k]];
-                meta.push_back({{"bytes", e.bytes}, {"mips", e.mips}, {"texels", enc[k].texels}, {"width", e.width},
-                                {"height", e.height}});
+                const WrittenTexture& w = written[k];
+                meta.push_back({{"bytes", w.bytes}, {"mips", w.mips}, {"texels", enc[k].texels}, {"width", w.width},
+                                {"height", w.height}});
             }
             std::ofstream m(cache->to / (keys[blk] + ".json"));
             m << meta.dump();
@@ -452,7 +513,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     for (size_t n = 0; n < blocks->node_blocks.size(); ++n) {
         std::vector<uint32_t> kept;
         for (const int32_t t : blocks->node_textures[n])
-            if (const int32_t blk = blocks->textures[static_cast<size_t>(t)].block; blk >= 0)
+            if (const int32_t blk = blocks->block[static_cast<size_t>(t)]; blk >= 0)
                 kept.push_back(static_cast<uint32_t>(blk));
         std::sort(kept.begin(), kept.end());
         kept.erase(std::unique(kept.begin(), kept.end()), kept.end());

@@ -25,14 +25,17 @@
 #include "atlas/atlas_tree.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
+#include "core/scratch_file.h"
 #include "core/status.h"
 #include "tiles/texture_codec.h"
 #include "tiles/texture_tiles.h"
 
 namespace cityatlas::tiles {
 
-// One a used texture (or tile) of the whole city, held by the merge: 56
-// bytes (72 before its small fields were narrowed and put together).
+// A used texture (or tile) of the whole city, as tileset.json lists it.
+// The merge no longer holds one a texture (56 bytes each, a tenth of a
+// kilobyte with the rest at 10 million textures): TextureBlocks keeps 12
+// bytes a texture and makes an entry on request.
 struct TextureEntry {
     int32_t scene_texture = -1;
     int32_t tile = -1;                ///< a split texture's tile (texture_tiles.h); -1: the whole texture
@@ -44,34 +47,79 @@ struct TextureEntry {
     bool exact = false;               ///< the atlases hold it at full resolution: no original is written
     uint64_t offset = 0, bytes = 0;   ///< the DDS inside its block
 };
-static_assert(sizeof(TextureEntry) <= 56, "the merge holds one a texture of the city");
+
+/// What a texture's encoding gave: its place in its block, its real size
+/// and mip count. One a written texture, kept in a scratch file by tileset
+/// number (read back in order for tileset.json).
+struct WrittenTexture {
+    uint64_t offset = 0, bytes = 0;
+    int32_t width = 0, height = 0;
+    int32_t mips = 0;
+    int32_t pad = 0;
+};
 
 struct TextureBlocks {
-    std::vector<TextureEntry> textures;       ///< tileset order
-    std::vector<int32_t> texture_index;       ///< scene texture -> tileset texture, -1 unused
+    static constexpr int32_t kExact = -1;       ///< block: no leaf needs its original
+    static constexpr int32_t kUnreadable = -2;  ///< block: needed, but its file could not be read
+
+    std::vector<int32_t> texture_index;       ///< scene texture -> (first) tileset texture, -1 unused
+    std::vector<int32_t> scene_texture;       ///< per tileset texture (tileset order): its scene texture
+    std::vector<int32_t> block;               ///< per tileset texture: its block, kExact or kUnreadable
+    int atlas_size_px = 0;                    ///< with `split`, what cuts a split texture's tiles
+    bool split = false;
     std::vector<uint64_t> block_bytes;        ///< per block; the file is textures/<block>.bin
     std::vector<std::vector<uint32_t>> node_blocks;  ///< per node (leaves only), ascending
     std::vector<std::vector<int32_t>> node_textures; ///< per node (leaves only): the tileset textures it needs originals of
     uint64_t texels_encoded = 0;              ///< all mip levels
     double encode_seconds = 0;                ///< summed over threads
+    ScratchFile written;                      ///< WrittenTexture of tileset texture t at t * its size (writeTextureBlocks)
+
+    size_t size() const { return block.size(); }
+    /// Tileset texture `t` as planned: its scene texture, tile, size
+    /// recorded at ingest, channels, wrap; block and exact as they stand.
+    /// Without what writing it gave (offset, bytes, mips): WrittenTextures.
+    TextureEntry planned(const TextureTable& textures, size_t t) const;
+};
+
+/// The entries of written blocks, read back from TextureBlocks::written a
+/// few thousand at a time: fast in tileset order, correct in any.
+class WrittenTextures {
+public:
+    WrittenTextures(const TextureBlocks& blocks, const TextureTable& textures) : blocks_(blocks), textures_(textures) {}
+    /// Tileset texture `t` whole; a failed read back is kept (status()) and
+    /// gives the planned entry.
+    TextureEntry at(size_t t);
+    const Status& status() const { return status_; }
+
+private:
+    static constexpr size_t kChunk = 4096;
+    const TextureBlocks& blocks_;
+    const TextureTable& textures_;
+    std::vector<WrittenTexture> chunk_;
+    size_t chunk_first_ = SIZE_MAX;
+    Status status_;
 };
 
 /// Plans the blocks from the texture sizes recorded at ingest (nothing is
 /// decoded). Each leaf gets the originals it needs (AtlasNode::originals), or
 /// with `all` every texture it uses; every used texture has an entry (a
 /// split one an entry per tile), in scene order (tilesetTextureIndex); those
-/// no leaf needs are marked exact (no block).
-TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false, bool split = false);
+/// no leaf needs are marked exact (no block). `scratch_dir`: where the
+/// written entries will wait (empty: the system's temporary folder).
+TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all = false, bool split = false,
+                                const std::filesystem::path& scratch_dir = {});
 
 /// The same for a tree without its triangles (a sharded build's merge):
 /// `texture_index` (scene texture -> first tileset texture, -1 unused;
 /// tilesetTextureIndex), for `all` the scene textures each leaf uses,
 /// ascending (leafTextures), and the tiles of split textures each leaf's
-/// triangles use (leafTiles).
+/// triangles use (leafTiles). The index is moved in (TextureBlocks::texture_index):
+/// a city's is tens of megabytes.
 TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split,
-                                const std::vector<int32_t>& texture_index,
+                                std::vector<int32_t> texture_index,
                                 const std::vector<std::vector<int32_t>>& leaf_textures,
-                                const std::vector<std::vector<int32_t>>& leaf_tiles);
+                                const std::vector<std::vector<int32_t>>& leaf_tiles,
+                                const std::filesystem::path& scratch_dir = {});
 
 /// Tileset texture numbers: each used scene texture's rank among the used
 /// ones (a split texture takes one more number per tile, tiles/texture_tiles.h),
@@ -88,8 +136,8 @@ std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::Atl
                                             const std::vector<int32_t>& texture_index, bool split);
 
 /// Reads, encodes and writes every planned block to `out_dir/textures/`;
-/// fills offsets and sizes. An unreadable texture is a counted warning
-/// (texture_unreadable) and gets block -1; a block left with no readable
+/// keeps offsets and sizes (TextureBlocks::written). An unreadable texture is a counted warning
+/// (texture_unreadable) and gets kUnreadable; a block left with no readable
 /// texture is not written, and the others are renumbered densely (textures'
 /// blocks and node_blocks follow).
 /// Blocks kept by content between builds of one folder (incremental rebuilds,
@@ -100,7 +148,7 @@ std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::Atl
 /// textures all read are kept.
 struct BlockCache {
     std::filesystem::path from, to;
-    std::function<std::string(const std::vector<const TextureEntry*>& textures)> key;
+    std::function<std::string(const std::vector<TextureEntry>& textures)> key;
     uint64_t reused = 0, encoded = 0;  ///< blocks, filled by writeTextureBlocks
 };
 

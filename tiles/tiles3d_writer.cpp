@@ -463,9 +463,9 @@ TileResult writeTile(const ExportContext& x, const format::TileEntry& entry, boo
         for (const auto& m : meshes)
             if (m && !m->uv_original.empty())
                 for (const int32_t t : m->texture_id)
-                    if (t >= 0 && static_cast<size_t>(t) < x.plan.textures.size()) used.insert(t);
+                    if (t >= 0 && static_cast<size_t>(t) < x.plan.size()) used.insert(t);
         for (const int32_t t : used) {
-            const TextureEntry& te = x.plan.textures[static_cast<size_t>(t)];
+            const TextureEntry te = x.plan.planned(x.scene.textures, static_cast<size_t>(t));
             if (const auto it = x.shared.find(t); it != x.shared.end()) {
                 if (it->second.ok) original_texture[t] = table.addShared(it->second, gltfSamplerWrap(te.wrap));
                 continue;
@@ -671,7 +671,7 @@ Status writeSharedOriginals(const ExportContext& x, const format::TilesetDocumen
     std::vector<SharedImage> images(list.size());
     arena.execute([&] {
         tbb::parallel_for(size_t{0}, list.size(), [&](size_t k) {
-            const TextureEntry& te = x.plan.textures[static_cast<size_t>(list[k])];
+            const TextureEntry te = x.plan.planned(x.scene.textures, static_cast<size_t>(list[k]));
             const TextureRef ref = x.scene.textures.ref(static_cast<size_t>(te.scene_texture));
             WebImage image;
             TileResult& r = (*results)[k];
@@ -770,9 +770,9 @@ Status writeTiles3d(const Tiles3dInputs& in, const fs::path& atlas_dir, const fs
                           in.leaf_tiles,
                           doc.computed,
                           computedPropertyIds(doc.computed)};
-    if (context.plan.textures.size() != doc.textures.size())
+    if (context.plan.size() != doc.textures.size())
         return Status::Internal(fmt::format("3dtiles: the native index has {} textures, the plan {}", doc.textures.size(),
-                                            context.plan.textures.size()));
+                                            context.plan.size()));
     tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
     std::vector<TileResult> shared_results;
     if (Status st = writeSharedOriginals(context, doc, out_dir, arena, &context.shared, &shared_results); !st.ok()) return st;

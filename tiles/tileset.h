@@ -288,7 +288,7 @@ struct BuiltSubtrees {
     std::function<Status(int32_t shard_root, std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>* out)>
         root_geometry;
     std::map<int32_t, std::vector<uint32_t>> subtree_features;  ///< by shard root
-    std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's)
+    std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's; writeTileset moves it into its TextureBlocks and back)
     std::vector<std::vector<int32_t>> leaf_textures;  ///< per node, for --originals all (texture_blocks.h)
     std::vector<std::vector<int32_t>> leaf_tiles;     ///< per node: the tiles of split textures it uses (leafTiles)
     std::optional<FeatureTables> feature_tables;  ///< written already (by the plan); else from the scene's features

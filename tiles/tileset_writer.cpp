@@ -600,9 +600,11 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         stats.steps.push_back({name, c.seconds, c.peak_rss_mb, c.cpu_seconds});
     };
     std::error_code ec;
+    // (A sharded build's texture index is lent to the blocks, and given back with the tileset written.)
     TextureBlocks blocks = built ? planTextureBlocks(scene, tree, params.all_originals, params.split_originals,
-                                                     built->texture_index, built->leaf_textures, built->leaf_tiles)
-                                 : planTextureBlocks(scene, tree, params.all_originals, params.split_originals);
+                                                     std::move(built->texture_index), built->leaf_textures,
+                                                     built->leaf_tiles, out_dir)
+                                 : planTextureBlocks(scene, tree, params.all_originals, params.split_originals, out_dir);
     std::vector<NodeRecord> records = built ? std::move(built->records) : std::vector<NodeRecord>();
     records.resize(n_nodes);
     tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
@@ -794,19 +796,23 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
 
     for (const Material& m : scene.materials)
         doc.materials.push_back({{m.diffuse[0], m.diffuse[1], m.diffuse[2]}, m.transparency});
-    doc.texture_count = blocks.textures.size();
-    doc.texture_at = [&blocks](size_t i) -> format::TextureEntry {
-        const TextureEntry& e = blocks.textures[i];
-        return {e.block, e.offset, e.bytes, std::max(e.width, 1), std::max(e.height, 1),
-                e.channels == 4 ? "BC3" : "BC1", std::max<int>(e.mips, 1), std::string(wrapModeName(e.wrap)),
-                e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable"};
-    };
-    for (const TextureEntry& e : blocks.textures) {
+    // The texture entries, read back in tileset order: once for the totals, once as they are written.
+    WrittenTextures written(blocks, scene.textures);
+    for (size_t i = 0; i < blocks.size(); ++i) {
+        const TextureEntry e = written.at(i);
         if (e.block >= 0) ++stats.textures_written;
         else if (e.exact) ++stats.textures_exact;
         else ++stats.textures_unreadable;
         stats.bytes_originals_bc += atlas::bcBytesWithMips(std::max(e.width, 1), std::max(e.height, 1), e.channels);
     }
+    if (!written.status().ok()) return written.status();
+    doc.texture_count = blocks.size();
+    doc.texture_at = [&written](size_t i) -> format::TextureEntry {
+        const TextureEntry e = written.at(i);
+        return {e.block, e.offset, e.bytes, std::max(e.width, 1), std::max(e.height, 1),
+                e.channels == 4 ? "BC3" : "BC1", std::max<int>(e.mips, 1), std::string(wrapModeName(e.wrap)),
+                e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable"};
+    };
     for (size_t b = 0; b < blocks.block_bytes.size(); ++b) {
         doc.texture_blocks.push_back({fmt::format("textures/{}.bin", b), blocks.block_bytes[b]});
         stats.bytes_textures += blocks.block_bytes[b];
@@ -864,6 +870,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
         format::writeTilesetDocument(doc, f);
         f.close();
+        if (!written.status().ok()) return written.status();
         if (!f) return Status::Io(fmt::format("{}: cannot write (disk full?)", path.string()));
         std::error_code ec;
         stats.bytes_tileset = fs::file_size(path, ec);
@@ -871,6 +878,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     }
     endStep("index");
     if (stats_out) *stats_out = std::move(stats);
+    if (built) built->texture_index = std::move(blocks.texture_index);
     return Status::Ok();
 }
 

@@ -334,16 +334,16 @@ TEST(Tileset, DdsFilesDecodeWithOpenImageIo) {
     // hardest case for BC1's two colours per 4x4 block: 26-28 dB; 35-44 dB for
     // the same facades at the default 512 px, as here.
     const TextureBlocks plan = planTextureBlocks(b->scene, b->tree, b->tileset["extras"]["cityatlas"]["build"]["originals"] == "all", false);
-    ASSERT_EQ(plan.textures.size(), ca["textures"].size());
+    ASSERT_EQ(plan.size(), ca["textures"].size());
     double sum = 0;
-    for (size_t t = 0; t < plan.textures.size(); ++t) {
-        const TextureRef ref = b->scene.textures.ref(static_cast<size_t>(plan.textures[t].scene_texture));
+    for (size_t t = 0; t < plan.size(); ++t) {
+        const TextureRef ref = b->scene.textures.ref(static_cast<size_t>(plan.scene_texture[t]));
         const double p = psnrAgainst(b->dir / fmt::format("texture{}.dds", t), ref.path, ref.channels == 4 ? 4 : 3);
         EXPECT_GE(p, 25.0) << ref.path;
         sum += p;
     }
-    std::cout << "[dds] " << plan.textures.size() << " original textures (512 px): mean PSNR "
-              << sum / static_cast<double>(plan.textures.size()) << " dB\n";
+    std::cout << "[dds] " << plan.size() << " original textures (512 px): mean PSNR "
+              << sum / static_cast<double>(plan.size()) << " dB\n";
     EXPECT_GT(checked, 0);
 }
 
