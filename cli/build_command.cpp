@@ -305,10 +305,12 @@ void removeNativeFiles(const fs::path& folder) {
         fs::remove_all(folder / native, ec);
 }
 
-// The report, the folder moved into place, the summary on stdout.
+// The report, the folder moved into place, the summary on stdout. `digests_read`:
+// whether the digests came back whole (a merge's are read back from a scratch file).
 int finishBuild(const BuildRecord& rec, const TextureTable& textures,
-                const std::vector<TextureDigest>& texture_digests, const atlas::AtlasTree& tree, const tiles::TilesStats& ts,
-                const tiles::Tiles3dStats& t3, Diagnostics& diagnostics, Stages stages, Progress& progress) {
+                const DigestAt& texture_digest, const atlas::AtlasTree& tree, const tiles::TilesStats& ts,
+                const tiles::Tiles3dStats& t3, Diagnostics& diagnostics, Stages stages, Progress& progress,
+                const std::function<Status()>& digests_read = {}) {
     const atlas::AtlasStats& as = tree.stats;
     ordered_json report;
     report["cityatlas_version"] = kCityAtlasVersion;
@@ -440,17 +442,23 @@ int finishBuild(const BuildRecord& rec, const TextureTable& textures,
     };
     // The texture digests (a million at city scale) as text, not as a DOM.
     std::vector<uint32_t> listed;  // 4 bytes a texture of the city, at the merge's end
-    forEachFingerprintTexture(textures, texture_digests, [&](size_t t) {
+    forEachFingerprintTexture(textures, texture_digest, [&](size_t t) {
         if (!isGenerated(textures.path(t), rec.working)) listed.push_back(static_cast<uint32_t>(t));
     });
     const size_t count = listed.size() + rec.source_textures.size();
     std::string text = format::spliceArray(report.dump(2), 2, "textures", kFingerprintTextures, count, [&](size_t i) {
-        const FileDigest d = i >= listed.size() ? rec.source_textures[i - listed.size()]
-                                                : FileDigest{textures.path(listed[i]), texture_digests[listed[i]].bytes,
-                                                             hexDigest(texture_digests[listed[i]].xxh3)};
-        return nlohmann::json{{"path", d.path}, {"bytes", d.bytes}, {"xxh3", d.xxh3}}.dump(2);
+        if (i >= listed.size()) {
+            const FileDigest& d = rec.source_textures[i - listed.size()];
+            return nlohmann::json{{"path", d.path}, {"bytes", d.bytes}, {"xxh3", d.xxh3}}.dump(2);
+        }
+        const TextureDigest d = texture_digest(listed[i]);
+        return nlohmann::json{{"path", textures.path(listed[i])}, {"bytes", static_cast<uint64_t>(d.bytes)},
+                              {"xxh3", hexDigest(d.xxh3)}}
+            .dump(2);
     });
     text += '\n';
+    if (digests_read)
+        if (Status s = digests_read(); !s.ok()) return abandon(s);
     if (Status s = writeTextAtomically(tmp / "build_report.json", text); !s.ok()) return abandon(s);
     if (Status s = replaceFolder(tmp, target); !s.ok()) return abandon(s);
     progress.finish();
@@ -844,7 +852,8 @@ int runBuild(const BuildCliOptions& opt_in) {
     fs::remove_all(work, ec);
 
     BuildRecord rec = buildRecord();
-    return finishBuild(rec, scene.textures, texture_digests, tree, ts, t3, diagnostics, stages, progress);
+    return finishBuild(rec, scene.textures, [&](size_t t) { return texture_digests[t]; }, tree, ts, t3, diagnostics, stages,
+                       progress);
 }
 
 }  // namespace
@@ -971,8 +980,10 @@ RunFn addMergeCommand(CLI::App& app) {
         }
         std::error_code ec;
         fs::remove_all(opt->plan, ec);
-        return finishBuild(rec, merged.tables.textures, merged.texture_digests, merged.tree, merged.tiles, t3, diagnostics,
-                           stages, progress);
+        // The digests wait in a scratch file (16 bytes a texture of the city off the heap), read back in order.
+        return finishBuild(
+            rec, merged.tables.textures, [&](size_t t) { return merged.texture_digests.get(t); }, merged.tree, merged.tiles,
+            t3, diagnostics, stages, progress, [&] { return merged.texture_digests.status(); });
     };
 }
 

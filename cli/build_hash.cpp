@@ -84,11 +84,11 @@ std::vector<TextureDigest> digestTextures(const TextureTable& textures) {
 
 std::string hexDigest(uint64_t xxh3) { return fmt::format("{:016x}", xxh3); }
 
-void forEachFingerprintTexture(const TextureTable& textures, const std::vector<TextureDigest>& digests,
+void forEachFingerprintTexture(const TextureTable& textures, const DigestAt& digest,
                                const std::function<void(size_t)>& fn) {
     const std::vector<uint32_t> first = textures.firstOfPath();
-    for (size_t t = 0; t < textures.size() && t < digests.size(); ++t)
-        if (first[t] == t && digests[t].readable) fn(t);
+    for (size_t t = 0; t < textures.size(); ++t)
+        if (first[t] == t && digest(t).readable) fn(t);
 }
 
 namespace {
@@ -113,7 +113,8 @@ std::string buildHash(const std::string& inputs_key, const TextureTable& texture
                       const std::vector<TextureDigest>& digests, const std::function<std::string(std::string)>& path_as) {
     StringsHash h;
     h.add(inputs_key);
-    forEachFingerprintTexture(textures, digests, [&](size_t t) {
+    const DigestAt digest = [&](size_t t) { return t < digests.size() ? digests[t] : TextureDigest{}; };
+    forEachFingerprintTexture(textures, digest, [&](size_t t) {
         h.add(fmt::format("{}={}", path_as ? path_as(textures.path(t)) : textures.path(t), hexDigest(digests[t].xxh3)));
     });
     return h.digest();

@@ -43,13 +43,16 @@ struct TextureDigest {
     friend bool operator==(const TextureDigest&, const TextureDigest&) = default;
 };
 static_assert(sizeof(TextureDigest) == 16);
+/// Digest t of a city's textures, wherever they are kept (a vector, or a
+/// merge's scratch file: core/record_file.h).
+using DigestAt = std::function<TextureDigest(size_t)>;
 /// Hashes every texture file once (a path that several entries share is read once).
 std::vector<TextureDigest> digestTextures(const TextureTable& textures);
 /// The digest as FileDigest::xxh3 writes it (16 hex digits).
 std::string hexDigest(uint64_t xxh3);
 /// The readable textures as the build fingerprint lists them: each path once,
 /// in first use order (`fn(index of its first entry)`).
-void forEachFingerprintTexture(const TextureTable& textures, const std::vector<TextureDigest>& digests,
+void forEachFingerprintTexture(const TextureTable& textures, const DigestAt& digest,
                                const std::function<void(size_t)>& fn);
 /// The build hash: hashStrings of the inputs key and every fingerprint texture
 /// as "path=xxh3" (the path as `path_as` writes it, when given), without

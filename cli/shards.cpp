@@ -261,7 +261,7 @@ Status writeTextureTable(const fs::path& path, const TextureTable& textures,
 }
 
 // With `only` (ascending scene textures), theirs alone, in that order.
-Status readTextureTable(const fs::path& path, TextureTable* textures, std::vector<TextureDigest>* digests,
+Status readTextureTable(const fs::path& path, TextureTable* textures, RecordFile<TextureDigest>* digests,
                         const std::vector<int32_t>* only = nullptr) {
     std::ifstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
@@ -272,7 +272,6 @@ Status readTextureTable(const fs::path& path, TextureTable* textures, std::vecto
     if (!f.read(magic.data(), static_cast<std::streamsize>(magic.size())) || magic != kTextureTableMagic || !get(&n))
         return bad("not a texture table of this cityatlas version");
     textures->clear();
-    if (digests) digests->clear(), digests->reserve(only ? only->size() : n);
     size_t k = 0;  // in `only`
     for (uint64_t t = 0; t < n; ++t) {
         uint32_t len = 0;
@@ -296,7 +295,8 @@ Status readTextureTable(const fs::path& path, TextureTable* textures, std::vecto
         d.bytes = bytes;
         d.readable = readable != 0;
         textures->push_back(std::move(r));
-        if (digests) digests->push_back(d);
+        if (digests)
+            if (Status s = digests->append(d); !s.ok()) return s;
     }
     if (only && k != only->size()) return bad("names fewer textures than the shard's triangles use");
     return Status::Ok();
@@ -324,7 +324,7 @@ void tablesFromJson(const json& j, Scene* s) {
 }
 
 // The plan's scene tables: tables.json and textures.bin (`digests` may be null).
-Status readPlanTables(const fs::path& dir, Scene* s, std::vector<TextureDigest>* digests) {
+Status readPlanTables(const fs::path& dir, Scene* s, RecordFile<TextureDigest>* digests) {
     json tables;
     if (Status st = readJson(dir / "tables.json", &tables); !st.ok()) return st;
     tablesFromJson(tables, s);
@@ -1479,8 +1479,8 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
     if (plan.value("format", 0) != kPlanFormat)
         return Status::Invalid(fmt::format("{}: a plan of another cityatlas version", (dir / "plan.json").string()));
     MergeResult& r = *result;
+    r.texture_digests = RecordFile<TextureDigest>(dir, "the textures' digests");
     if (Status s = readPlanTables(dir, &r.tables, &r.texture_digests); !s.ok()) return s;
-    const std::vector<TextureDigest>& texture_digests = r.texture_digests;
     r.scene_triangles = plan.at("scene_triangles");
     const atlas::AtlasParams ap = atlasParamsFrom(plan.at("atlas"));
     tiles::TilesParams tp = tilesParamsFrom(plan.at("tiles"));
@@ -1730,7 +1730,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         for (const tiles::TextureEntry& e : textures) {
             const auto t = static_cast<size_t>(e.scene_texture);
             const TextureRef ref = r.tables.textures.ref(t);
-            const TextureDigest& digest = texture_digests[t];
+            const TextureDigest digest = r.texture_digests.read(t);  // a block's digests, one at a time (from the page cache)
             if (!digest.readable) return std::string();  // unknown content: not kept
             key.add(fmt::format("{} {} {} {} {} {}", ref.path, hexDigest(digest.xxh3), ref.width_px, ref.height_px,
                                 ref.channels, static_cast<int>(ref.wrap)));

@@ -45,6 +45,7 @@
 #include "atlas/computed_spec.h"
 #include "atlas/shard_plan.h"
 #include "cli/build_hash.h"
+#include "core/record_file.h"
 #include "core/resource_usage.h"
 #include "core/status.h"
 #include "ingest/diagnostics.h"
@@ -185,7 +186,7 @@ Status execMergeRunningShards(const std::filesystem::path& dir, int workers, int
 
 struct MergeResult {
     Scene tables;               ///< textures, materials, georeference (no triangles, no features)
-    std::vector<TextureDigest> texture_digests;  ///< aligned with tables.textures
+    RecordFile<TextureDigest> texture_digests;   ///< aligned with tables.textures, in a scratch file beside the plan
     uint64_t scene_triangles = 0;
     atlas::AtlasTree tree;      ///< the whole tree, without triangles; stats summed over the shards
     tiles::TilesStats tiles;

@@ -162,25 +162,11 @@ TextureEntry TextureBlocks::planned(const TextureTable& textures, size_t t) cons
     return e;
 }
 
-TextureEntry WrittenTextures::at(size_t t) {
-    TextureEntry e = blocks_.planned(textures_, t);
-    if (e.block < 0 || !status_.ok()) return e;
-    const size_t first = t / kChunk * kChunk;
-    if (first != chunk_first_) {
-        // The file holds every texture up to the last written one (holes read as zeros).
-        size_t last = first;
-        for (size_t k = std::min(first + kChunk, blocks_.size()); k > first; --k)
-            if (blocks_.block[k - 1] >= 0) {
-                last = k;
-                break;
-            }
-        chunk_.assign(last - first, {});
-        status_ = blocks_.written.read(first * sizeof(WrittenTexture), chunk_.data(), chunk_.size() * sizeof(WrittenTexture),
-                                       "the written textures' entries");
-        chunk_first_ = status_.ok() ? first : SIZE_MAX;
-        if (!status_.ok()) return e;
-    }
-    const WrittenTexture& w = chunk_[t - first];
+TextureEntry TextureBlocks::entry(const TextureTable& textures, size_t t) {
+    TextureEntry e = planned(textures, t);
+    if (e.block < 0) return e;
+    const WrittenTexture w = written.get(t);
+    if (!written.status().ok()) return e;
     e.offset = w.offset, e.bytes = w.bytes;
     e.width = w.width, e.height = w.height;  // the real size wins over the one recorded at ingest
     e.mips = static_cast<uint8_t>(w.mips);
@@ -195,7 +181,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
     b.texture_index = std::move(texture_index);
     b.atlas_size_px = tree.params.atlas_size_px;
     b.split = split;
-    b.written = ScratchFile(scratch_dir, "cityatlas-textures");
+    b.written = RecordFile<WrittenTexture>(scratch_dir, "the written textures' entries");
     b.node_blocks.resize(tree.nodes.size());
     b.node_textures.resize(tree.nodes.size());
     const uint64_t block_texels = static_cast<uint64_t>(tree.params.atlas_size_px) * tree.params.atlas_size_px;
@@ -447,9 +433,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         // Kept by tileset number, a run of consecutive numbers at a time.
         for (size_t k = 0, run = 0; k < list.size(); k = run) {
             for (run = k + 1; run < list.size() && list[run] == list[run - 1] + 1;) ++run;
-            if (Status s = blocks->written.write(uint64_t{list[k]} * sizeof(WrittenTexture), &written[k],
-                                                 (run - k) * sizeof(WrittenTexture), "the written textures' entries");
-                !s.ok()) {
+            if (Status s = blocks->written.write(list[k], &written[k], run - k); !s.ok()) {
                 write_status = s;
                 return;
             }

@@ -25,7 +25,7 @@
 #include "atlas/atlas_tree.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
-#include "core/scratch_file.h"
+#include "core/record_file.h"
 #include "core/status.h"
 #include "tiles/texture_codec.h"
 #include "tiles/texture_tiles.h"
@@ -72,32 +72,17 @@ struct TextureBlocks {
     std::vector<std::vector<int32_t>> node_textures; ///< per node (leaves only): the tileset textures it needs originals of
     uint64_t texels_encoded = 0;              ///< all mip levels
     double encode_seconds = 0;                ///< summed over threads
-    ScratchFile written;                      ///< WrittenTexture of tileset texture t at t * its size (writeTextureBlocks)
+    RecordFile<WrittenTexture> written;       ///< by tileset number (writeTextureBlocks)
 
     size_t size() const { return block.size(); }
     /// Tileset texture `t` as planned: its scene texture, tile, size
     /// recorded at ingest, channels, wrap; block and exact as they stand.
-    /// Without what writing it gave (offset, bytes, mips): WrittenTextures.
+    /// Without what writing it gave (offset, bytes, mips): entry().
     TextureEntry planned(const TextureTable& textures, size_t t) const;
-};
-
-/// The entries of written blocks, read back from TextureBlocks::written a
-/// few thousand at a time: fast in tileset order, correct in any.
-class WrittenTextures {
-public:
-    WrittenTextures(const TextureBlocks& blocks, const TextureTable& textures) : blocks_(blocks), textures_(textures) {}
-    /// Tileset texture `t` whole; a failed read back is kept (status()) and
-    /// gives the planned entry.
-    TextureEntry at(size_t t);
-    const Status& status() const { return status_; }
-
-private:
-    static constexpr size_t kChunk = 4096;
-    const TextureBlocks& blocks_;
-    const TextureTable& textures_;
-    std::vector<WrittenTexture> chunk_;
-    size_t chunk_first_ = SIZE_MAX;
-    Status status_;
+    /// Tileset texture `t` whole, once its block is written: what writing it
+    /// gave read back (fast in tileset order, correct in any). A failed read
+    /// back (written.status()) gives the planned entry.
+    TextureEntry entry(const TextureTable& textures, size_t t);
 };
 
 /// Plans the blocks from the texture sizes recorded at ingest (nothing is

@@ -797,18 +797,17 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     for (const Material& m : scene.materials)
         doc.materials.push_back({{m.diffuse[0], m.diffuse[1], m.diffuse[2]}, m.transparency});
     // The texture entries, read back in tileset order: once for the totals, once as they are written.
-    WrittenTextures written(blocks, scene.textures);
     for (size_t i = 0; i < blocks.size(); ++i) {
-        const TextureEntry e = written.at(i);
+        const TextureEntry e = blocks.entry(scene.textures, i);
         if (e.block >= 0) ++stats.textures_written;
         else if (e.exact) ++stats.textures_exact;
         else ++stats.textures_unreadable;
         stats.bytes_originals_bc += atlas::bcBytesWithMips(std::max(e.width, 1), std::max(e.height, 1), e.channels);
     }
-    if (!written.status().ok()) return written.status();
+    if (!blocks.written.status().ok()) return blocks.written.status();
     doc.texture_count = blocks.size();
-    doc.texture_at = [&written](size_t i) -> format::TextureEntry {
-        const TextureEntry e = written.at(i);
+    doc.texture_at = [&](size_t i) -> format::TextureEntry {
+        const TextureEntry e = blocks.entry(scene.textures, i);
         return {e.block, e.offset, e.bytes, std::max(e.width, 1), std::max(e.height, 1),
                 e.channels == 4 ? "BC3" : "BC1", std::max<int>(e.mips, 1), std::string(wrapModeName(e.wrap)),
                 e.block >= 0 ? "written" : e.exact ? "exact" : "unreadable"};
@@ -870,7 +869,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
         if (!f) return Status::Io(fmt::format("{}: cannot create: {}", path.string(), std::strerror(errno)));
         format::writeTilesetDocument(doc, f);
         f.close();
-        if (!written.status().ok()) return written.status();
+        if (!blocks.written.status().ok()) return blocks.written.status();
         if (!f) return Status::Io(fmt::format("{}: cannot write (disk full?)", path.string()));
         std::error_code ec;
         stats.bytes_tileset = fs::file_size(path, ec);

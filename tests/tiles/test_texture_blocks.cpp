@@ -33,7 +33,7 @@ void makeBlocks(size_t n, size_t every, size_t written_until, Written* w) {
                             WrapMode::Wrap});
     TextureBlocks& b = w->blocks;
     b.atlas_size_px = 1024;
-    b.written = ScratchFile(fs::temp_directory_path(), "cityatlas-test-textures");
+    b.written = RecordFile<WrittenTexture>(fs::temp_directory_path(), "test textures");
     w->truth.assign(n, {});
     for (size_t t = 0; t < n; ++t) {
         b.texture_index.push_back(static_cast<int32_t>(t));
@@ -44,7 +44,7 @@ void makeBlocks(size_t n, size_t every, size_t written_until, Written* w) {
         WrittenTexture& r = w->truth[t];
         r.offset = t * 1000, r.bytes = 500 + t;
         r.width = static_cast<int32_t>(t % 5000) + 1, r.height = 7, r.mips = static_cast<int32_t>(t % 9) + 1;
-        ASSERT_TRUE(b.written.write(t * sizeof(WrittenTexture), &r, sizeof r, "test").ok());
+        ASSERT_TRUE(b.written.write(t, &r, 1).ok());
     }
 }
 
@@ -78,9 +78,8 @@ TEST(TextureBlocks, WrittenEntriesReadBackInTilesetOrderAcrossChunks) {
     Written w;
     makeBlocks(10000, 3, 9000, &w);
     ASSERT_FALSE(HasFailure());
-    WrittenTextures read(w.blocks, w.table);
-    for (size_t t = 0; t < w.blocks.size(); ++t) expectEntry(w, t, read.at(t));
-    EXPECT_TRUE(read.status().ok()) << read.status().error;
+    for (size_t t = 0; t < w.blocks.size(); ++t) expectEntry(w, t, w.blocks.entry(w.table, t));
+    EXPECT_TRUE(w.blocks.written.status().ok()) << w.blocks.written.status().error;
 }
 
 TEST(TextureBlocks, WrittenEntriesReadBackInAnyOrder) {
@@ -90,28 +89,30 @@ TEST(TextureBlocks, WrittenEntriesReadBackInAnyOrder) {
     std::vector<size_t> order(w.blocks.size());
     for (size_t t = 0; t < order.size(); ++t) order[t] = t;
     std::shuffle(order.begin(), order.end(), std::mt19937(7));
-    WrittenTextures read(w.blocks, w.table);
-    for (const size_t t : order) expectEntry(w, t, read.at(t));
-    EXPECT_TRUE(read.status().ok()) << read.status().error;
+    for (const size_t t : order) expectEntry(w, t, w.blocks.entry(w.table, t));
+    EXPECT_TRUE(w.blocks.written.status().ok()) << w.blocks.written.status().error;
 }
 
 TEST(TextureBlocks, NothingWrittenNeedsNoScratchFile) {
     Written w;
     makeBlocks(5000, 1, 0, &w);
-    WrittenTextures read(w.blocks, w.table);
-    for (size_t t = 0; t < w.blocks.size(); ++t) expectEntry(w, t, read.at(t));
-    EXPECT_TRUE(read.status().ok()) << read.status().error;
+    for (size_t t = 0; t < w.blocks.size(); ++t) expectEntry(w, t, w.blocks.entry(w.table, t));
+    EXPECT_TRUE(w.blocks.written.status().ok()) << w.blocks.written.status().error;
 }
 
-TEST(TextureBlocks, AnEntryThatCannotBeReadBackIsAnError) {
-    // A written block number with no record behind it (the scratch file lost).
+TEST(TextureBlocks, AnEntryThatCannotBeWrittenIsAnError) {
     Written w;
     makeBlocks(100, 1, 0, &w);
     w.blocks.block[42] = 0;
-    WrittenTextures read(w.blocks, w.table);
-    const TextureEntry e = read.at(42);
-    EXPECT_FALSE(read.status().ok());
-    EXPECT_NE(read.status().error.find("written textures"), std::string::npos) << read.status().error;
+    // Nothing in the file: record 42 reads as a hole, with no offset.
+    EXPECT_EQ(w.blocks.entry(w.table, 42).bytes, 0u);
+    // A file that cannot be made: the error names what it was for.
+    w.blocks.written = RecordFile<WrittenTexture>("/nonexistent/folder", "the written textures' entries");
+    const WrittenTexture r{1, 2, 3, 4, 5, 0};
+    EXPECT_FALSE(w.blocks.written.write(42, &r, 1).ok());
+    const TextureEntry e = w.blocks.entry(w.table, 42);
+    EXPECT_FALSE(w.blocks.written.status().ok());
+    EXPECT_NE(w.blocks.written.status().error.find("written textures"), std::string::npos) << w.blocks.written.status().error;
     EXPECT_EQ(e.offset, 0u);
 }
 
