@@ -3,6 +3,8 @@
 
 #include <algorithm>
 
+#include "core/external_sort.h"
+
 namespace cityatlas {
 
 namespace {
@@ -63,40 +65,47 @@ TextureRef TextureTable::ref(size_t i) const {
     return {path(i), t.width_px, t.height_px, t.channels, t.wrap};
 }
 
-std::vector<uint32_t> TextureTable::firstOfPath() const {
-    // By sorting (path hash, entry) pairs, 16 bytes a texture while it runs:
-    // a hash map of the same took ~44 (its buckets and nodes), the most a
-    // merge held per texture at its end.
+std::vector<uint32_t> TextureTable::firstOfPath(const std::filesystem::path& scratch_dir, size_t memory_bytes) const {
+    // (path hash, entry) pairs sorted on disk beyond 32 MB: a hash map of the
+    // paths took ~44 bytes a texture (its buckets and nodes), and the sorted
+    // pairs in memory 16: the most a merge held per texture at its end.
     struct Keyed {
         uint64_t hash;
         uint32_t t;
         bool operator<(const Keyed& o) const { return hash != o.hash ? hash < o.hash : t < o.t; }
     };
     std::vector<uint32_t> first(size());
-    std::vector<Keyed> keyed(size());
-    for (size_t t = 0; t < size(); ++t) keyed[t] = {std::hash<std::string>{}(path(t)), static_cast<uint32_t>(t)};
-    std::sort(keyed.begin(), keyed.end());
-    std::vector<std::pair<std::string, uint32_t>> seen;  // the distinct paths of one hash (compared whole: exact), first entries
-    for (size_t i = 0; i < keyed.size();) {
-        size_t end = i + 1;
-        while (end < keyed.size() && keyed[end].hash == keyed[i].hash) ++end;
-        first[keyed[i].t] = keyed[i].t;
-        if (end > i + 1) {
-            // Entries in ascending order: each is the first of its path or repeats an earlier one.
+    // Entries of one hash come in ascending order: each is the first of its
+    // path or repeats an earlier one (paths compared whole: exact).
+    uint64_t group_hash = 0;
+    bool in_group = false;
+    std::vector<std::pair<std::string, uint32_t>> seen;  // the group's distinct paths so far, lazily
+    uint32_t group_first = 0;
+    const auto visit = [&](const Keyed& k) {
+        if (!in_group || k.hash != group_hash) {
+            in_group = true, group_hash = k.hash, group_first = k.t;
             seen.clear();
-            for (size_t k = i; k < end; ++k) {
-                std::string p = path(keyed[k].t);
-                const auto it = std::find_if(seen.begin(), seen.end(), [&](const auto& s) { return s.first == p; });
-                if (it != seen.end()) {
-                    first[keyed[k].t] = it->second;
-                } else {
-                    first[keyed[k].t] = keyed[k].t;
-                    seen.emplace_back(std::move(p), keyed[k].t);
-                }
-            }
+            first[k.t] = k.t;
+            return;
         }
-        i = end;
-    }
+        if (seen.empty()) seen.emplace_back(path(group_first), group_first);  // only a hash that repeats needs paths
+        std::string p = path(k.t);
+        const auto it = std::find_if(seen.begin(), seen.end(), [&](const auto& s) { return s.first == p; });
+        first[k.t] = it != seen.end() ? it->second : k.t;
+        if (it == seen.end()) seen.emplace_back(std::move(p), k.t);
+    };
+    const auto keyOf = [&](size_t t) { return Keyed{std::hash<std::string>{}(path(t)), static_cast<uint32_t>(t)}; };
+    ExternalSorter<Keyed> sorter(scratch_dir, memory_bytes);
+    Status sorted;
+    for (size_t t = 0; t < size() && sorted.ok(); ++t) sorted = sorter.push(keyOf(t));
+    if (sorted.ok()) sorted = sorter.forEachSorted(visit);
+    if (sorted.ok()) return first;
+    // No room for the runs (a full disk): the same in memory.
+    std::vector<Keyed> keyed(size());
+    for (size_t t = 0; t < size(); ++t) keyed[t] = keyOf(t);
+    std::sort(keyed.begin(), keyed.end());
+    in_group = false;
+    for (const Keyed& k : keyed) visit(k);
     return first;
 }
 

@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <filesystem>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -54,8 +55,11 @@ public:
     std::string path(size_t i) const;
     TextureRef ref(size_t i) const;
     /// Per texture, the first texture with the same path (entries differ by
-    /// wrap mode too, so a path can repeat).
-    std::vector<uint32_t> firstOfPath() const;
+    /// wrap mode too, so a path can repeat). Sorts on disk beyond
+    /// `memory_bytes`, in `scratch_dir` (empty: the system's temporary
+    /// folder; one that cannot take the file: in memory).
+    std::vector<uint32_t> firstOfPath(const std::filesystem::path& scratch_dir = {},
+                                      size_t memory_bytes = size_t{32} << 20) const;
     /// Replaces texture i (its old file name's bytes stay in the buffer, unused).
     void set(size_t i, const TextureRef& texture);
 

@@ -98,6 +98,8 @@ TEST(TextureTable, FirstOfPathAgreesWithAMapOfPathsOnACity) {
         want.push_back(first_seen.emplace(path, t).first->second);
     }
     EXPECT_EQ(table.firstOfPath(), want);
+    EXPECT_EQ(table.firstOfPath({}, 4096), want) << "sorted on disk, 256 pairs a run";
+    EXPECT_EQ(table.firstOfPath("/nonexistent/folder", 4096), want) << "no room for the runs: in memory";
 }
 
 }  // namespace
