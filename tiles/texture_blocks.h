@@ -23,10 +23,10 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
-#include "ingest/diagnostics.h"
-#include "ingest/scene.h"
 #include "core/record_file.h"
 #include "core/status.h"
+#include "ingest/diagnostics.h"
+#include "ingest/scene.h"
 #include "tiles/texture_codec.h"
 #include "tiles/texture_tiles.h"
 
@@ -55,7 +55,7 @@ struct WrittenTexture {
     uint64_t offset = 0, bytes = 0;
     int32_t width = 0, height = 0;
     int32_t mips = 0;
-    int32_t pad = 0;
+    int32_t pad = 0;  ///< 32 bytes, no uninitialised bytes written to the file
 };
 
 struct TextureBlocks {
