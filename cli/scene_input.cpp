@@ -205,10 +205,14 @@ std::optional<GeorefSummary> attachGeoreference(IngestState& state, const Box3d&
 }
 
 Status writeTextAtomically(const fs::path& path, const std::string& text) {
+    return writeAtomically(path, [&](std::ostream& os) { os << text; });
+}
+
+Status writeAtomically(const fs::path& path, const std::function<void(std::ostream&)>& write) {
     const fs::path tmp = path.string() + ".partial";
     {
         std::ofstream os(tmp, std::ios::binary);
-        os << text;
+        write(os);
         os.close();  // a full disk may show only here
         if (!os) {
             const int err = errno;

@@ -4,7 +4,9 @@
 // CityGML and footprint files into one sink, and tying the frame to the Earth.
 
 #include <filesystem>
+#include <functional>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -54,6 +56,8 @@ void printWarnings(const Diagnostics& diagnostics);
 
 /// Writes `text` to `path` through a sibling temporary file and a rename.
 Status writeTextAtomically(const std::filesystem::path& path, const std::string& text);
+/// The same for text `write` streams (a document too large to hold as a string).
+Status writeAtomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
 
 // Output folders: replaceFolder(), startWorkingFolder() (ingest/output_folder.h).
 using cityatlas::replaceFolder;
