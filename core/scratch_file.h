@@ -41,7 +41,7 @@ public:
     Status write(uint64_t offset, const void* data, size_t bytes, const char* what) {
         if (fd_ < 0) {
             std::string path = (std::filesystem::path(where()) / (prefix_ + "-XXXXXX")).string();
-            fd_ = mkstemp(path.data());
+            fd_ = mkostemp(path.data(), O_CLOEXEC);  // not inherited by the shard workers or the merge (exec)
             if (fd_ < 0) return ioError(path, "cannot create a scratch file for", what);
             unlink(path.c_str());
         }
