@@ -646,6 +646,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     IngestState state;
     state.options.scratch_dir = plan_dir;  // beside the spill: the build's disk, not /tmp
     PlanSink sink(spill, plan_dir / "features.spill");
+    sink.scene.textures.setScratchDir(plan_dir);  // a city's texture paths on the build's disk
     state.sink = &sink;
     std::vector<fs::path> read_files;
     if (Status s = readInputs(opt.input, progress, state, &read_files); !s.ok()) return abandon(s);

@@ -272,6 +272,7 @@ Status readTextureTable(const fs::path& path, TextureTable* textures, RecordFile
     if (!f.read(magic.data(), static_cast<std::streamsize>(magic.size())) || magic != kTextureTableMagic || !get(&n))
         return bad("not a texture table of this cityatlas version");
     textures->clear();
+    textures->setScratchDir(path.parent_path());  // a city's paths beside the plan, not in memory
     size_t k = 0;  // in `only`
     for (uint64_t t = 0; t < n; ++t) {
         uint32_t len = 0;

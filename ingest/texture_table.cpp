@@ -2,61 +2,84 @@
 #include "ingest/texture_table.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "core/external_sort.h"
 
 namespace cityatlas {
 
 namespace {
-constexpr size_t kChunk = size_t{1} << 20;
-
-// A path's folder (up to and including its last separator) and file name.
-std::pair<std::string_view, std::string_view> splitPath(std::string_view path) {
-    const size_t slash = path.find_last_of('/');
-    if (slash == std::string_view::npos) return {std::string_view(), path};
-    return {path.substr(0, slash + 1), path.substr(slash + 1)};
-}
+constexpr size_t kChunk = size_t{1} << 20;  // paths held in memory before they go to the file
 }  // namespace
 
-void TextureTable::clear() { *this = TextureTable(); }
+TextureTable::TextureTable(std::filesystem::path scratch_dir)
+    : scratch_dir_(std::move(scratch_dir)), file_(scratch_dir_, "cityatlas-texture-paths") {}
 
-uint32_t TextureTable::folderId(std::string_view folder) {
-    const auto [it, inserted] = folder_ids_.try_emplace(std::string(folder), static_cast<uint32_t>(folders_.size()));
-    if (inserted) folders_.emplace_back(folder);
-    return it->second;
+TextureTable::TextureTable(const TextureTable& other) : TextureTable(other.scratch_dir_) {
+    for (size_t i = 0; i < other.size(); ++i) push_back(other.ref(i));
 }
 
-TextureTable::Name TextureTable::store(std::string_view path) {
-    const auto [folder, file] = splitPath(path);
-    Name n;
-    n.folder = folderId(folder);
-    n.length = static_cast<uint32_t>(file.size());
-    if (chunks_.empty() || chunks_.back().size() + file.size() > chunks_.back().capacity()) {
-        chunks_.emplace_back();
-        chunks_.back().reserve(std::max(kChunk, file.size()));
+TextureTable& TextureTable::operator=(const TextureTable& other) {
+    if (this != &other) *this = TextureTable(other);
+    return *this;
+}
+
+void TextureTable::setScratchDir(const std::filesystem::path& scratch_dir) {
+    if (tail_at_ > 0) return;  // paths already sealed: they stay where they went
+    scratch_dir_ = scratch_dir;
+    file_ = ScratchFile(scratch_dir_, "cityatlas-texture-paths");
+}
+
+void TextureTable::clear() { *this = TextureTable(scratch_dir_); }
+
+void TextureTable::seal() {
+    if (tail_.empty()) return;
+    const uint64_t sealed = tail_.size();
+    // Once the file has failed (a full disk), the rest stays in memory: a
+    // table that works as before rather than a build that stops.
+    if (kept_.empty() && file_.write(on_disk_, tail_.data(), tail_.size(), "texture paths").ok()) {
+        on_disk_ += sealed;
+        tail_.clear();  // its buffer reused
+    } else {
+        kept_at_.push_back(tail_at_);
+        kept_.push_back(std::move(tail_));
+        tail_ = std::string();
     }
-    n.chunk = static_cast<uint32_t>(chunks_.size() - 1);
-    n.offset = static_cast<uint32_t>(chunks_.back().size());
-    chunks_.back().append(file);
-    return n;
+    tail_at_ += sealed;
+}
+
+uint64_t TextureTable::append(std::string_view path) {
+    const size_t length = std::min<size_t>(path.size(), (size_t{1} << kLengthBits) - 1);
+    if (!tail_.empty() && tail_.size() + length > kChunk) seal();  // a path never spans two chunks
+    // Doubling up to a chunk (a small table stays small), never past it: a
+    // string's own growth would double a chunk's memory.
+    if (tail_.size() + length > tail_.capacity())
+        tail_.reserve(std::max(tail_.size() + length, std::min(kChunk, std::max<size_t>(4096, 2 * tail_.capacity()))));
+    const uint64_t offset = tail_at_ + tail_.size();
+    tail_.append(path.substr(0, length));
+    return offset << kLengthBits | length;
 }
 
 void TextureTable::push_back(const TextureRef& t) {
     info_.push_back(t);
-    names_at_.push_back(store(t.path));
+    at_.push_back(append(t.path));
 }
 
 void TextureTable::set(size_t i, const TextureRef& t) {
     info_[i] = t;
-    names_at_[i] = store(t.path);
+    at_[i] = append(t.path);
 }
 
 std::string TextureTable::path(size_t i) const {
-    const Name& n = names_at_[i];
-    const std::string& folder = folders_[n.folder];
-    std::string p;
-    p.reserve(folder.size() + n.length);
-    p.append(folder).append(std::string_view(chunks_[n.chunk]).substr(n.offset, n.length));
+    const uint64_t offset = at_[i] >> kLengthBits;
+    const size_t length = at_[i] & ((uint64_t{1} << kLengthBits) - 1);
+    if (offset >= tail_at_) return tail_.substr(offset - tail_at_, length);
+    if (offset >= on_disk_) {
+        const size_t k = static_cast<size_t>(std::upper_bound(kept_at_.begin(), kept_at_.end(), offset) - kept_at_.begin()) - 1;
+        return kept_[k].substr(offset - kept_at_[k], length);
+    }
+    std::string p(length, '\0');
+    if (Status s = file_.read(offset, p.data(), length, "texture paths"); !s.ok()) throw std::runtime_error(s.error);
     return p;
 }
 
@@ -110,9 +133,8 @@ std::vector<uint32_t> TextureTable::firstOfPath(const std::filesystem::path& scr
 }
 
 size_t TextureTable::bytes() const {
-    size_t b = info_.size() * sizeof(TextureInfo) + names_at_.size() * sizeof(Name);
-    for (const std::string& c : chunks_) b += c.capacity();
-    for (const std::string& f : folders_) b += f.capacity() + 64;  // the string, its map entry and key
+    size_t b = info_.size() * sizeof(TextureInfo) + at_.size() * sizeof(uint64_t) + tail_.capacity();
+    for (const std::string& k : kept_) b += k.capacity();
     return b;
 }
 

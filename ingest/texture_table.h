@@ -7,18 +7,23 @@
 /// A city has millions of textures (a textured LOD2 model writes one image per
 /// wall: 15 to 25 a building), and every process of a build holds the table.
 /// As `std::vector<TextureRef>` a texture took ~130 bytes: the struct, the
-/// vector's spare room and its path on the heap. `TextureTable` keeps the
-/// per-triangle fields inline (12 bytes), each folder once, and the file names
-/// packed in 1 MiB chunks: ~43 bytes a texture for 48-character paths. Paths
-/// are therefore built on request (`path(i)`), not stored as strings.
+/// vector's spare room and its path on the heap; packed in memory (until
+/// stop 53) ~43 bytes. `TextureTable` keeps in memory what the stages read
+/// per triangle, at random (12 bytes), and where the path is (8 bytes); the
+/// paths themselves, past their first MiB, go to a scratch file (in the
+/// build's folder) and are read back on request (`path(i)`: a `pread`, the
+/// page cache's memory, not the process's). A table that never passes a MiB
+/// (a few tens of thousands of textures) has no file. Where no file can be
+/// made (a full disk) the paths stay in memory, as they would have.
 
 #include <cstdint>
 #include <deque>
 #include <filesystem>
 #include <string>
 #include <string_view>
-#include <unordered_map>
 #include <vector>
+
+#include "core/scratch_file.h"
 
 namespace cityatlas {
 
@@ -46,12 +51,27 @@ struct TextureRef {
 
 class TextureTable {
 public:
+    /// Paths past the first MiB go to a scratch file in `scratch_dir`
+    /// (empty, or by default: the system's temporary folder).
+    TextureTable() : TextureTable(std::filesystem::path()) {}
+    explicit TextureTable(std::filesystem::path scratch_dir);
+    TextureTable(const TextureTable& other);
+    TextureTable& operator=(const TextureTable& other);
+    TextureTable(TextureTable&&) = default;
+    TextureTable& operator=(TextureTable&&) = default;
+    /// Where the paths go once they pass a MiB; for a table whose paths are
+    /// all still in memory (a build names its folder before the read).
+    void setScratchDir(const std::filesystem::path& scratch_dir);
+
     size_t size() const { return info_.size(); }
     bool empty() const { return info_.empty(); }
     void clear();
     void push_back(const TextureRef& texture);
 
     const TextureInfo& operator[](size_t i) const { return info_[i]; }
+    /// Texture i's path (read back from the scratch file for most of a
+    /// city's: call it once per use, not in a loop over triangles). Throws
+    /// std::runtime_error if the file cannot be read back (a failing disk).
     std::string path(size_t i) const;
     TextureRef ref(size_t i) const;
     /// Per texture, the first texture with the same path (entries differ by
@@ -60,29 +80,33 @@ public:
     /// folder; one that cannot take the file: in memory).
     std::vector<uint32_t> firstOfPath(const std::filesystem::path& scratch_dir = {},
                                       size_t memory_bytes = size_t{32} << 20) const;
-    /// Replaces texture i (its old file name's bytes stay in the buffer, unused).
+    /// Replaces texture i (its old path's bytes stay where they were, unused).
     void set(size_t i, const TextureRef& texture);
 
-    /// Bytes held, spare room included (for memory budgets).
+    /// Bytes held in memory, spare room included (for memory budgets).
     size_t bytes() const;
+    /// Bytes of paths in the scratch file (0: none, or no file could be made).
+    uint64_t bytesOnDisk() const { return on_disk_; }
 
 private:
-    struct Name {
-        uint32_t folder = 0;  ///< index into folders_
-        uint32_t chunk = 0;   ///< index into chunks_
-        uint32_t offset = 0;  ///< in the chunk
-        uint32_t length = 0;
-    };
-    uint32_t folderId(std::string_view folder);
-    Name store(std::string_view path);
+    // A path's place: its offset among all paths written (40 bits: 1 TiB)
+    // and its length (24 bits: 16 MiB; a longer one, which no file system
+    // can open, is cut there and reads as unreadable).
+    static constexpr unsigned kLengthBits = 24;
+    uint64_t append(std::string_view path);
+    void seal();  // the paths in memory to the file (or kept in memory)
 
-    // Deques and fixed chunks: a city's table grows without the copies (and
-    // the twice-the-size moments) of a doubling vector.
+    std::filesystem::path scratch_dir_;
+    // Deques: a city's table grows without the copies (and the twice-the-
+    // size moments) of a doubling vector.
     std::deque<TextureInfo> info_;
-    std::deque<Name> names_at_;
-    std::vector<std::string> chunks_;  ///< file names, back to back, kChunk bytes each (or one longer name)
-    std::vector<std::string> folders_;
-    std::unordered_map<std::string, uint32_t> folder_ids_;
+    std::deque<uint64_t> at_;
+    std::string tail_;        ///< the newest paths, back to back, from offset tail_at_
+    uint64_t tail_at_ = 0;    ///< bytes of paths before tail_ (in the file or kept_)
+    uint64_t on_disk_ = 0;    ///< bytes of paths in file_, from offset 0
+    ScratchFile file_;
+    std::vector<std::string> kept_;  ///< sealed paths that the file could not take, from offset on_disk_
+    std::vector<uint64_t> kept_at_;  ///< each kept_ chunk's first offset
 };
 
 }  // namespace cityatlas

@@ -60,9 +60,73 @@ TEST(TextureTable, ManyNamesSpanSeveralChunks) {
         EXPECT_EQ(table[i].width_px, static_cast<int>(i % 4096));
     }
     EXPECT_EQ(table.path(199'999), name(199'999));
-    // ~60 bytes a texture against ~150 for a vector of TextureRefs whose
-    // paths (over 15 characters) live on the heap.
-    EXPECT_LT(table.bytes(), 60u * 200'000);
+    // The paths (~6.5 MB) went to the scratch file but for the newest MiB:
+    // 20 bytes a texture in memory and that MiB (~25 in all here), against
+    // ~43 with the paths packed in memory and ~150 for a vector of
+    // TextureRefs whose paths live on the heap.
+    EXPECT_GT(table.bytesOnDisk(), 5'000'000u);
+    EXPECT_LT(table.bytes(), 26u * 200'000);
+}
+
+// 60,000 paths of ~50 bytes: two chunks sealed (a MiB each, less the
+// path that did not fit), the newest in memory.
+std::vector<TextureRef> cityOfPaths(size_t n) {
+    std::vector<TextureRef> city;
+    for (size_t i = 0; i < n; ++i)
+        city.push_back({"/city/appearance/district_" + std::to_string(i % 13) + "/building_" + std::to_string(i) +
+                            "_wall.jpg",
+                        static_cast<int>(i % 512 + 1), static_cast<int>(i % 77 + 1), 3 + static_cast<int>(i % 2),
+                        static_cast<WrapMode>(i % 5)});
+    return city;
+}
+
+TEST(TextureTable, PathsOnDiskAndKeptInMemoryReadBackTheSame) {
+    const std::vector<TextureRef> city = cityOfPaths(60'000);
+    TextureTable on_disk, kept("/nonexistent/folder");
+    for (const TextureRef& t : city) on_disk.push_back(t), kept.push_back(t);
+    EXPECT_GT(on_disk.bytesOnDisk(), 2'000'000u);
+    EXPECT_EQ(kept.bytesOnDisk(), 0u) << "no folder for the file: the paths stay in memory";
+    EXPECT_GE(kept.bytes(), on_disk.bytes() + on_disk.bytesOnDisk()) << "what the file holds, held in memory";
+    for (size_t i = 0; i < city.size(); ++i) {
+        expectSame(on_disk, i, city[i]);
+        expectSame(kept, i, city[i]);
+    }
+    // The same at random (pread at any offset; a kept chunk found by its start).
+    std::mt19937 rng(5);
+    for (int k = 0; k < 5'000; ++k) {
+        const size_t i = rng() % city.size();
+        ASSERT_EQ(on_disk.path(i), city[i].path) << i;
+        ASSERT_EQ(kept.path(i), city[i].path) << i;
+    }
+}
+
+TEST(TextureTable, SetAndCopyAfterThePathsWentToDisk) {
+    std::vector<TextureRef> city = cityOfPaths(40'000);
+    TextureTable table;
+    for (const TextureRef& t : city) table.push_back(t);
+    ASSERT_GT(table.bytesOnDisk(), 0u);
+    // Replaced entries (the stylised facades' way), one on disk, one in memory.
+    for (const size_t i : {size_t{7}, size_t{39'999}}) {
+        city[i] = {"/build/stylised/" + std::to_string(i) + ".png", 40, 30, 4, WrapMode::Clamp};
+        table.set(i, city[i]);
+    }
+    TextureTable copy = table;
+    copy.push_back({"/only/in/the/copy.png", 1, 1, 3, WrapMode::Wrap});
+    copy.set(8, {"/only/in/the/copy/too.png", 2, 2, 3, WrapMode::Wrap});
+    ASSERT_EQ(table.size(), city.size());
+    for (size_t i = 0; i < city.size(); ++i) expectSame(table, i, city[i]);
+    EXPECT_EQ(copy.path(7), city[7].path);
+    EXPECT_EQ(copy.path(8), "/only/in/the/copy/too.png");
+    EXPECT_EQ(copy.path(city.size()), "/only/in/the/copy.png");
+    EXPECT_EQ(copy.path(20'000), city[20'000].path);
+    // A folder named once the paths have gone is too late: they stay.
+    table.setScratchDir("/nonexistent/folder");
+    EXPECT_EQ(table.path(100), city[100].path);
+    TextureTable fresh;
+    fresh.setScratchDir("/nonexistent/folder");
+    for (const TextureRef& t : city) fresh.push_back(t);
+    EXPECT_EQ(fresh.bytesOnDisk(), 0u) << "the folder named before the first MiB is the one used";
+    EXPECT_EQ(fresh.path(12'345), city[12'345].path);
 }
 
 TEST(TextureTable, SetReplacesOneEntryAndKeepsTheOthers) {
