@@ -79,13 +79,13 @@ bool isGenerated(const std::string& path, const std::string& working) {
 // it by their place in the working folder (and their contents), not by the
 // folder's name, so the same build to another output has the same hash;
 // the photos they were made from enter as themselves.
-std::string buildHashOf(const std::string& inputs_key, const TextureTable& textures,
-                        const std::vector<TextureDigest>& digests, const std::string& working,
+std::string buildHashOf(const std::string& inputs_key, const TextureTable& textures, const DigestAt& digest,
+                        const std::string& working,
                         const std::vector<FileDigest>& source_textures) {
     const auto path_as = [&](std::string path) {
         return isGenerated(path, working) ? "<working>" + path.substr(working.size()) : path;
     };
-    std::vector<std::string> parts{buildHash(inputs_key, textures, digests, path_as)};
+    std::vector<std::string> parts{buildHash(inputs_key, textures, digest, path_as)};
     for (const FileDigest& d : source_textures) parts.push_back(d.path + "=" + d.xxh3);
     return source_textures.empty() ? parts[0] : hashStrings(parts);
 }
@@ -681,14 +681,19 @@ int runBuild(const BuildCliOptions& opt_in) {
                                       counts.unreadable));
         stylised_photos = std::move(counts.photos);
     }
-    const std::vector<TextureDigest> texture_digests = digestTextures(scene.textures);
+    // The textures' digests wait in a scratch file (16 bytes a texture of
+    // the city): read in order for the hash, the plan's table and the report.
+    RecordFile<TextureDigest> texture_digests(plan_dir, "the textures' digests");
+    if (Status s = digestTextures(scene.textures, &texture_digests); !s.ok()) return abandon(s);
+    const DigestAt digest_in_order = [&](size_t t) { return texture_digests.get(t); };
+    const DigestAt digest_alone = [&](size_t t) { return texture_digests.read(t); };  // the shards' keys: by shard
     std::vector<FileDigest> source_textures;
     for (const std::string& photo : stylised_photos) {
         FileDigest d;
         if (Status s = digestFile(photo, &d); !s.ok()) return abandon(s);
         source_textures.push_back(std::move(d));
     }
-    const std::string build_hash = buildHashOf(inputs_key, scene.textures, texture_digests, tmp.string(), source_textures);
+    const std::string build_hash = buildHashOf(inputs_key, scene.textures, digest_in_order, tmp.string(), source_textures);
     endStage("read");
 
     // The atlas stage takes the scene's triangles (the tree holds them from
@@ -770,8 +775,7 @@ int runBuild(const BuildCliOptions& opt_in) {
         if (Status s = decideGlobalsFromSpill(spill, scene, params, &globals, plan_progress); !s.ok()) return abandon(s);
         std::vector<std::string> keys;
         if (Status s = writePlan(plan_dir, scene, spill, shard_plan, globals, params, opt.tiles, opt.computed_specs,
-                                 texture_digests,
-                                 feature_tables, &keys, plan_progress);
+                                 digest_alone, feature_tables, &keys, plan_progress);
             !s.ok())
             return abandon(s);
         globals = {};
@@ -863,8 +867,8 @@ int runBuild(const BuildCliOptions& opt_in) {
     fs::remove_all(work, ec);
 
     BuildRecord rec = buildRecord();
-    return finishBuild(rec, scene.textures, [&](size_t t) { return texture_digests[t]; }, tree, ts, t3, diagnostics, stages,
-                       progress);
+    return finishBuild(rec, scene.textures, digest_in_order, tree, ts, t3, diagnostics, stages, progress,
+                       [&] { return texture_digests.status(); });
 }
 
 }  // namespace

@@ -66,20 +66,20 @@ std::vector<fs::path> withSidecars(const std::vector<fs::path>& inputs) {
     return unique;
 }
 
-std::vector<TextureDigest> digestTextures(const TextureTable& textures) {
-    std::vector<TextureDigest> out(textures.size());
+Status digestTextures(const TextureTable& textures, RecordFile<TextureDigest>* out) {
     const std::vector<uint32_t> first = textures.firstOfPath();
     for (size_t t = 0; t < textures.size(); ++t) {
+        TextureDigest d;
         if (first[t] != t) {
-            out[t] = out[first[t]];
-            continue;
+            d = out->read(first[t]);
+        } else {
+            uint64_t bytes = 0;
+            d.readable = hashFile(textures.path(t), &d.xxh3, &bytes).ok();  // unreadable ones are ingest warnings
+            d.bytes = bytes;
         }
-        TextureDigest& d = out[t];
-        uint64_t bytes = 0;
-        d.readable = hashFile(textures.path(t), &d.xxh3, &bytes).ok();  // unreadable ones are ingest warnings
-        d.bytes = bytes;
+        if (Status s = out->append(d); !s.ok()) return s;
     }
-    return out;
+    return out->status();
 }
 
 std::string hexDigest(uint64_t xxh3) { return fmt::format("{:016x}", xxh3); }
@@ -109,13 +109,12 @@ private:
 };
 }  // namespace
 
-std::string buildHash(const std::string& inputs_key, const TextureTable& textures,
-                      const std::vector<TextureDigest>& digests, const std::function<std::string(std::string)>& path_as) {
+std::string buildHash(const std::string& inputs_key, const TextureTable& textures, const DigestAt& digest,
+                      const std::function<std::string(std::string)>& path_as) {
     StringsHash h;
     h.add(inputs_key);
-    const DigestAt digest = [&](size_t t) { return t < digests.size() ? digests[t] : TextureDigest{}; };
     forEachFingerprintTexture(textures, digest, [&](size_t t) {
-        h.add(fmt::format("{}={}", path_as ? path_as(textures.path(t)) : textures.path(t), hexDigest(digests[t].xxh3)));
+        h.add(fmt::format("{}={}", path_as ? path_as(textures.path(t)) : textures.path(t), hexDigest(digest(t).xxh3)));
     });
     return h.digest();
 }

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/record_file.h"
 #include "core/status.h"
 #include "ingest/scene.h"
 
@@ -46,8 +47,10 @@ static_assert(sizeof(TextureDigest) == 16);
 /// Digest t of a city's textures, wherever they are kept (a vector, or a
 /// merge's scratch file: core/record_file.h).
 using DigestAt = std::function<TextureDigest(size_t)>;
-/// Hashes every texture file once (a path that several entries share is read once).
-std::vector<TextureDigest> digestTextures(const TextureTable& textures);
+/// Hashes every texture file once (a path that several entries share is read
+/// once) into `out`, by texture (16 bytes each, on disk: the read's and the
+/// plan's share of a city's textures); an error if the file fails.
+Status digestTextures(const TextureTable& textures, RecordFile<TextureDigest>* out);
 /// The digest as FileDigest::xxh3 writes it (16 hex digits).
 std::string hexDigest(uint64_t xxh3);
 /// The readable textures as the build fingerprint lists them: each path once,
@@ -57,8 +60,7 @@ void forEachFingerprintTexture(const TextureTable& textures, const DigestAt& dig
 /// The build hash: hashStrings of the inputs key and every fingerprint texture
 /// as "path=xxh3" (the path as `path_as` writes it, when given), without
 /// making that list.
-std::string buildHash(const std::string& inputs_key, const TextureTable& textures,
-                      const std::vector<TextureDigest>& digests,
+std::string buildHash(const std::string& inputs_key, const TextureTable& textures, const DigestAt& digest,
                       const std::function<std::string(std::string)>& path_as = {});
 
 /// XXH3-64 of a list of strings (length-prefixed), 16 hex digits.

@@ -240,8 +240,7 @@ Status readTexturePlan(const fs::path& dir, std::vector<int32_t>* texture_index,
 // ways (as a DOM their JSON took ~0.4 KB each in the plan, every shard and the merge).
 constexpr const char* kTextureTableMagic = "cityatlas-textures-1";
 
-Status writeTextureTable(const fs::path& path, const TextureTable& textures,
-                         const std::vector<TextureDigest>& digests) {
+Status writeTextureTable(const fs::path& path, const TextureTable& textures, const DigestAt& digest) {
     std::ofstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot create", path.string()));
     auto put = [&](auto v) { f.write(reinterpret_cast<const char*>(&v), sizeof v); };
@@ -249,7 +248,7 @@ Status writeTextureTable(const fs::path& path, const TextureTable& textures,
     put(static_cast<uint64_t>(textures.size()));
     for (size_t t = 0; t < textures.size(); ++t) {
         const TextureRef r = textures.ref(t);
-        const TextureDigest d = t < digests.size() ? digests[t] : TextureDigest{};
+        const TextureDigest d = digest(t);
         put(static_cast<uint32_t>(r.path.size()));
         f.write(r.path.data(), static_cast<std::streamsize>(r.path.size()));
         put(static_cast<int32_t>(r.width_px)), put(static_cast<int32_t>(r.height_px)), put(static_cast<int32_t>(r.channels));
@@ -890,7 +889,7 @@ Status decideGlobalsFromSpill(const fs::path& spill, const Scene& tables, const 
 Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill, const atlas::ShardPlan& plan,
                  const atlas::GlobalDecisions& globals, const atlas::AtlasParams& atlas_params,
                  const tiles::TilesParams& tiles_params, const std::vector<atlas::ComputedSpec>& computed,
-                 const std::vector<TextureDigest>& texture_digests, const tiles::FeatureTables& ft,
+                 const DigestAt& texture_digest, const tiles::FeatureTables& ft,
                  std::vector<std::string>* keys_out, const ShardProgressFn& progress) {
     std::error_code ec;
     fs::create_directories(dir, ec);
@@ -899,7 +898,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
     for (const format::FileEntry& e : ft.tables) feature_tables.push_back({e.uri, e.bytes});
     for (const format::FileEntry& e : ft.bounds) feature_bounds.push_back({e.uri, e.bytes});
     if (Status s = writeJson(dir / "tables.json", tablesJson(tables)); !s.ok()) return s;
-    if (Status s = writeTextureTable(dir / "textures.bin", tables.textures, texture_digests); !s.ok()) return s;
+    if (Status s = writeTextureTable(dir / "textures.bin", tables.textures, texture_digest); !s.ok()) return s;
 
     // Each shard's triangles in scene order, in one pass over the spill, with their keys.
     std::vector<std::ofstream> files(plan.shards());
@@ -992,10 +991,10 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         key.addValue(level[k]);
         for (const uint32_t t : textures_of[k]) {
             const TextureRef r = tables.textures.ref(t);
-            const bool known = t < texture_digests.size() && texture_digests[t].readable;
+            const TextureDigest d = texture_digest(t);
             key.add(fmt::format("texture {} {} {} {} {} {} {} {} {}", t, r.path, r.width_px, r.height_px, r.channels,
                                 static_cast<int>(r.wrap), texture_index[t], globals.promote[t],
-                                known ? hexDigest(texture_digests[t].xxh3) : "unreadable"));
+                                d.readable ? hexDigest(d.xxh3) : "unreadable"));
         }
         for (const uint32_t m : materials_of[k])
             key.add(fmt::format("material {} {} {} {} {}", m, tables.materials[m].diffuse[0],

@@ -138,7 +138,7 @@ Status writePlan(const std::filesystem::path& dir, const Scene& tables, const st
                  const atlas::ShardPlan& plan, const atlas::GlobalDecisions& globals,
                  const atlas::AtlasParams& atlas_params, const tiles::TilesParams& tiles_params,
                  const std::vector<atlas::ComputedSpec>& computed,
-                 const std::vector<TextureDigest>& texture_digests, const tiles::FeatureTables& feature_tables,
+                 const DigestAt& texture_digest, const tiles::FeatureTables& feature_tables,
                  std::vector<std::string>* keys, const ShardProgressFn& progress = {});
 
 /// The margin beyond the horizon within which other shards' triangles are
