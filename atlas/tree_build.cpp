@@ -485,13 +485,14 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
     tbb::task_arena arena(threads);
     const double ppm = projectionBound(params).pixelsPerMetreAt1m();
     const size_t n = textures.size();
-    const std::vector<NativeSize> native = nativeSizes(textures);
     GlobalDecisions g;
 
-    // --- First pass: the scene's box, each texture's d_full terms and
-    // triangle count, the candidates' range; the models too while they fit.
+    // --- First pass: the scene's box, each texture's d_full and triangle
+    // count, the candidates' range; the models too while they fit. 12 bytes
+    // a texture of the city (28 until stop 53: the native sizes copied from
+    // the table, and the largest s and t apart).
     Box3d box;
-    std::vector<double> s_max(n, 0), t_max(n, 0);
+    std::vector<double> native_distance(n, 0);
     std::vector<uint32_t> members(n, 0);
     DminRange range;
     auto all = std::make_unique<TextureModelBuilder>(n, ppm);
@@ -504,15 +505,21 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
             }
             if (t.texture < 0) return;
             // d_full (papers/000 §6.1.2): per texture, the distance at which it needs
-            // exactly its original resolution on its more demanding axis.
+            // exactly its original resolution on its more demanding axis. The
+            // largest over its triangles: taken per triangle, it is the
+            // same number as from the largest s and t (a product and a
+            // quotient by positive numbers round monotonically).
             const auto k = static_cast<size_t>(t.texture);
             const TexelDensity d = texelDensity(t);
-            s_max[k] = std::max(s_max[k], d.s_world);
-            t_max[k] = std::max(t_max[k], d.t_world);
+            const TextureInfo& r = textures[k];
+            double& distance = native_distance[k];
+            if (r.width_px > 0) distance = std::max(distance, d.s_world * ppm / r.width_px);
+            if (r.height_px > 0) distance = std::max(distance, d.t_world * ppm / r.height_px);
             g.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
             ++g.textured_triangles;
             ++members[k];
-            range.add({d.uv_min, d.uv_max, d.s_world * ppm, d.t_world * ppm}, native[k]);
+            range.add({d.uv_min, d.uv_max, d.s_world * ppm, d.t_world * ppm},
+                      NativeSize{std::max(0, r.width_px), std::max(0, r.height_px)});
         },
         "texture models");
     if (!first.ok()) return first;
@@ -563,21 +570,15 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
     }
     if (!(g.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
     double lo = 1e300, hi = 0;
-    for (size_t i = 0; i < n; ++i) {
-        const TextureInfo& r = textures[i];
-        double native_distance = 0;
-        if (r.width_px > 0) native_distance = std::max(native_distance, s_max[i] * ppm / r.width_px);
-        if (r.height_px > 0) native_distance = std::max(native_distance, t_max[i] * ppm / r.height_px);
-        if (native_distance > 0) lo = std::min(lo, native_distance), hi = std::max(hi, native_distance);
-    }
+    for (const double distance : native_distance)
+        if (distance > 0) lo = std::min(lo, distance), hi = std::max(hi, distance);
     g.d_full_m = lo < 1e300 ? lo : 0;
     g.d_first_upsampled_m = hi;
-    std::vector<double>().swap(s_max);
-    std::vector<double>().swap(t_max);
+    std::vector<double>().swap(native_distance);
 
     // --- Second pass: critical triangles, and the d_min actually used.
     CriticalDistanceBuilder critical(g.d_min_requested_m, ppm, params.atlas_size_px, params.border_px,
-                                     params.critical_fraction, native);
+                                     params.critical_fraction, nativeSizes(textures));
     if (Status s = pass([&](const Triangle& t) { critical.add(t); }, "critical triangles"); !s.ok()) return s;
     const CriticalResult c = critical.finish();
     g.d_min_used_m = c.d_min_used_m;

@@ -1323,5 +1323,59 @@ TEST(GlobalDecisions, TextureModelsARangeAtATimeDecideAsTheWholeModels) {
     }
 }
 
+// d_full and the first upsampled distance (papers/000 §6.1.2): per texture,
+// the distance at which its most demanding triangle needs the texture's
+// full resolution on its more demanding axis; over the city, the nearest and
+// the farthest. Computed here the way the papers put it (the largest s and t
+// per texture, then the axes), against the plan's single pass.
+TEST(GlobalDecisions, DFullIsTheNearestNativeDistanceOfTheCitysTextures) {
+    synth::TownSettings settings;
+    settings.buildings = 60;
+    settings.seed = 11;
+    settings.texture_size_px = 32;
+    Scene scene = synth::townToScene(synth::generateTown(settings), "/nonexistent/cityatlas_test_town");
+    // Small signs, denser than the town's textures, whose coarser axis (the
+    // one that sets a texture's distance) is the height on even ones (512 x
+    // 128 px on w x 5 cm) and the width on odd ones (128 x 512 px on w x 10
+    // cm): the nearest is an even one's height, and leaving either axis out
+    // moves it.
+    for (int k = 0; k < 6; ++k) {
+        const bool even = k % 2 == 0;
+        const int32_t tex = addTexture(scene, fmt::format("/nonexistent/sign{}.png", k), 32);
+        scene.textures.set(static_cast<size_t>(tex), {scene.textures.path(static_cast<size_t>(tex)), even ? 512 : 128,
+                                                      even ? 128 : 512, 3, WrapMode::Wrap});
+        const double w = 0.075 + 0.025 * k, h = even ? 0.05 : 0.1;
+        const Vec3d o{10.0 * k, -5.0, 1.0};
+        const Vec3d a = o, b = o + Vec3d{w, 0, 0}, c = o + Vec3d{w, 0, h}, d = o + Vec3d{0, 0, h};
+        scene.triangles.push_back({{a, b, c}, {Vec2d{0, 0}, Vec2d{1, 0}, Vec2d{1, 1}}, tex, -1, 0, SurfaceSemantic::Wall});
+        scene.triangles.push_back({{a, c, d}, {Vec2d{0, 0}, Vec2d{1, 1}, Vec2d{0, 1}}, tex, -1, 0, SurfaceSemantic::Wall});
+    }
+    const AtlasParams params = structureOnly();
+    const double ppm = projectionBound(params).pixelsPerMetreAt1m();
+    std::vector<double> s_max(scene.textures.size(), 0), t_max(scene.textures.size(), 0);
+    for (const Triangle& t : scene.triangles) {
+        if (t.texture < 0) continue;
+        const TexelDensity d = texelDensity(t);
+        s_max[static_cast<size_t>(t.texture)] = std::max(s_max[static_cast<size_t>(t.texture)], d.s_world);
+        t_max[static_cast<size_t>(t.texture)] = std::max(t_max[static_cast<size_t>(t.texture)], d.t_world);
+    }
+    double nearest = 1e300, farthest = 0;
+    bool nearest_by_height = false;
+    for (size_t i = 0; i < scene.textures.size(); ++i) {
+        const TextureInfo& r = scene.textures[i];
+        const double by_width = r.width_px > 0 ? s_max[i] * ppm / r.width_px : 0;
+        const double by_height = r.height_px > 0 ? t_max[i] * ppm / r.height_px : 0;
+        const double distance = std::max(by_width, by_height);
+        if (distance > 0 && distance < nearest) nearest_by_height = by_height > by_width;
+        if (distance > 0) nearest = std::min(nearest, distance), farthest = std::max(farthest, distance);
+    }
+    ASSERT_TRUE(nearest_by_height) << "the case the test is for";
+    GlobalDecisions g;
+    ASSERT_TRUE(decideGlobals(scene, params, &g).ok());
+    EXPECT_EQ(g.d_full_m, nearest);
+    EXPECT_EQ(g.d_first_upsampled_m, farthest);
+    EXPECT_LT(nearest, farthest / 10);
+}
+
 }  // namespace
 }  // namespace cityatlas::atlas
