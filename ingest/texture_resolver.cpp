@@ -4,6 +4,7 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
@@ -137,23 +138,42 @@ struct TextureResolver::Prefetcher {
     }
 };
 
-TextureResolver::TextureResolver(SceneSink& sink, Diagnostics& diagnostics)
-    : sink_(sink), diagnostics_(diagnostics), resolved_(64, KeyHash{&sink}, KeyEqual{&sink}) {}
+TextureResolver::TextureResolver(SceneSink& sink, Diagnostics& diagnostics) : sink_(sink), diagnostics_(diagnostics) {}
 
-size_t TextureResolver::KeyHash::operator()(const Key& k) const {
-    return std::hash<std::string_view>{}(k.path) ^ (static_cast<size_t>(k.wrap) * 0x9E3779B97F4A7C15ULL);
+uint32_t TextureResolver::hashOf(const Key& k) {
+    const size_t h = std::hash<std::string_view>{}(k.path) ^ (static_cast<size_t>(k.wrap) * 0x9E3779B97F4A7C15ULL);
+    return static_cast<uint32_t>(h ^ (h >> 32));
 }
 
-size_t TextureResolver::KeyHash::operator()(int32_t index) const {
-    const TextureTable& t = sink->textures();
-    const auto i = static_cast<size_t>(index);
-    return (*this)(Key{t.path(i), t[i].wrap});
+int32_t TextureResolver::findResolved(const Key& k, uint32_t hash) const {
+    if (resolved_.empty()) return -1;
+    const TextureTable& t = sink_.textures();
+    const size_t mask = resolved_.size() - 1;
+    for (size_t i = hash & mask;; i = (i + 1) & mask) {
+        const uint64_t slot = resolved_[i];
+        if (slot == 0) return -1;
+        if (static_cast<uint32_t>(slot >> 32) != hash) continue;
+        const auto index = static_cast<int32_t>(static_cast<uint32_t>(slot) - 1);
+        const auto at = static_cast<size_t>(index);
+        if (t[at].wrap == k.wrap && t.path(at) == k.path) return index;  // a path read only when the hashes agree
+    }
 }
 
-bool TextureResolver::KeyEqual::operator()(const Key& a, int32_t b) const {
-    const TextureTable& t = sink->textures();
-    const auto i = static_cast<size_t>(b);
-    return a.wrap == t[i].wrap && a.path == t.path(i);
+void TextureResolver::addResolved(int32_t index, uint32_t hash) {
+    const auto place = [](std::vector<uint64_t>& slots, uint64_t slot) {
+        const size_t mask = slots.size() - 1;
+        size_t i = static_cast<uint32_t>(slot >> 32) & mask;
+        while (slots[i] != 0) i = (i + 1) & mask;
+        slots[i] = slot;
+    };
+    if ((resolved_count_ + 1) * 10 > resolved_.size() * 7) {
+        std::vector<uint64_t> grown(std::max<size_t>(64, 2 * resolved_.size()), 0);
+        for (const uint64_t slot : resolved_)
+            if (slot != 0) place(grown, slot);
+        resolved_.swap(grown);
+    }
+    place(resolved_, uint64_t{hash} << 32 | (static_cast<uint32_t>(index) + 1));
+    ++resolved_count_;
 }
 
 TextureResolver::~TextureResolver() = default;
@@ -169,7 +189,9 @@ int32_t TextureResolver::resolve(const fs::path& base_dir, const std::string& ur
     const bool remote = isRemote(uri);
     const fs::path path = remote ? fs::path() : localPath(base_dir, uri);
     const std::string& where_from = remote ? uri : path.native();
-    if (auto it = resolved_.find(Key{where_from, wrap}); it != resolved_.end()) return *it;
+    const Key key{where_from, wrap};
+    const uint32_t hash = hashOf(key);
+    if (const int32_t found = findResolved(key, hash); found >= 0) return found;
     const std::string failed_key = where_from + "#" + std::to_string(static_cast<int>(wrap));
     if (auto it = failed_keys_.find(failed_key); it != failed_keys_.end()) return it->second;
 
@@ -198,7 +220,7 @@ int32_t TextureResolver::resolve(const fs::path& base_dir, const std::string& ur
         }
     }
     (index >= 0 ? ok_ : failed_)++;
-    if (index >= 0) resolved_.insert(index);
+    if (index >= 0) addResolved(index, hash);
     else failed_keys_.emplace(failed_key, index);
     return index;
 }

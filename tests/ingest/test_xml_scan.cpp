@@ -12,6 +12,8 @@
 #include <OpenImageIO/imageio.h>
 
 #include <fstream>
+#include <map>
+#include <random>
 #include <vector>
 
 #include "ingest/citygml/xml_input.h"
@@ -249,6 +251,44 @@ TEST(TextureResolver, PrefetchGivesTheSameTexturesAndWarnings) {
     EXPECT_NE(plain.find("texture_unreadable=6"), std::string::npos) << plain;
     EXPECT_EQ(run(true, uris.size()), plain);
     EXPECT_EQ(run(true, 10), plain) << "some prefetched, the rest read inline";
+}
+
+TEST(TextureResolver, ThousandsOfImagesAndWrapsKeepTheirFirstIndex) {
+    // 3,600 images under 5 wrap modes: 18,000 textures, whose paths (~1.5
+    // MB) pass the table's MiB in memory, so that most lookups compare a
+    // path read back from its file; the resolver's table grows 9 times.
+    const fs::path dir = test::scratchPath("xml_scan", "many_images");
+    fs::create_directories(dir);
+    constexpr int kImages = 3'600;
+    const auto name = [](int image) { return "building_" + std::to_string(image) + "_facade_texture_of_the_wall.png"; };
+    for (int i = 0; i < kImages; ++i) writePng(dir / name(i), 4, 4, 3);
+    SceneCollector sink;
+    Diagnostics diagnostics;
+    TextureResolver resolver(sink, diagnostics);
+    std::map<std::pair<int, int>, int32_t> first;  // (image, wrap) -> index
+    std::mt19937 rng(9);
+    const auto resolveOne = [&](int image, int wrap) {
+        const int32_t got = resolver.resolve(dir, name(image), static_cast<WrapMode>(wrap), {"f.gml", image, "", ""});
+        const auto [it, added] = first.emplace(std::pair{image, wrap}, got);
+        if (added) {
+            EXPECT_EQ(got, static_cast<int32_t>(first.size()) - 1) << "a new key is the next texture";
+        } else {
+            ASSERT_EQ(got, it->second) << image << " wrap " << wrap;
+        }
+    };
+    for (int wrap = 0; wrap < 5; ++wrap)
+        for (int image = 0; image < kImages; ++image) {
+            resolveOne(image, wrap);
+            if (image % 3 == 0) resolveOne(static_cast<int>(rng() % (image + 1)), static_cast<int>(rng() % (wrap + 1)));
+        }
+    for (int k = 0; k < 20'000; ++k) resolveOne(static_cast<int>(rng() % kImages), static_cast<int>(rng() % 5));
+    ASSERT_EQ(sink.scene.textures.size(), size_t{5} * kImages);
+    EXPECT_GT(sink.scene.textures.bytesOnDisk(), 0u) << "the case the test is for: paths read back";
+    EXPECT_EQ(resolver.resolved(), 5u * kImages) << "distinct keys resolved";
+    for (const auto& [key, index] : first) {
+        ASSERT_EQ(fs::path(sink.scene.textures.path(static_cast<size_t>(index))).filename(), name(key.first));
+        ASSERT_EQ(sink.scene.textures[static_cast<size_t>(index)].wrap, static_cast<WrapMode>(key.second));
+    }
 }
 
 }  // namespace
