@@ -917,7 +917,8 @@ RunFn addMergeCommand(CLI::App& app) {
         "Finish a sharded build whose shards are built (`build --slurm` submits this as the job after them; a local\n"
         "`build` becomes `merge --run-shards` after its plan): the levels above the shards, the original textures,\n"
         "the index and the report, then the folder moved to its place.");
-    cmd->add_option("plan", opt->plan, "The plan folder (OUT.partial/.plan)")->required();
+    cmd->add_option("plan", opt->plan, "The plan folder (OUT.partial/.plan), where the build left it (a copy is refused)")
+        ->required();
     cmd->add_flag("--run-shards", opt->run_shards,
                   "Build the shards not built yet first, on this machine (what `build` does after its plan, in a fresh\n"
                   "process image); a failure then removes the working folder, as a failed `build` does");
@@ -948,6 +949,16 @@ RunFn addMergeCommand(CLI::App& app) {
         }
         const bool force = j.value("force", false);
         j = nlohmann::json();
+        // The record names the folders the merge writes, moves and removes:
+        // run on a copy (or a plan moved elsewhere) it would finish, and
+        // delete, the original's build instead.
+        std::error_code same_ec;
+        if (!fs::equivalent(fs::path(opt->plan), fs::path(rec.working) / ".plan", same_ec))
+            return cli::fail("merge",
+                             Status::Usage(fmt::format("{}: not the plan folder its build.json names ({}/.plan, the "
+                                                       "build of {}): merge that one; a copied or moved plan cannot be merged",
+                                                       opt->plan, rec.working, rec.target)),
+                             &progress);
         StageClock clock;
         // Run by `build` itself: its errors are the build's, and leave no working folder.
         auto failed = [&](const Status& s) {

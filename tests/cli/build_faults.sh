@@ -3,7 +3,10 @@
 #  1. what a kill in the swap gap leaves (<out>.old without <out>, a stale
 #     <out>.partial) is undone by the next run, which finds the build up to date;
 #  2. SIGKILL at random moments (3 here; benchmarks/kill_build.sh runs 20+);
-#  3. a full disk (a 3 MB tmpfs; skipped where mounting is not allowed): one
+#  3. a plan folder copied elsewhere is not merged (its build.json names the
+#     folders the merge writes and removes: the original's): one error line,
+#     exit 2, the original plan untouched and still merged where it is;
+#  4. a full disk (a 3 MB tmpfs; skipped where mounting is not allowed): one
 #     error line, exit 1, the previous folder intact, no working folder left.
 source "$(dirname "$0")/lib.sh" "$@"
 
@@ -42,7 +45,28 @@ for trial in 1 2 3; do
   echo "ok: kill trial $trial: complete folder, clean rerun"
 done
 
-# 3. A full disk.
+# 3. A copied plan folder. `build --slurm` with an sbatch that only answers a
+# job id leaves the plan for jobs that never run.
+mkdir -p stub && printf '#!/bin/sh\necho 7\n' > stub/sbatch && chmod +x stub/sbatch
+PATH="$PWD/stub:$PATH" "$CITYATLAS" build -q town/town.gml -o planned --shard-triangles 1000 --slurm > /dev/null ||
+  fail "build --slurm with a stub sbatch failed"
+[ -f planned.partial/.plan/build.json ] || fail "no plan folder to copy"
+cp -r planned.partial/.plan copied_plan
+before=$(find planned.partial | sort | md5sum)
+set +e
+"$CITYATLAS" merge --run-shards -q copied_plan > copied.out 2> copied.err
+rc=$?
+set -e
+check_eq "exit status of a merge of a copied plan" 2 "$rc"
+check_eq "stderr lines of a merge of a copied plan" 1 "$(wc -l < copied.err)"
+grep -q "^cityatlas merge: error: .*copied_plan: not the plan folder its build.json names" copied.err || fail "the error does not say why: $(cat copied.err)"
+check_eq "the original plan after the refused merge" "$before" "$(find planned.partial | sort | md5sum)"
+[ ! -e planned ] || fail "the refused merge wrote the original's output"
+"$CITYATLAS" merge --run-shards -q planned.partial/.plan > /dev/null || fail "the original plan no longer merges"
+complete planned
+echo "ok: a copied plan is refused: $(cat copied.err)"
+
+# 4. A full disk.
 mkdir -p small
 if ! mount -t tmpfs -o size=3m tmpfs small 2> mount.txt; then
   echo "SKIPPED part 3: cannot mount a tmpfs here ($(head -1 mount.txt))"
