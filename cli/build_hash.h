@@ -44,8 +44,8 @@ struct TextureDigest {
     friend bool operator==(const TextureDigest&, const TextureDigest&) = default;
 };
 static_assert(sizeof(TextureDigest) == 16);
-/// Digest t of a city's textures, wherever they are kept (a vector, or a
-/// merge's scratch file: core/record_file.h).
+/// Digest t of a city's textures, wherever they are kept (the read's and the
+/// merge's scratch files: core/record_file.h).
 using DigestAt = std::function<TextureDigest(size_t)>;
 /// Hashes every texture file once (a path that several entries share is read
 /// once) into `out`, by texture (16 bytes each, on disk: the read's and the

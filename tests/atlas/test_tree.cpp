@@ -574,10 +574,11 @@ std::unique_ptr<Built> build(const Scene& scene, const AtlasParams& params, cons
     return b;
 }
 
-Scene townScene(uint32_t buildings, uint64_t seed) {
+Scene townScene(uint32_t buildings, uint64_t seed, int texture_size_px = synth::TownSettings{}.texture_size_px) {
     synth::TownSettings settings;
     settings.buildings = buildings;
     settings.seed = seed;
+    settings.texture_size_px = texture_size_px;
     // render_images = false never opens a texture: the folder need not exist.
     return synth::townToScene(synth::generateTown(settings), "/nonexistent/cityatlas_test_town");
 }
@@ -1273,11 +1274,7 @@ struct Passes {
 };
 
 TEST(GlobalDecisions, TextureModelsARangeAtATimeDecideAsTheWholeModels) {
-    synth::TownSettings settings;
-    settings.buildings = 100;
-    settings.seed = 7;
-    settings.texture_size_px = 32;
-    Scene scene = synth::townToScene(synth::generateTown(settings), "/nonexistent/cityatlas_test_town");
+    Scene scene = townScene(100, 7, 32);
     // Ten 1 m signs with 64 px textures mapped once: at the distance where a
     // metre needs 60 texels, each is cheaper held at its full 64 x 64 (promoted).
     const double ppm = projectionBound(structureOnly()).pixelsPerMetreAt1m();
@@ -1329,11 +1326,7 @@ TEST(GlobalDecisions, TextureModelsARangeAtATimeDecideAsTheWholeModels) {
 // the farthest. Computed here the way the papers put it (the largest s and t
 // per texture, then the axes), against the plan's single pass.
 TEST(GlobalDecisions, DFullIsTheNearestNativeDistanceOfTheCitysTextures) {
-    synth::TownSettings settings;
-    settings.buildings = 60;
-    settings.seed = 11;
-    settings.texture_size_px = 32;
-    Scene scene = synth::townToScene(synth::generateTown(settings), "/nonexistent/cityatlas_test_town");
+    Scene scene = townScene(60, 11, 32);
     // Small signs, denser than the town's textures, whose coarser axis (the
     // one that sets a texture's distance) is the height on even ones (512 x
     // 128 px on w x 5 cm) and the width on odd ones (128 x 512 px on w x 10
