@@ -694,6 +694,8 @@ int runBuild(const BuildCliOptions& opt_in) {
         source_textures.push_back(std::move(d));
     }
     const std::string build_hash = buildHashOf(inputs_key, scene.textures, digest_in_order, tmp.string(), source_textures);
+    // A digest that did not read back reads as zeros: asked here, or the hash would be wrong without an error.
+    if (Status s = texture_digests.status(); !s.ok()) return abandon(s);
     endStage("read");
 
     // The atlas stage takes the scene's triangles (the tree holds them from
@@ -778,6 +780,7 @@ int runBuild(const BuildCliOptions& opt_in) {
                                  digest_alone, feature_tables, &keys, plan_progress);
             !s.ok())
             return abandon(s);
+        if (Status s = texture_digests.status(); !s.ok()) return abandon(s);  // textures.bin's and the keys' digests
         globals = {};
         fs::remove(spill, ec);
         // Incremental: the previous folder's shards with unchanged content keys (not with --force).
