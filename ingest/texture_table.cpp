@@ -2,6 +2,7 @@
 #include "ingest/texture_table.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <stdexcept>
 
 #include "core/external_sort.h"
@@ -12,10 +13,22 @@ namespace {
 constexpr size_t kChunk = size_t{1} << 20;  // paths held in memory before they go to the file
 }  // namespace
 
-TextureTable::TextureTable(std::filesystem::path scratch_dir)
-    : scratch_dir_(std::move(scratch_dir)), file_(scratch_dir_, "cityatlas-texture-paths") {}
+size_t TextureTable::defaultMemoryBytes() {
+    static const size_t bytes = [] {
+        const char* mb = std::getenv("CITYATLAS_TABLE_MEMORY_MB");
+        char* end = nullptr;
+        const unsigned long long v = mb ? std::strtoull(mb, &end, 10) : 0;
+        return mb && end != mb && *end == '\0' ? static_cast<size_t>(v) << 20 : size_t{64} << 20;
+    }();
+    return bytes;
+}
 
-TextureTable::TextureTable(const TextureTable& other) : TextureTable(other.scratch_dir_) {
+TextureTable::TextureTable(std::filesystem::path scratch_dir, size_t memory_bytes)
+    : scratch_dir_(std::move(scratch_dir)),
+      entries_(scratch_dir_, "texture table", memory_bytes),
+      file_(scratch_dir_, "cityatlas-texture-paths") {}
+
+TextureTable::TextureTable(const TextureTable& other) : TextureTable(other.scratch_dir_, other.entries_.memoryBytes()) {
     for (size_t i = 0; i < other.size(); ++i) push_back(other.ref(i));
 }
 
@@ -28,9 +41,10 @@ void TextureTable::setScratchDir(const std::filesystem::path& scratch_dir) {
     if (tail_at_ > 0) return;  // paths already sealed: they stay where they went
     scratch_dir_ = scratch_dir;
     file_ = ScratchFile(scratch_dir_, "cityatlas-texture-paths");
+    entries_.setScratchDir(scratch_dir_);
 }
 
-void TextureTable::clear() { *this = TextureTable(scratch_dir_); }
+void TextureTable::clear() { *this = TextureTable(scratch_dir_, entries_.memoryBytes()); }
 
 void TextureTable::seal() {
     if (tail_.empty()) return;
@@ -60,19 +74,19 @@ uint64_t TextureTable::append(std::string_view path) {
     return offset << kLengthBits | length;
 }
 
-void TextureTable::push_back(const TextureRef& t) {
-    info_.push_back(t);
-    at_.push_back(append(t.path));
+TextureTable::Entry TextureTable::entry(const TextureRef& t) {
+    const uint64_t at = append(t.path);
+    return {t, static_cast<uint32_t>(at), static_cast<uint32_t>(at >> 32)};
 }
 
-void TextureTable::set(size_t i, const TextureRef& t) {
-    info_[i] = t;
-    at_[i] = append(t.path);
-}
+void TextureTable::push_back(const TextureRef& t) { entries_.push_back(entry(t)); }
+
+void TextureTable::set(size_t i, const TextureRef& t) { entries_.set(i, entry(t)); }
 
 std::string TextureTable::path(size_t i) const {
-    const uint64_t offset = at_[i] >> kLengthBits;
-    const size_t length = at_[i] & ((uint64_t{1} << kLengthBits) - 1);
+    const uint64_t at = entries_.get(i).at();
+    const uint64_t offset = at >> kLengthBits;
+    const size_t length = at & ((uint64_t{1} << kLengthBits) - 1);
     if (offset >= tail_at_) return tail_.substr(offset - tail_at_, length);
     if (offset >= on_disk_) {
         const size_t k = static_cast<size_t>(std::upper_bound(kept_at_.begin(), kept_at_.end(), offset) - kept_at_.begin()) - 1;
@@ -84,7 +98,7 @@ std::string TextureTable::path(size_t i) const {
 }
 
 TextureRef TextureTable::ref(size_t i) const {
-    const TextureInfo& t = info_[i];
+    const TextureInfo t = entries_.get(i).info;
     return {path(i), t.width_px, t.height_px, t.channels, t.wrap};
 }
 
@@ -133,7 +147,7 @@ std::vector<uint32_t> TextureTable::firstOfPath(const std::filesystem::path& scr
 }
 
 size_t TextureTable::bytes() const {
-    size_t b = info_.size() * sizeof(TextureInfo) + at_.size() * sizeof(uint64_t) + tail_.capacity();
+    size_t b = entries_.bytes() + tail_.capacity();
     for (const std::string& k : kept_) b += k.capacity();
     return b;
 }

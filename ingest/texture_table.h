@@ -15,14 +15,20 @@
 /// page cache's memory, not the process's). A table that never passes a MiB
 /// (a few tens of thousands of textures) has no file. Where no file can be
 /// made (a full disk) the paths stay in memory, as they would have.
+///
+/// Since stop 54 the 20 bytes a texture stop growing too: past
+/// `memory_bytes` (64 MiB, about 3.3 million textures) the entries go to a
+/// scratch file by pages (core/paged_column.h), the ones read most recently
+/// kept in memory. Every process of a build holds at most that, whatever the
+/// city's size.
 
 #include <cstdint>
-#include <deque>
 #include <filesystem>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "core/paged_column.h"
 #include "core/scratch_file.h"
 
 namespace cityatlas {
@@ -51,10 +57,14 @@ struct TextureRef {
 
 class TextureTable {
 public:
+    /// 64 MiB, or CITYATLAS_TABLE_MEMORY_MB (for measurements: the paged
+    /// path on a city smaller than the default's 3.3 million textures).
+    static size_t defaultMemoryBytes();
     /// Paths past the first MiB go to a scratch file in `scratch_dir`
-    /// (empty, or by default: the system's temporary folder).
+    /// (empty, or by default: the system's temporary folder), and so do the
+    /// entries past `memory_bytes` (their sizes and where their paths are).
     TextureTable() : TextureTable(std::filesystem::path()) {}
-    explicit TextureTable(std::filesystem::path scratch_dir);
+    explicit TextureTable(std::filesystem::path scratch_dir, size_t memory_bytes = defaultMemoryBytes());
     TextureTable(const TextureTable& other);
     TextureTable& operator=(const TextureTable& other);
     TextureTable(TextureTable&&) = default;
@@ -63,12 +73,13 @@ public:
     /// all still in memory (a build names its folder before the read).
     void setScratchDir(const std::filesystem::path& scratch_dir);
 
-    size_t size() const { return info_.size(); }
-    bool empty() const { return info_.empty(); }
+    size_t size() const { return entries_.size(); }
+    bool empty() const { return entries_.empty(); }
     void clear();
     void push_back(const TextureRef& texture);
 
-    const TextureInfo& operator[](size_t i) const { return info_[i]; }
+    /// Texture i's size, channels and wrap (safe from many threads at once).
+    TextureInfo operator[](size_t i) const { return entries_.get(i).info; }
     /// Texture i's path (read back from the scratch file for most of a
     /// city's: call it once per use, not in a loop over triangles). Throws
     /// std::runtime_error if the file cannot be read back (a failing disk).
@@ -85,8 +96,8 @@ public:
 
     /// Bytes held in memory, spare room included (for memory budgets).
     size_t bytes() const;
-    /// Bytes of paths in the scratch file (0: none, or no file could be made).
-    uint64_t bytesOnDisk() const { return on_disk_; }
+    /// Bytes of paths and entries in scratch files (0: none, or no file could be made).
+    uint64_t bytesOnDisk() const { return on_disk_ + entries_.bytesOnDisk(); }
 
 private:
     // A path's place: its offset among all paths written (40 bits: 1 TiB)
@@ -96,11 +107,18 @@ private:
     uint64_t append(std::string_view path);
     void seal();  // the paths in memory to the file (or kept in memory)
 
+    // What the table keeps a texture: 20 bytes (the place in two halves,
+    // so that the entry packs to 4-byte alignment).
+    struct Entry {
+        TextureInfo info;
+        uint32_t at_low = 0, at_high = 0;
+        uint64_t at() const { return uint64_t{at_high} << 32 | at_low; }
+    };
+    static_assert(sizeof(Entry) == 20);
+    Entry entry(const TextureRef& texture);
+
     std::filesystem::path scratch_dir_;
-    // Deques: a city's table grows without the copies (and the twice-the-
-    // size moments) of a doubling vector.
-    std::deque<TextureInfo> info_;
-    std::deque<uint64_t> at_;
+    PagedColumn<Entry> entries_;  // paged beyond the budget: no doubling copies of a city's table
     std::string tail_;        ///< the newest paths, back to back, from offset tail_at_
     uint64_t tail_at_ = 0;    ///< bytes of paths before tail_ (in the file or kept_)
     uint64_t on_disk_ = 0;    ///< bytes of paths in file_, from offset 0

@@ -61,11 +61,11 @@ TEST(TextureTable, ManyNamesSpanSeveralChunks) {
     }
     EXPECT_EQ(table.path(199'999), name(199'999));
     // The paths (~6.5 MB) went to the scratch file but for the newest MiB:
-    // 20 bytes a texture in memory and that MiB (~25 in all here), against
-    // ~43 with the paths packed in memory and ~150 for a vector of
-    // TextureRefs whose paths live on the heap.
+    // 20 bytes a texture in memory (by pages of 16,384), and that MiB (~26
+    // in all here), against ~43 with the paths packed in memory and ~150
+    // for a vector of TextureRefs whose paths live on the heap.
     EXPECT_GT(table.bytesOnDisk(), 5'000'000u);
-    EXPECT_LT(table.bytes(), 26u * 200'000);
+    EXPECT_LT(table.bytes(), 27u * 200'000);
 }
 
 // 60,000 paths of ~50 bytes: two chunks sealed (a MiB each, less the
@@ -127,6 +127,33 @@ TEST(TextureTable, SetAndCopyAfterThePathsWentToDisk) {
     for (const TextureRef& t : city) fresh.push_back(t);
     EXPECT_EQ(fresh.bytesOnDisk(), 0u) << "the folder named before the first MiB is the one used";
     EXPECT_EQ(fresh.path(12'345), city[12'345].path);
+}
+
+TEST(TextureTable, EntriesPastTheBudgetGoToDiskAndComeBack) {
+    // The least budget (three pages of 16,384 entries, ~1 MB): 200,000
+    // textures keep ~1 MB of entries and the newest MiB of paths in memory
+    // (5.3 MB at the default budget), every one found as added, at random
+    // too, and replaced where its page is on disk.
+    std::vector<TextureRef> city = cityOfPaths(200'000);
+    TextureTable table({}, 0);
+    for (const TextureRef& t : city) table.push_back(t);
+    EXPECT_LT(table.bytes(), 2'200'000u);
+    EXPECT_GT(table.bytesOnDisk(), 200'000u * 20 / 2) << "entries and paths in the files";
+    for (size_t i = 0; i < city.size(); i += 7) expectSame(table, i, city[i]);
+    std::mt19937 rng(9);
+    for (int k = 0; k < 5'000; ++k) {
+        const size_t i = rng() % city.size();
+        if (k % 4 == 0) {
+            city[i] = {"/build/stylised/" + std::to_string(i) + ".png", 40, 30, 4, WrapMode::Clamp};
+            table.set(i, city[i]);
+        }
+        ASSERT_EQ(table[i].width_px, city[i].width_px) << i;
+        ASSERT_EQ(table.path(i), city[i].path) << i;
+    }
+    const TextureTable copy = table;
+    EXPECT_LT(copy.bytes(), 2'200'000u) << "a copy keeps the budget";
+    for (size_t i = 0; i < city.size(); ++i) expectSame(copy, i, city[i]);
+    EXPECT_LT(table.bytes(), 2'200'000u);
 }
 
 TEST(TextureTable, SetReplacesOneEntryAndKeepsTheOthers) {
