@@ -78,20 +78,23 @@ bool readImage8(const std::string& path, int channels, Image8* out, std::string*
     return true;
 }
 
-std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const TextureTable& textures,
-                                         int atlas_size_px, bool split) {
-    std::vector<int32_t> index(used.size(), -1);
+TextureIndex tilesetTextureIndex(const std::vector<uint8_t>& used, const TextureTable& textures, int atlas_size_px,
+                                 bool split, const fs::path& scratch_dir) {
+    TextureIndex index = makeTextureIndex(scratch_dir);
     int32_t next = 0;
     for (size_t t = 0; t < used.size(); ++t) {
-        if (!used[t]) continue;
-        index[t] = next;
+        if (!used[t]) {
+            index.push_back(-1);
+            continue;
+        }
+        index.push_back(next);
         next += 1 + splitGridOf(textures[t], atlas_size_px, split).count();  // the whole texture, then its tiles
     }
     return index;
 }
 
 std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::AtlasTree& tree,
-                                            const std::vector<int32_t>& texture_index, bool split) {
+                                            const TextureIndex& texture_index, bool split) {
     std::vector<std::vector<int32_t>> out(tree.nodes.size());
     std::vector<TilePiece> pieces;
     for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
@@ -136,7 +139,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
     std::vector<uint8_t> used(scene.textures.size(), 0);
     for (const atlas::TreeTriangle& t : tree.triangles)
         if (t.tri.texture >= 0) used[static_cast<size_t>(t.tri.texture)] = 1;
-    std::vector<int32_t> index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, split);
+    TextureIndex index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, split, scratch_dir);
     std::vector<std::vector<int32_t>> tiles = leafTiles(scene, tree, index, split);
     return planTextureBlocks(scene, tree, all, split, std::move(index), leafTextures(tree), tiles, scratch_dir);
 }
@@ -174,7 +177,7 @@ TextureEntry TextureBlocks::entry(const TextureTable& textures, size_t t) {
 }
 
 TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split,
-                                std::vector<int32_t> texture_index,
+                                TextureIndex texture_index,
                                 const std::vector<std::vector<int32_t>>& leaf_textures,
                                 const std::vector<std::vector<int32_t>>& leaf_tiles, const fs::path& scratch_dir) {
     TextureBlocks b;
@@ -196,14 +199,18 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
                       splitGridOf(scene.textures[st], tree.params.atlas_size_px, split).count();
             break;
         }
-    b.scene_texture.assign(entries, -1);
-    b.block.assign(entries, TextureBlocks::kExact);
+    // Tileset numbers ascend with scene textures: each used one's entries in turn.
+    b.scene_texture = PagedColumn<int32_t>(scratch_dir, "the tileset textures' scene textures", TextureBlocks::columnBytes());
+    b.block = PagedColumn<int32_t>(scratch_dir, "the tileset textures' blocks", TextureBlocks::columnBytes());
     for (size_t st = 0; st < b.texture_index.size(); ++st) {
         const int32_t ti = b.texture_index[st];
         if (ti < 0) continue;
         const int tiles = splitGridOf(scene.textures[st], tree.params.atlas_size_px, split).count();
-        for (int k = 0; k <= tiles; ++k) b.scene_texture[static_cast<size_t>(ti + k)] = static_cast<int32_t>(st);
+        while (b.scene_texture.size() < static_cast<size_t>(ti)) b.scene_texture.push_back(-1);  // no gaps: a guard
+        for (int k = 0; k <= tiles; ++k) b.scene_texture.push_back(static_cast<int32_t>(st));
     }
+    while (b.scene_texture.size() < entries) b.scene_texture.push_back(-1);
+    for (size_t t = 0; t < entries; ++t) b.block.push_back(TextureBlocks::kExact);
     // Nodes are in depth-first preorder, so leaves come in depth-first order:
     // a block holds the originals of neighbouring leaves.
     for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
@@ -226,7 +233,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
                     if (t >= ti && t <= ti + tiles) needed.push_back(t);
         }
         for (const int32_t ti : needed) {
-            int32_t& blk = b.block[static_cast<size_t>(ti)];
+            int32_t blk = b.block[static_cast<size_t>(ti)];
             if (blk == TextureBlocks::kExact) {
                 const TextureEntry e = b.planned(scene.textures, static_cast<size_t>(ti));
                 const uint64_t texels = static_cast<uint64_t>(std::max(e.width, 1)) * std::max(e.height, 1);
@@ -242,6 +249,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
                     current_texels += texels;
                     blk = current;
                 }
+                b.block.set(static_cast<size_t>(ti), blk);
             }
             const auto ub = static_cast<uint32_t>(blk);
             if (std::find(mine.begin(), mine.end(), ub) == mine.end()) mine.push_back(ub);
@@ -290,8 +298,12 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     const size_t nblocks = blocks->block_bytes.size();
     // Each block's textures (tileset numbers, ascending): one list cut by block, 4 bytes a written texture.
     std::vector<uint64_t> first_member(nblocks + 1, 0);
-    for (const int32_t blk : blocks->block)
+    uint64_t exact = 0;
+    for (size_t t = 0; t < blocks->size(); ++t) {
+        const int32_t blk = blocks->block[t];
         if (blk >= 0) ++first_member[static_cast<size_t>(blk) + 1];
+        exact += blk == TextureBlocks::kExact;
+    }
     std::partial_sum(first_member.begin(), first_member.end(), first_member.begin());
     std::vector<uint32_t> member_list(first_member.back());
     {
@@ -374,8 +386,6 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         return enc;
     };
     uint64_t done = 0;
-    const auto exact = static_cast<uint64_t>(
-        std::count(blocks->block.begin(), blocks->block.end(), TextureBlocks::kExact));
     // A block whose textures are all unreadable is not written; the others are
     // renumbered densely so every block in the index has a file of >= 1 byte.
     // Writes one encoded block, in block order (the numbering and the bytes do not
@@ -407,9 +417,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
         uint64_t offset = 0;
         std::vector<WrittenTexture> written(list.size());
         for (size_t k = 0; k < list.size(); ++k) {
-            int32_t& block = blocks->block[list[k]];
             if (!enc[k].why.empty()) {
-                block = TextureBlocks::kUnreadable;
+                blocks->block.set(list[k], TextureBlocks::kUnreadable);
                 const TextureEntry e = blocks->planned(scene.textures, list[k]);
                 if (e.tile >= 0 && !warned_split.insert(e.scene_texture).second) continue;  // once per texture, not per tile
                 diagnostics.warn(warn::kTextureUnreadable,
@@ -417,7 +426,7 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
                                   "original texture for near views not written (leaves draw their atlas): " + enc[k].why});
                 continue;
             }
-            block = index;
+            blocks->block.set(list[k], index);
             WrittenTexture& w = written[k];
             // The real size wins over the one recorded at ingest.
             w.width = enc[k].width, w.height = enc[k].height;

@@ -23,11 +23,13 @@
 #include <vector>
 
 #include "atlas/atlas_tree.h"
+#include "core/paged_column.h"
 #include "core/record_file.h"
 #include "core/status.h"
 #include "ingest/diagnostics.h"
 #include "ingest/scene.h"
 #include "tiles/texture_codec.h"
+#include "tiles/texture_index.h"
 #include "tiles/texture_tiles.h"
 
 namespace cityatlas::tiles {
@@ -61,10 +63,15 @@ struct WrittenTexture {
 struct TextureBlocks {
     static constexpr int32_t kExact = -1;       ///< block: no leaf needs its original
     static constexpr int32_t kUnreadable = -2;  ///< block: needed, but its file could not be read
+    /// Each column's memory: a quarter of the texture table's (16 MiB).
+    static size_t columnBytes() { return TextureTable::defaultMemoryBytes() / 4; }
 
-    std::vector<int32_t> texture_index;       ///< scene texture -> (first) tileset texture, -1 unused
-    std::vector<int32_t> scene_texture;       ///< per tileset texture (tileset order): its scene texture
-    std::vector<int32_t> block;               ///< per tileset texture: its block, kExact or kUnreadable
+    TextureIndex texture_index;               ///< scene texture -> (first) tileset texture, -1 unused
+    /// Per tileset texture (tileset order): its scene texture, and its block
+    /// (kExact or kUnreadable). Columns that stop growing at columnBytes()
+    /// (core/paged_column.h: a city's pages beyond go to a scratch file).
+    PagedColumn<int32_t> scene_texture{{}, "the tileset textures' scene textures", columnBytes()};
+    PagedColumn<int32_t> block{{}, "the tileset textures' blocks", columnBytes()};
     int atlas_size_px = 0;                    ///< with `split`, what cuts a split texture's tiles
     bool split = false;
     std::vector<uint64_t> block_bytes;        ///< per block; the file is textures/<block>.bin
@@ -101,7 +108,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
 /// triangles use (leafTiles). The index is moved in (TextureBlocks::texture_index):
 /// a city's is tens of megabytes.
 TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree, bool all, bool split,
-                                std::vector<int32_t> texture_index,
+                                TextureIndex texture_index,
                                 const std::vector<std::vector<int32_t>>& leaf_textures,
                                 const std::vector<std::vector<int32_t>>& leaf_tiles,
                                 const std::filesystem::path& scratch_dir = {});
@@ -110,15 +117,15 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
 /// ones (a split texture takes one more number per tile, tiles/texture_tiles.h),
 /// so a shard of a larger build numbers its leaves' textures as the whole
 /// build does without seeing the other shards.
-std::vector<int32_t> tilesetTextureIndex(const std::vector<uint8_t>& used, const TextureTable& textures,
-                                         int atlas_size_px, bool split);
+TextureIndex tilesetTextureIndex(const std::vector<uint8_t>& used, const TextureTable& textures, int atlas_size_px,
+                                 bool split, const std::filesystem::path& scratch_dir = {});
 /// Per node (leaves only; others empty): the scene textures its triangles use, ascending.
 std::vector<std::vector<int32_t>> leafTextures(const atlas::AtlasTree& tree);
 /// Per node (leaves only; others empty): the tileset textures of split
 /// textures its triangles name once cut (as leafGeometry cuts them: tiles,
 /// or the whole texture for a triangle that is not cut), ascending.
 std::vector<std::vector<int32_t>> leafTiles(const Scene& scene, const atlas::AtlasTree& tree,
-                                            const std::vector<int32_t>& texture_index, bool split);
+                                            const TextureIndex& texture_index, bool split);
 
 /// Reads, encodes and writes every planned block to `out_dir/textures/`;
 /// keeps offsets and sizes (TextureBlocks::written). An unreadable texture is a counted warning

@@ -103,7 +103,7 @@ TEST(TextureBlocks, NothingWrittenNeedsNoScratchFile) {
 TEST(TextureBlocks, AnEntryThatCannotBeWrittenIsAnError) {
     Written w;
     makeBlocks(100, 1, 0, &w);
-    w.blocks.block[42] = 0;
+    w.blocks.block.set(42, 0);
     // Nothing in the file: record 42 reads as a hole, with no offset.
     EXPECT_EQ(w.blocks.entry(w.table, 42).bytes, 0u);
     // A file that cannot be made: the error names what it was for.
@@ -129,9 +129,10 @@ TEST(TextureBlocks, PlannedTilesOfASplitTexture) {
     b.texture_index = tilesetTextureIndex(used, w.table, 1024, true);
     const std::vector<TexelRect> tiles = tilesetEntries(w.table[1], 1024, true);
     ASSERT_EQ(tiles.size(), 4u);
-    ASSERT_EQ(b.texture_index, (std::vector<int32_t>{0, 1}));
-    b.scene_texture = {0, 1, 1, 1, 1};
-    b.block.assign(5, TextureBlocks::kExact);
+    ASSERT_EQ(b.texture_index.size(), 2u);
+    ASSERT_EQ(b.texture_index[0], 0);
+    ASSERT_EQ(b.texture_index[1], 1);
+    for (const int32_t st : {0, 1, 1, 1, 1}) b.scene_texture.push_back(st), b.block.push_back(TextureBlocks::kExact);
     for (size_t k = 0; k < 4; ++k) {
         const TextureEntry e = b.planned(w.table, 1 + k);
         EXPECT_EQ(e.scene_texture, 1);
