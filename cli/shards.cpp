@@ -209,29 +209,59 @@ atlas::GlobalDecisions globalsFrom(const json& j) {
 // the merge.
 constexpr const char* kTexturePlanFile = "texture_plan.bin";
 
-Status writeTexturePlan(const fs::path& dir, const std::vector<int32_t>& texture_index,
+Status writeTexturePlan(const fs::path& dir, const tiles::TextureIndex& texture_index,
                         const std::vector<uint8_t>& promote) {
     const fs::path path = dir / kTexturePlanFile;
     std::ofstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot create", path.string()));
-    writeVector(f, texture_index);
+    // The index as writeVector writes a vector, a block at a time.
+    const uint64_t n = texture_index.size();
+    f.write(reinterpret_cast<const char*>(&n), sizeof n);
+    std::vector<int32_t> block;
+    for (size_t first = 0; first < n; first += block.size()) {
+        block.clear();
+        for (size_t t = first; t < n && block.size() < (size_t{1} << 16); ++t) block.push_back(texture_index[t]);
+        f.write(reinterpret_cast<const char*>(block.data()), static_cast<std::streamsize>(block.size() * sizeof(int32_t)));
+    }
     writeVector(f, promote);
     f.close();
     if (!f) return Status::Io(fmt::format("{}: cannot write (disk full?)", path.string()));
     return Status::Ok();
 }
 
-// With `only` (ascending scene textures), theirs alone, in that order.
-Status readTexturePlan(const fs::path& dir, std::vector<int32_t>* texture_index, std::vector<uint8_t>* promote,
+// With `only` (ascending scene textures), theirs alone, in that order (a
+// shard's); else the whole city's index, and the promotions unless
+// `promote` is null (the merge: skipped, not held).
+Status readTexturePlan(const fs::path& dir, tiles::TextureIndex* texture_index, std::vector<uint8_t>* promote,
                        const std::vector<int32_t>* only = nullptr) {
     const fs::path path = dir / kTexturePlanFile;
     std::ifstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot open", path.string()));
-    const bool read = only ? readVectorAt(f, *only, texture_index) && readVectorAt(f, *only, promote)
-                           : readVector(f, texture_index) && readVector(f, promote);
-    if (!read || promote->size() != texture_index->size())
-        return Status::Io(fmt::format("{}: truncated or not a texture plan of this cityatlas version", path.string()));
-    return Status::Ok();
+    const Status bad = Status::Io(fmt::format("{}: truncated or not a texture plan of this cityatlas version", path.string()));
+    *texture_index = tiles::makeTextureIndex(dir);
+    if (only) {
+        std::vector<int32_t> index;
+        if (!readVectorAt(f, *only, &index) || !readVectorAt(f, *only, promote) || promote->size() != index.size())
+            return bad;
+        for (const int32_t t : index) texture_index->push_back(t);
+        return Status::Ok();
+    }
+    uint64_t n = 0;
+    if (!f.read(reinterpret_cast<char*>(&n), sizeof n) || n > (uint64_t{1} << 32)) return bad;
+    std::vector<int32_t> block;
+    for (uint64_t first = 0; first < n; first += block.size()) {
+        block.resize(static_cast<size_t>(std::min<uint64_t>(n - first, 1 << 16)));
+        if (!f.read(reinterpret_cast<char*>(block.data()), static_cast<std::streamsize>(block.size() * sizeof(int32_t))))
+            return bad;
+        for (const int32_t t : block) texture_index->push_back(t);
+    }
+    if (promote) return readVector(f, promote) && promote->size() == n ? Status::Ok() : bad;
+    uint64_t promotions = 0;  // their count must agree, and the file hold them
+    if (!f.read(reinterpret_cast<char*>(&promotions), sizeof promotions) || promotions != n) return bad;
+    const std::streamoff at = f.tellg();
+    std::error_code ec;
+    const uint64_t bytes = fs::file_size(path, ec);
+    return !ec && at >= 0 && static_cast<uint64_t>(at) + n <= bytes ? Status::Ok() : bad;
 }
 
 // --- Scene tables.
@@ -953,8 +983,8 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         top.push_back({{"parent", n.parent}, {"children", n.children}, {"level", n.level}, {"shard", n.shard}});
     std::vector<uint8_t> used(tables.textures.size(), 0);
     for (size_t t = 0; t < used.size(); ++t) used[t] = textures_used.used(t) ? 1 : 0;
-    const std::vector<int32_t> texture_index =
-        tiles::tilesetTextureIndex(used, tables.textures, atlas_params.atlas_size_px, tiles_params.split_originals);
+    const tiles::TextureIndex texture_index =
+        tiles::tilesetTextureIndex(used, tables.textures, atlas_params.atlas_size_px, tiles_params.split_originals, dir);
     std::vector<uint8_t>().swap(used);
     if (Status s = writeTexturePlan(dir, texture_index, globals.promote); !s.ok()) return s;
     json j = {{"format", kPlanFormat},
@@ -1108,7 +1138,7 @@ Status runShard(const fs::path& dir, int shard, int threads, const ShardProgress
     const std::vector<int32_t> city_texture = renumberTextures(&scene.triangles);
     if (Status s = readTextureTable(dir / "textures.bin", &scene.textures, nullptr, &city_texture); !s.ok()) return s;
     atlas::GlobalDecisions globals = globalsFrom(plan.at("globals"));
-    std::vector<int32_t> texture_index;
+    tiles::TextureIndex texture_index;
     if (Status s = readTexturePlan(dir, &texture_index, &globals.promote, &city_texture); !s.ok()) return s;
     auto cityTextures = [&](std::vector<int32_t> local) {
         for (int32_t& t : local) t = city_texture[static_cast<size_t>(t)];
@@ -1624,10 +1654,7 @@ Status mergeShards(const fs::path& dir, const fs::path& out_dir, const std::stri
         addDiagnostics(m.warnings, diagnostics);
         m = Manifest{};
     }
-    {
-        std::vector<uint8_t> unused_promote;
-        if (Status s = readTexturePlan(dir, &built.texture_index, &unused_promote); !s.ok()) return s;
-    }
+    if (Status s = readTexturePlan(dir, &built.texture_index, nullptr); !s.ok()) return s;
     built.feature_tables = tiles::FeatureTables{};
     for (const json& e : plan.at("feature_tables")) built.feature_tables->tables.push_back({e.at(0), e.at(1)});
     for (const json& e : plan.at("feature_bounds")) built.feature_tables->bounds.push_back({e.at(0), e.at(1)});

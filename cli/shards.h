@@ -197,7 +197,7 @@ struct MergeResult {
     uint64_t blocks_reused = 0, blocks_encoded = 0;  ///< original-texture blocks
     /// What the 3D Tiles export needs besides the folder (tiles3d_writer.h).
     tiles::TilesParams tiles_params;
-    std::vector<int32_t> texture_index;
+    tiles::TextureIndex texture_index;
     std::vector<std::vector<int32_t>> leaf_textures, leaf_tiles;
     /// With tiles_params.atlas_png: the whole tree's atlas PNGs (the plan folder's kAtlasPngFolder).
     std::filesystem::path atlas_png_dir;

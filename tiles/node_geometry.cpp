@@ -142,7 +142,7 @@ TileMesh compactMesh(const TileMesh& in, const std::vector<uint32_t>& indices) {
 }  // namespace
 
 NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
-                          const std::vector<int32_t>& texture_index, bool split) {
+                          const TextureIndex& texture_index, bool split) {
     const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
     const atlas::NodeLayer& nl = n.layers[static_cast<size_t>(layer)];
     const atlas::TriangleRange range = nl.range;

@@ -34,6 +34,7 @@
 #include "core/memory_gate.h"
 #include "ingest/scene.h"
 #include "tiles/glb_writer.h"
+#include "tiles/texture_index.h"
 
 namespace cityatlas::tiles {
 
@@ -58,7 +59,7 @@ struct NodeGeometry {
 /// naming its tile (texture_index + 1 + tile) in the tile's coordinates
 /// (tiles/texture_tiles.h, texture_blocks.h).
 NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
-                          const std::vector<int32_t>& texture_index, bool split = false);
+                          const TextureIndex& texture_index, bool split = false);
 
 /// The node's children's geometry of one layer (null: no child there, or an
 /// empty layer), merged into this node's atlas space and simplified to

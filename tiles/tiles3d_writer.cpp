@@ -722,7 +722,7 @@ Status writeTiles3d(const Scene& scene, const atlas::AtlasTree& tree, const fs::
     std::vector<uint8_t> used(scene.textures.size(), 0);
     for (const atlas::TreeTriangle& t : tree.triangles)
         if (t.tri.texture >= 0) used[static_cast<size_t>(t.tri.texture)] = 1;
-    const std::vector<int32_t> index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, params.split_originals);
+    const TextureIndex index = tilesetTextureIndex(used, scene.textures, tree.params.atlas_size_px, params.split_originals);
     const std::vector<std::vector<int32_t>> leaf_textures = leafTextures(tree);
     const std::vector<std::vector<int32_t>> leaf_tiles = leafTiles(scene, tree, index, params.split_originals);
     return writeTiles3d({scene, tree, index, leaf_textures, leaf_tiles, &scene.features}, atlas_dir, native_dir, params,

@@ -52,6 +52,7 @@
 #include "atlas/atlas_tree.h"
 #include "core/status.h"
 #include "ingest/scene.h"
+#include "tiles/texture_index.h"
 #include "tiles/web_image.h"
 
 namespace cityatlas::tiles {
@@ -92,7 +93,7 @@ using Tiles3dProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 struct Tiles3dInputs {
     const Scene& tables;               ///< textures and materials (its triangles and features are not read)
     const atlas::AtlasTree& tree;      ///< nodes and params (its triangles are not read)
-    const std::vector<int32_t>& texture_index;                 ///< scene texture -> tileset texture (tilesetTextureIndex)
+    const TextureIndex& texture_index;                         ///< scene texture -> tileset texture (tilesetTextureIndex)
     const std::vector<std::vector<int32_t>>& leaf_textures;    ///< per leaf, scene textures (leafTextures)
     const std::vector<std::vector<int32_t>>& leaf_tiles;       ///< per leaf, tiles of split textures (leafTiles)
     const std::vector<Feature>* features = nullptr;            ///< null: the native feature tables

@@ -237,7 +237,7 @@ struct SubtreeFiles {
 /// textures through `texture_index` (the whole build's); no index, no feature
 /// tables, no original textures: the merge writes those.
 Status writeSubtreeFiles(const Scene& scene, const atlas::AtlasTree& tree, const std::filesystem::path& atlas_dir,
-                         const TilesParams& params, const std::vector<int32_t>& texture_index,
+                         const TilesParams& params, const TextureIndex& texture_index,
                          const std::filesystem::path& out_dir, const TilesProgressFn& progress,
                          const EncodedAtlases* encoded, SubtreeFiles* out);
 
@@ -288,7 +288,7 @@ struct BuiltSubtrees {
     std::function<Status(int32_t shard_root, std::array<std::unique_ptr<NodeGeometry>, atlas::kLayerCount>* out)>
         root_geometry;
     std::map<int32_t, std::vector<uint32_t>> subtree_features;  ///< by shard root
-    std::vector<int32_t> texture_index;          ///< scene -> tileset texture (the plan's; writeTileset moves it into its TextureBlocks and back)
+    TextureIndex texture_index;                  ///< scene -> tileset texture (the plan's; writeTileset moves it into its TextureBlocks and back)
     std::vector<std::vector<int32_t>> leaf_textures;  ///< per node, for --originals all (texture_blocks.h)
     std::vector<std::vector<int32_t>> leaf_tiles;     ///< per node: the tiles of split textures it uses (leafTiles)
     std::optional<FeatureTables> feature_tables;  ///< written already (by the plan); else from the scene's features

@@ -79,7 +79,7 @@ int bitsFor(const TileMesh& m, const Vec3d& centre, double target) {
 // textures, by tileset number, ascending: a shard's scene holds its own
 // textures, numbered as the whole city's tileset numbers them.
 using TextureSizes = std::vector<std::pair<int32_t, double>>;
-TextureSizes textureSizes(const Scene& scene, const std::vector<int32_t>& texture_index, int atlas_size_px, bool split) {
+TextureSizes textureSizes(const Scene& scene, const TextureIndex& texture_index, int atlas_size_px, bool split) {
     TextureSizes sizes;
     for (size_t s = 0; s < texture_index.size(); ++s) {
         const int32_t t = texture_index[s];
@@ -204,7 +204,7 @@ namespace {
 // hold, and every node's features and dropped features: the part of the
 // tiles stage a shard runs on its own subtree.
 Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
-                      const std::vector<int32_t>& texture_index, const fs::path& out_dir, const EncodedAtlases* encoded,
+                      const TextureIndex& texture_index, const fs::path& out_dir, const EncodedAtlases* encoded,
                       BuiltSubtrees* built, const std::function<void(const char*, uint64_t, uint64_t)>& report,
                       tbb::task_arena& arena, std::vector<NodeRecord>& records, SubtreeFiles* root_out) {
     const size_t n_nodes = tree.nodes.size();
@@ -532,7 +532,7 @@ Status writeFeatureTables(const std::vector<Feature>& features, std::span<const 
 }
 
 Status writeSubtreeFiles(const Scene& scene, const AtlasTree& tree, const fs::path& atlas_dir, const TilesParams& params,
-                         const std::vector<int32_t>& texture_index, const fs::path& out_dir,
+                         const TextureIndex& texture_index, const fs::path& out_dir,
                          const TilesProgressFn& progress, const EncodedAtlases* encoded, SubtreeFiles* out) {
     if (tree.nodes.empty()) return Status::Io("tiles: the atlas tree has no nodes");
     std::mutex progress_mutex;
