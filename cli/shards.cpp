@@ -527,9 +527,11 @@ std::string shardName(int k) { return fmt::format("shard-{}", k); }
 
 // A shard file at its place in the merged folder: a hard link (the shard
 // keeps its files for the next build to reuse), or a copy where links fail.
+// One already there (a merge that stopped, then ran again) is replaced.
 Status linkFile(const fs::path& from, const fs::path& to) {
     std::error_code ec;
     fs::create_directories(to.parent_path(), ec);
+    if (!ec) fs::remove(to, ec);
     if (!ec) fs::create_hard_link(from, to, ec);
     if (ec) fs::copy_file(from, to, fs::copy_options::overwrite_existing, ec);
     if (ec) return Status::Io(fmt::format("{}: cannot link to {}: {}", from.string(), to.string(), ec.message()));

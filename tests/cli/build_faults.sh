@@ -5,7 +5,8 @@
 #  2. SIGKILL at random moments (3 here; benchmarks/kill_build.sh runs 20+);
 #  3. a plan folder copied elsewhere is not merged (its build.json names the
 #     folders the merge writes and removes: the original's): one error line,
-#     exit 2, the original plan untouched and still merged where it is;
+#     exit 2, the original plan untouched and still merged where it is; and
+#     a texture plan cut short is one error line naming it, exit 1;
 #  4. a full disk (a 3 MB tmpfs; skipped where mounting is not allowed): one
 #     error line, exit 1, the previous folder intact, no working folder left.
 source "$(dirname "$0")/lib.sh" "$@"
@@ -62,6 +63,24 @@ check_eq "stderr lines of a merge of a copied plan" 1 "$(wc -l < copied.err)"
 grep -q "^cityatlas merge: error: .*copied_plan: not the plan folder its build.json names" copied.err || fail "the error does not say why: $(cat copied.err)"
 check_eq "the original plan after the refused merge" "$before" "$(find planned.partial | sort | md5sum)"
 [ ! -e planned ] || fail "the refused merge wrote the original's output"
+# A texture plan cut short (a copy that stopped): the merge reads the
+# city's texture index from it and skips its promotions; both must be whole.
+plan=planned.partial/.plan
+for k in $(seq 0 $(( $(ls $plan/shard-*.tri | wc -l) - 1 ))); do
+  "$CITYATLAS" shard -q --index "$k" $plan > /dev/null || fail "shard $k of the original plan failed"
+done
+cp $plan/texture_plan.bin texture_plan.whole
+truncate -s -1 $plan/texture_plan.bin
+set +e
+"$CITYATLAS" merge -q $plan > cut.out 2> cut.err
+rc=$?
+set -e
+check_eq "exit status of a merge of a cut texture plan" 1 "$rc"
+check_eq "stderr lines of a merge of a cut texture plan" 1 "$(wc -l < cut.err)"
+grep -q "texture_plan.bin: truncated" cut.err || fail "the error does not name the texture plan: $(cat cut.err)"
+[ ! -e planned ] || fail "a merge of a cut texture plan wrote the output"
+cp texture_plan.whole $plan/texture_plan.bin
+echo "ok: a cut texture plan is refused: $(cat cut.err)"
 "$CITYATLAS" merge --run-shards -q planned.partial/.plan > /dev/null || fail "the original plan no longer merges"
 complete planned
 echo "ok: a copied plan is refused: $(cat copied.err)"
