@@ -463,7 +463,7 @@ namespace {
 
 // Consecutive ranges of textures whose models' members fit `budget` bytes
 // each (a texture larger than the budget is a range of its own).
-std::vector<std::pair<size_t, size_t>> modelRanges(const std::vector<uint32_t>& members, uint64_t budget) {
+std::vector<std::pair<size_t, size_t>> modelRanges(const PagedColumn<uint32_t>& members, uint64_t budget) {
     std::vector<std::pair<size_t, size_t>> out;
     size_t first = 0;
     uint64_t bytes = 0;
@@ -490,10 +490,14 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
     // --- First pass: the scene's box, each texture's d_full and triangle
     // count, the candidates' range; the models too while they fit. 12 bytes
     // a texture of the city (28 until stop 53: the native sizes copied from
-    // the table, and the largest s and t apart).
+    // the table, and the largest s and t apart), in columns whose memory
+    // stops at 16 MiB each since stop 54 (the triangles come in scene order,
+    // so their textures' pages mostly do too).
     Box3d box;
-    std::vector<double> native_distance(n, 0);
-    std::vector<uint32_t> members(n, 0);
+    const size_t column_bytes = TextureTable::defaultMemoryBytes() / 4;
+    PagedColumn<double> native_distance({}, "the textures' native distances", column_bytes);
+    PagedColumn<uint32_t> members({}, "the textures' triangle counts", column_bytes);
+    for (size_t k = 0; k < n; ++k) native_distance.push_back(0), members.push_back(0);
     DminRange range;
     auto all = std::make_unique<TextureModelBuilder>(n, ppm);
     const Status first = pass(
@@ -511,13 +515,14 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
             // quotient by positive numbers round monotonically).
             const auto k = static_cast<size_t>(t.texture);
             const TexelDensity d = texelDensity(t);
-            const TextureInfo& r = textures[k];
-            double& distance = native_distance[k];
+            const TextureInfo r = textures[k];
+            double distance = native_distance[k];
             if (r.width_px > 0) distance = std::max(distance, d.s_world * ppm / r.width_px);
             if (r.height_px > 0) distance = std::max(distance, d.t_world * ppm / r.height_px);
+            native_distance.set(k, distance);
             g.degenerate_uv_triangles += d.kind != TexelDensity::Kind::Regular;
             ++g.textured_triangles;
-            ++members[k];
+            members.set(k, members[k] + 1);
             range.add({d.uv_min, d.uv_max, d.s_world * ppm, d.t_world * ppm},
                       NativeSize{std::max(0, r.width_px), std::max(0, r.height_px)});
         },
@@ -538,7 +543,9 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
             return Status::Ok();
         }
         for (const auto& [a, b] : ranges) {
-            TextureModelBuilder builder(a, b, ppm, members.data() + a);
+            std::vector<uint32_t> reserve(b - a);  // the range's counts (its models fit the budget, so do they)
+            for (size_t k = a; k < b; ++k) reserve[k - a] = members[k];
+            TextureModelBuilder builder(a, b, ppm, reserve.data());
             if (Status s = pass([&](const Triangle& t) { builder.add(t); }, "texture models, a range of textures");
                 !s.ok())
                 return s;
@@ -570,11 +577,11 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
     }
     if (!(g.d_min_requested_m > 0)) return Status::Usage("the scene has zero extent: give --d-min in metres");
     double lo = 1e300, hi = 0;
-    for (const double distance : native_distance)
-        if (distance > 0) lo = std::min(lo, distance), hi = std::max(hi, distance);
+    for (size_t k = 0; k < n; ++k)
+        if (const double distance = native_distance[k]; distance > 0) lo = std::min(lo, distance), hi = std::max(hi, distance);
     g.d_full_m = lo < 1e300 ? lo : 0;
     g.d_first_upsampled_m = hi;
-    std::vector<double>().swap(native_distance);
+    native_distance = PagedColumn<double>();
 
     // --- Second pass: critical triangles, and the d_min actually used.
     CriticalDistanceBuilder critical(g.d_min_requested_m, ppm, params.atlas_size_px, params.border_px,

@@ -823,12 +823,17 @@ std::string targetFile(size_t k) { return fmt::format("computed-{}.target", k); 
 // shards' keys. Most entries are one shard's (a wall's image), so per entry
 // its first shard and the few other (shard, entry) pairs aside: a byte per
 // shard and entry was shards x entries (160 shards x 10 M textures: 1.6 GB).
+// The first shards in a column whose memory stops at 16 MiB (since stop 54;
+// the triangles come in scene order, so their entries' pages mostly do too).
 class ShardUse {
 public:
-    explicit ShardUse(size_t entries) : first_(entries, -1) {}
+    explicit ShardUse(size_t entries, const fs::path& scratch_dir)
+        : first_(scratch_dir, "the entries' first shards", TextureTable::defaultMemoryBytes() / 4) {
+        for (size_t e = 0; e < entries; ++e) first_.push_back(-1);
+    }
     void add(size_t shard, size_t entry) {
-        int32_t& f = first_[entry];
-        if (f < 0) f = static_cast<int32_t>(shard);
+        const int32_t f = first_[entry];
+        if (f < 0) first_.set(entry, static_cast<int32_t>(shard));
         else if (static_cast<size_t>(f) != shard) also_.insert({shard, entry});  // no node made when present
     }
     bool used(size_t entry) const { return first_[entry] >= 0; }
@@ -836,14 +841,14 @@ public:
     std::vector<std::vector<uint32_t>> byShard(size_t shards) const {
         std::vector<std::vector<uint32_t>> out(shards);
         for (size_t e = 0; e < first_.size(); ++e)
-            if (first_[e] >= 0) out[static_cast<size_t>(first_[e])].push_back(static_cast<uint32_t>(e));
+            if (const int32_t f = first_[e]; f >= 0) out[static_cast<size_t>(f)].push_back(static_cast<uint32_t>(e));
         for (const auto& [shard, entry] : also_) out[shard].push_back(static_cast<uint32_t>(entry));
         for (std::vector<uint32_t>& list : out) std::sort(list.begin(), list.end());
         return out;
     }
 
 private:
-    std::vector<int32_t> first_;
+    PagedColumn<int32_t> first_;
     std::set<std::pair<size_t, size_t>> also_;
 };
 
@@ -939,7 +944,7 @@ Status writePlan(const fs::path& dir, const Scene& tables, const fs::path& spill
         if (!files[k]) return Status::Io(fmt::format("{}: cannot create", (dir / shardName(static_cast<int>(k))).string()));
     }
     std::vector<ShardKey> keys(plan.shards());
-    ShardUse textures_used(tables.textures.size()), materials_used(tables.materials.size());
+    ShardUse textures_used(tables.textures.size(), dir), materials_used(tables.materials.size(), dir);
     uint64_t scene_triangles = 0, orphans = 0;
     std::vector<Box3d> shard_box(plan.shards());
     const Status read = forEachSpilled(spill, [&](const Triangle& t) {
