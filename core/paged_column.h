@@ -37,18 +37,25 @@ class PagedColumn {
     static_assert(std::is_trivially_copyable_v<T>, "records go to disk as bytes");
 
 public:
+    /// Records a page, at most: pages are smaller only where the budget is
+    /// under three of them (tests and measurements page a small town).
     static constexpr size_t kPageRecords = 16384;
     static constexpr size_t kPageBytes = kPageRecords * sizeof(T);
+    static_assert(kPageRecords == size_t{1} << 14, "page_shift_ starts at 14");
 
     /// Pages go to `dir` (empty: the system's temporary folder) once the
     /// column passes `memory_bytes`; `what` names the records in an error.
     explicit PagedColumn(std::filesystem::path dir = {}, const char* what = "records",
                          size_t memory_bytes = size_t{64} << 20)
         : dir_(std::move(dir)), what_(what), state_(std::make_unique<State>(dir_)) {
-        // A quarter of the pages (at least two) for the cache of those on
-        // disk, the rest in memory for good: a column under the budget is a
-        // vector, one above it reads its first records without a lock.
-        const size_t pages = std::max<size_t>(3, memory_bytes / kPageBytes);
+        // Pages of 16,384 records, or as many as three pages fit in the
+        // budget (16 at least: a budget of 0 pages a test town record by
+        // record, nearly). A quarter of the pages (at least two) for the
+        // cache of those on disk, the rest in memory for good: a column under
+        // the budget is a vector, one above it reads its first records
+        // without a lock.
+        while (page_shift_ > 4 && (size_t{3} << page_shift_) * sizeof(T) > memory_bytes) --page_shift_;
+        const size_t pages = std::max<size_t>(3, memory_bytes / pageBytes());
         cache_pages_ = std::max<size_t>(2, pages / 4);
         pinned_pages_ = pages - cache_pages_;
     }
@@ -73,15 +80,15 @@ public:
     bool empty() const { return size_ == 0; }
 
     void push_back(const T& r) {
-        const size_t p = size_ / kPageRecords;
+        const size_t p = size_ >> page_shift_;
         if (p == pages_.size()) addPage();
         Page& page = pages_[p];
         if (p < pinned_pages_) {
-            page.data[size_ % kPageRecords] = r;
+            page.data[slot(size_)] = r;
         } else {
             std::lock_guard<std::mutex> lock(state_->mutex);
             T* data = residentLocked(p);
-            data[size_ % kPageRecords] = r;
+            data[slot(size_)] = r;
             page.dirty = true;
         }
         ++size_;
@@ -89,22 +96,22 @@ public:
 
     /// Record `i` (< size()).
     T get(size_t i) const {
-        const size_t p = i / kPageRecords;
-        if (p < pinned_pages_) return pages_[p].data[i % kPageRecords];
+        const size_t p = i >> page_shift_;
+        if (p < pinned_pages_) return pages_[p].data[slot(i)];
         std::lock_guard<std::mutex> lock(state_->mutex);
-        return residentLocked(p)[i % kPageRecords];
+        return residentLocked(p)[slot(i)];
     }
     T operator[](size_t i) const { return get(i); }
 
     /// Replaces record `i` (< size()).
     void set(size_t i, const T& r) {
-        const size_t p = i / kPageRecords;
+        const size_t p = i >> page_shift_;
         if (p < pinned_pages_) {
-            pages_[p].data[i % kPageRecords] = r;
+            pages_[p].data[slot(i)] = r;
             return;
         }
         std::lock_guard<std::mutex> lock(state_->mutex);
-        residentLocked(p)[i % kPageRecords] = r;
+        residentLocked(p)[slot(i)] = r;
         pages_[p].dirty = true;
     }
 
@@ -112,8 +119,8 @@ public:
     size_t bytes() const {
         std::lock_guard<std::mutex> lock(state_->mutex);
         size_t resident = 0;
-        for (const Page& page : pages_) resident += page.data ? kPageBytes : 0;
-        return resident + pages_.capacity() * sizeof(Page);
+        for (const Page& page : pages_) resident += page.data ? pageBytes() : 0;
+        return resident + pages_.capacity() * sizeof(Page) + state_->cached.capacity() * sizeof(size_t);
     }
     /// Bytes of pages written to the scratch file.
     uint64_t bytesOnDisk() const {
@@ -121,7 +128,9 @@ public:
         return state_->on_disk;
     }
     /// The budget given at construction, as pages.
-    size_t memoryBytes() const { return (pinned_pages_ + cache_pages_) * kPageBytes; }
+    size_t memoryBytes() const { return (pinned_pages_ + cache_pages_) * pageBytes(); }
+    /// Records a page (kPageRecords but for budgets under three of them).
+    size_t pageRecords() const { return size_t{1} << page_shift_; }
     /// Why pages stayed in memory beyond the budget (a full disk), if any.
     Status status() const {
         std::lock_guard<std::mutex> lock(state_->mutex);
@@ -142,23 +151,26 @@ private:
         ScratchFile file;
         uint64_t on_disk = 0;
         uint64_t clock = 0;
-        size_t resident = 0;  // cached pages in memory (past the pinned ones)
+        std::vector<size_t> cached;  // the pages past the pinned ones that are in memory
         Status failed;
     };
+
+    size_t pageBytes() const { return pageRecords() * sizeof(T); }
+    size_t slot(size_t i) const { return i & (pageRecords() - 1); }
 
     void addPage() {
         pages_.emplace_back();
         const size_t p = pages_.size() - 1;
         if (p < pinned_pages_) {
-            pages_[p].data = std::make_unique<T[]>(kPageRecords);
+            pages_[p].data = std::make_unique<T[]>(pageRecords());
             return;
         }
         std::lock_guard<std::mutex> lock(state_->mutex);
         makeRoomLocked();
-        pages_[p].data = std::make_unique<T[]>(kPageRecords);
+        pages_[p].data = std::make_unique<T[]>(pageRecords());
         pages_[p].dirty = true;
         pages_[p].used = ++state_->clock;
-        ++state_->resident;
+        state_->cached.push_back(p);
     }
 
     // Page p's records in memory, read back if they went to the file.
@@ -167,12 +179,12 @@ private:
         page.used = ++state_->clock;
         if (page.data) return page.data.get();
         makeRoomLocked();
-        auto data = std::make_unique<T[]>(kPageRecords);
-        if (Status s = state_->file.read(uint64_t{p - pinned_pages_} * kPageBytes, data.get(), kPageBytes, what_); !s.ok())
+        auto data = std::make_unique<T[]>(pageRecords());
+        if (Status s = state_->file.read(uint64_t{p - pinned_pages_} * pageBytes(), data.get(), pageBytes(), what_); !s.ok())
             throw std::runtime_error(s.error);
         page.data = std::move(data);
         page.dirty = false;
-        ++state_->resident;
+        state_->cached.push_back(p);
         return page.data.get();
     }
 
@@ -180,27 +192,29 @@ private:
     // is full; after a failed write, keeps everything (a vector's memory).
     void makeRoomLocked() const {
         State& s = *state_;
-        while (s.resident >= cache_pages_ && s.failed.ok()) {
-            size_t oldest = pages_.size();
-            for (size_t p = pinned_pages_; p < pages_.size(); ++p)
-                if (pages_[p].data && (oldest == pages_.size() || pages_[p].used < pages_[oldest].used)) oldest = p;
-            if (oldest == pages_.size()) return;
+        while (s.cached.size() >= cache_pages_ && s.failed.ok()) {
+            size_t k = 0;  // the least recently used of the cached pages (a few dozen)
+            for (size_t j = 1; j < s.cached.size(); ++j)
+                if (pages_[s.cached[j]].used < pages_[s.cached[k]].used) k = j;
+            const size_t oldest = s.cached[k];
             Page& page = pages_[oldest];
             if (page.dirty || !page.written) {
-                const uint64_t at = uint64_t{oldest - pinned_pages_} * kPageBytes;
-                s.failed = s.file.write(at, page.data.get(), kPageBytes, what_);
+                const uint64_t at = uint64_t{oldest - pinned_pages_} * pageBytes();
+                s.failed = s.file.write(at, page.data.get(), pageBytes(), what_);
                 if (!s.failed.ok()) return;
-                s.on_disk = std::max(s.on_disk, at + kPageBytes);
+                s.on_disk = std::max(s.on_disk, at + pageBytes());
                 page.written = true;
             }
             page.data.reset();
             page.dirty = false;
-            --s.resident;
+            s.cached[k] = s.cached.back();
+            s.cached.pop_back();
         }
     }
 
     std::filesystem::path dir_;
     const char* what_;
+    unsigned page_shift_ = 14;  // kPageRecords = 1 << 14
     size_t pinned_pages_ = 0;
     size_t cache_pages_ = 0;
     size_t size_ = 0;

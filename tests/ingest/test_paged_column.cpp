@@ -27,16 +27,18 @@ Rec recordOf(size_t i, int32_t version = 0) { return {i * 2654435761u, static_ca
 constexpr size_t kPage = PagedColumn<Rec>::kPageRecords;
 
 // What a column may hold beyond its budget: its list of pages (32 bytes a
-// page of 16,384 records, with a vector's spare room).
-size_t pageList(size_t records) { return 2 * 32 * (records / kPage + 1); }
+// page, with a vector's spare room).
+size_t pageList(size_t records, size_t page_records = kPage) { return 2 * 32 * (records / page_records + 1) + 4096; }
 
 TEST(PagedColumn, ReadsBackWhatWasPushedAndSetWhilePagesComeAndGo) {
     // Budgets: the least (three pages: one in memory for good, two cached),
     // a few pages, and one the column never passes (a vector, no file).
     for (const size_t budget : {size_t{0}, 8 * PagedColumn<Rec>::kPageBytes, size_t{64} << 20}) {
         PagedColumn<Rec> column({}, "test records", budget);
+        // Pages of 16,384 records but for a budget under three of them.
+        EXPECT_EQ(column.pageRecords(), budget == 0 ? 16u : kPage) << budget;
         std::vector<Rec> truth;
-        const size_t n = 20 * kPage + 123;  // 20 pages and a partial one
+        const size_t n = 20 * kPage + 123;  // 20 full pages and a partial one (20,480 of 16 records)
         for (size_t i = 0; i < n; ++i) {
             truth.push_back(recordOf(i));
             column.push_back(truth.back());
@@ -67,7 +69,8 @@ TEST(PagedColumn, ReadsBackWhatWasPushedAndSetWhilePagesComeAndGo) {
             EXPECT_EQ(column.bytesOnDisk(), 0u) << "a column under its budget makes no file";
         } else {
             EXPECT_GT(column.bytesOnDisk(), 0u);
-            EXPECT_LE(column.bytes(), column.memoryBytes() + pageList(truth.size())) << "the budget holds whatever the size";
+            EXPECT_LE(column.bytes(), column.memoryBytes() + pageList(truth.size(), column.pageRecords()))
+                << "the budget holds whatever the size";
         }
     }
 }
