@@ -183,6 +183,20 @@ CriticalDistanceBuilder::CriticalDistanceBuilder(double d_min_requested_m, doubl
     : d_req_(d_min_requested_m), ppm_(pixels_per_metre_at_1m), room_(atlas_size - 2.0 * border),
       fraction_(critical_fraction), native_(std::move(native)) {}
 
+CriticalDistanceBuilder::CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
+                                                 int border, double critical_fraction, const TextureTable& textures)
+    : CriticalDistanceBuilder(d_min_requested_m, pixels_per_metre_at_1m, atlas_size, border, critical_fraction,
+                              std::vector<NativeSize>()) {
+    table_ = &textures;
+}
+
+NativeSize CriticalDistanceBuilder::nativeSizeOf(const Triangle& t) const {
+    if (!table_) return nativeOf(t, native_);
+    if (t.texture < 0 || static_cast<size_t>(t.texture) >= table_->size()) return {};
+    const TextureInfo r = (*table_)[static_cast<size_t>(t.texture)];
+    return {std::max(0, r.width_px), std::max(0, r.height_px)};
+}
+
 // The distance from which each triangle stops being critical: its content
 // is inversely proportional to d_min, the border is not.
 void CriticalDistanceBuilder::add(const Triangle& t) {
@@ -190,13 +204,13 @@ void CriticalDistanceBuilder::add(const Triangle& t) {
     ++textured_;
     const TexelDensity d = texelDensity(t);
     const double f = ppm_ / d_req_;
-    const auto [w, h] = contentTexels(d, f, nativeOf(t, native_));
+    const NativeSize n = nativeSizeOf(t);
+    const auto [w, h] = contentTexels(d, f, n);
     if (std::max(w, h) <= room_) return;
     // An axis too large even capped fits once the resolution d_min asks for does.
     const auto [w0, h0] = contentTexels(d, f);
     fits_from_.push_back(d_req_ * std::max(w > room_ ? w0 : 0.0, h > room_ ? h0 : 0.0) / room_);
     // At its texture's own resolution a capped axis stops growing with 1/d.
-    const NativeSize n = nativeOf(t, native_);
     const double cap_w = n.w > 0 ? n.w * (d.uv_max.x - d.uv_min.x) + 2.0 : 1e300;
     const double cap_h = n.h > 0 ? n.h * (d.uv_max.y - d.uv_min.y) + 2.0 : 1e300;
     overshoot_cap_.emplace_back(fits_from_.back(), std::max(w > room_ ? cap_w : 0.0, h > room_ ? cap_h : 0.0) / room_);

@@ -91,12 +91,18 @@ class CriticalDistanceBuilder {
 public:
     CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size, int border,
                             double critical_fraction, std::vector<NativeSize> native);
+    /// The same with the native sizes read from the scene's table as
+    /// triangles come (a city's table pages: no copy of 8 bytes a texture).
+    CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size, int border,
+                            double critical_fraction, const TextureTable& textures);
     void add(const Triangle& t);
     CriticalResult finish();
 
 private:
+    NativeSize nativeSizeOf(const Triangle& t) const;
     double d_req_, ppm_, room_, fraction_;
     std::vector<NativeSize> native_;
+    const TextureTable* table_ = nullptr;
     std::vector<double> fits_from_;
     std::vector<std::pair<double, double>> overshoot_cap_;
     uint64_t textured_ = 0;

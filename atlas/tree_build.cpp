@@ -585,7 +585,7 @@ Status decideGlobals(const TextureTable& textures, const AtlasParams& params, co
 
     // --- Second pass: critical triangles, and the d_min actually used.
     CriticalDistanceBuilder critical(g.d_min_requested_m, ppm, params.atlas_size_px, params.border_px,
-                                     params.critical_fraction, nativeSizes(textures));
+                                     params.critical_fraction, textures);
     if (Status s = pass([&](const Triangle& t) { critical.add(t); }, "critical triangles"); !s.ok()) return s;
     const CriticalResult c = critical.finish();
     g.d_min_used_m = c.d_min_used_m;
