@@ -11,6 +11,10 @@
 # Writes out/benchmarks/build-steps-<BUILDINGS>-<TEXTURE_PX>-<D_MIN>.json (the
 # folder beside it) and prints a table. The town is made once (as build_scale.sh makes it) and not timed.
 # CITYATLAS=/path/to/cityatlas runs that executable instead of ./build/cli/cityatlas.
+# PAGED_MB=N also runs the read and plan and the merge with
+# CITYATLAS_TABLE_MEMORY_MB=N (the per-texture columns paged past N MiB,
+# core/paged_column.h; the merge on a hard-linked copy of the same plan and
+# shards) and checks that the plan files and the folder are the same.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 N="${1:-100000}"; DMIN="${2:-default}"; PX="${3:-32}"
@@ -45,17 +49,41 @@ def run(name, cmd, env=None):
 
 steps = []
 env = dict(os.environ, PATH=stub + os.pathsep + os.environ["PATH"])
-cmd = [exe, "build", os.path.join(town, "town.gml"), "-o", out, "--slurm", "-q"]
-if dmin != "default":
-    cmd += ["--d-min", dmin]
-steps.append(run("read and plan", cmd, env))
+paged_mb = os.environ.get("PAGED_MB")
+paged_env = dict(env, CITYATLAS_TABLE_MEMORY_MB=paged_mb) if paged_mb else None
+def build_cmd(o):
+    cmd = [exe, "build", os.path.join(town, "town.gml"), "-o", o, "--slurm", "-q"]
+    return cmd + (["--d-min", dmin] if dmin != "default" else [])
+steps.append(run("read and plan", build_cmd(out), env))
+if paged_mb:  # the same plan with paged columns, beside it; compared, then removed
+    other = out + "-paged"
+    for p in (other + ".partial", other + ".slurm"):
+        shutil.rmtree(p, ignore_errors=True)
+    steps.append(run(f"read and plan, paged past {paged_mb} MiB", build_cmd(other), paged_env))
+    named = {"build.json", "shard.sh", "merge.sh"}  # they name the output folder
+    for f in sorted(os.listdir(plan)):
+        a, b = os.path.join(plan, f), os.path.join(other + ".partial/.plan", f)
+        if f not in named and os.path.isfile(a) and open(a, "rb").read() != open(b, "rb").read():
+            sys.exit(f"paged columns change the plan: {f}")
+    shutil.rmtree(other + ".partial"), shutil.rmtree(other + ".slurm", ignore_errors=True)
 record = json.load(open(os.path.join(plan, "build.json")))
 stages = {s[0]: {"wall_s": round(s[1], 2), "cpu_s": round(s[2], 2), "peak_rss_mb": round(s[3], 1)}
           for s in record.get("stages", [])}
 shards = len(json.load(open(os.path.join(plan, "plan.json")))["shard_triangles"])
 for k in range(shards):
     steps.append(run(f"shard {k}", [exe, "shard", plan, "--index", str(k), "-q"]))
+if paged_mb:  # the plan and shards as they are, for a second merge at the same path
+    subprocess.run(["cp", "-al", out + ".partial", out + ".snapshot"], check=True)
 steps.append(run("merge", [exe, "merge", plan, "-q"]))
+if paged_mb:
+    os.rename(out, out + ".default")
+    os.rename(out + ".snapshot", out + ".partial")
+    steps.append(run(f"merge, paged past {paged_mb} MiB", [exe, "merge", plan, "-q"], paged_env))
+    same = subprocess.run(["diff", "-r", "-q", "-x", "build_report.json", out + ".default", out],
+                          stdout=subprocess.DEVNULL).returncode == 0
+    shutil.rmtree(out + ".default")
+    if not same:
+        sys.exit("paged columns change the merged folder")
 report = json.load(open(os.path.join(out, "build_report.json")))
 result = {"town": town, "buildings": record.get("features"), "triangles": record.get("triangles"),
           "textures": record.get("textures"), "d_min": dmin, "d_min_used_m": report["d_min"].get("used_m"),
