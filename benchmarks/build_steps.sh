@@ -100,9 +100,9 @@ for name, s in stages.items():
 rows = [s for s in steps if not s["step"].startswith("shard")]
 if shard_steps:
     worst = max(shard_steps, key=lambda s: s["peak_rss_mb"])
-    rows.insert(1, {"step": f"{len(shard_steps)} shards", "wall_s": sum(s["wall_s"] for s in shard_steps),
+    rows.insert(2 if paged_mb else 1, {"step": f"{len(shard_steps)} shards", "wall_s": sum(s["wall_s"] for s in shard_steps),
                     "cpu_s": sum(s["cpu_s"] for s in shard_steps), "peak_rss_mb": worst["peak_rss_mb"]})
 for s in rows:
-    print(f"  {s['step']:<16} {s['wall_s']:>9.1f} s {s['cpu_s']:>9.1f} s CPU  peak {s['peak_rss_mb']:>8.1f} MB")
+    print(f"  {s['step']:<28} {s['wall_s']:>9.1f} s {s['cpu_s']:>9.1f} s CPU  peak {s['peak_rss_mb']:>8.1f} MB")
 print(f"  every process under {result['peak_rss_mb']:.0f} MB; wrote {path}")
 PY
