@@ -179,21 +179,14 @@ void splitUntilFits(const Triangle& t, double f, int atlas_size, int border, std
 }  // namespace
 
 CriticalDistanceBuilder::CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
-                                                 int border, double critical_fraction, std::vector<NativeSize> native)
-    : d_req_(d_min_requested_m), ppm_(pixels_per_metre_at_1m), room_(atlas_size - 2.0 * border),
-      fraction_(critical_fraction), native_(std::move(native)) {}
-
-CriticalDistanceBuilder::CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size,
                                                  int border, double critical_fraction, const TextureTable& textures)
-    : CriticalDistanceBuilder(d_min_requested_m, pixels_per_metre_at_1m, atlas_size, border, critical_fraction,
-                              std::vector<NativeSize>()) {
-    table_ = &textures;
-}
+    : d_req_(d_min_requested_m), ppm_(pixels_per_metre_at_1m), room_(atlas_size - 2.0 * border),
+      fraction_(critical_fraction), textures_(textures) {}
 
+// As nativeOf reads a copy (nativeSizes), from the table itself.
 NativeSize CriticalDistanceBuilder::nativeSizeOf(const Triangle& t) const {
-    if (!table_) return nativeOf(t, native_);
-    if (t.texture < 0 || static_cast<size_t>(t.texture) >= table_->size()) return {};
-    const TextureInfo r = (*table_)[static_cast<size_t>(t.texture)];
+    if (t.texture < 0 || static_cast<size_t>(t.texture) >= textures_.size()) return {};
+    const TextureInfo r = textures_[static_cast<size_t>(t.texture)];
     return {std::max(0, r.width_px), std::max(0, r.height_px)};
 }
 

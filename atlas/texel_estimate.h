@@ -84,15 +84,13 @@ struct CriticalResult {
 /// - splitCriticalTriangles at that distance: replaces `triangles` by the
 ///   split set, `sources` gets each output triangle's index in the input, and
 ///   fills critical_after_enlarge and the split counts.
-/// `pixels_per_metre_at_1m`: ProjectionBound::pixelsPerMetreAt1m(). `native`
-/// (per scene texture, may be empty) caps a triangle's content at its
-/// texture's own resolution: a triangle that fits at that resolution is never critical.
+/// `pixels_per_metre_at_1m`: ProjectionBound::pixelsPerMetreAt1m(). Each
+/// texture's own size in `textures` caps a triangle's content at that
+/// resolution: a triangle that fits at it is never critical. The sizes are
+/// read from the table as triangles come (a city's table pages, since stop
+/// 54: no copy of 8 bytes a texture); the table must outlive the builder.
 class CriticalDistanceBuilder {
 public:
-    CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size, int border,
-                            double critical_fraction, std::vector<NativeSize> native);
-    /// The same with the native sizes read from the scene's table as
-    /// triangles come (a city's table pages: no copy of 8 bytes a texture).
     CriticalDistanceBuilder(double d_min_requested_m, double pixels_per_metre_at_1m, int atlas_size, int border,
                             double critical_fraction, const TextureTable& textures);
     void add(const Triangle& t);
@@ -101,8 +99,7 @@ public:
 private:
     NativeSize nativeSizeOf(const Triangle& t) const;
     double d_req_, ppm_, room_, fraction_;
-    std::vector<NativeSize> native_;
-    const TextureTable* table_ = nullptr;
+    const TextureTable& textures_;
     std::vector<double> fits_from_;
     std::vector<std::pair<double, double>> overshoot_cap_;
     uint64_t textured_ = 0;

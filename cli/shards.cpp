@@ -73,6 +73,32 @@ bool readVector(std::ifstream& f, std::vector<T>* v) {
     v->resize(n);
     return static_cast<bool>(f.read(reinterpret_cast<char*>(v->data()), static_cast<std::streamsize>(n * sizeof(T))));
 }
+// A column as writeVector writes a vector (its count, then its records), and
+// back, a block at a time: a city's worth is never held.
+template <typename T>
+void writeColumn(std::ofstream& f, const PagedColumn<T>& c) {
+    const uint64_t n = c.size();
+    f.write(reinterpret_cast<const char*>(&n), sizeof n);
+    std::vector<T> block;
+    for (size_t first = 0; first < n; first += block.size()) {
+        block.clear();
+        for (size_t i = first; i < n && block.size() < (size_t{1} << 16); ++i) block.push_back(c[i]);
+        f.write(reinterpret_cast<const char*>(block.data()), static_cast<std::streamsize>(block.size() * sizeof(T)));
+    }
+}
+template <typename T>
+bool readColumn(std::ifstream& f, PagedColumn<T>* c) {
+    uint64_t n = 0;
+    if (!f.read(reinterpret_cast<char*>(&n), sizeof n) || n > (uint64_t{1} << 34) / sizeof(T)) return false;
+    std::vector<T> block;
+    for (uint64_t first = 0; first < n; first += block.size()) {
+        block.resize(static_cast<size_t>(std::min<uint64_t>(n - first, 1 << 16)));
+        if (!f.read(reinterpret_cast<char*>(block.data()), static_cast<std::streamsize>(block.size() * sizeof(T))))
+            return false;
+        for (const T& r : block) c->push_back(r);
+    }
+    return true;
+}
 // The elements at `only` (ascending indices) of a vector writeVector wrote,
 // read through a block at a time: a city's worth is never held.
 template <typename T>
@@ -214,15 +240,7 @@ Status writeTexturePlan(const fs::path& dir, const tiles::TextureIndex& texture_
     const fs::path path = dir / kTexturePlanFile;
     std::ofstream f(path, std::ios::binary);
     if (!f) return Status::Io(fmt::format("{}: cannot create", path.string()));
-    // The index as writeVector writes a vector, a block at a time.
-    const uint64_t n = texture_index.size();
-    f.write(reinterpret_cast<const char*>(&n), sizeof n);
-    std::vector<int32_t> block;
-    for (size_t first = 0; first < n; first += block.size()) {
-        block.clear();
-        for (size_t t = first; t < n && block.size() < (size_t{1} << 16); ++t) block.push_back(texture_index[t]);
-        f.write(reinterpret_cast<const char*>(block.data()), static_cast<std::streamsize>(block.size() * sizeof(int32_t)));
-    }
+    writeColumn(f, texture_index);
     writeVector(f, promote);
     f.close();
     if (!f) return Status::Io(fmt::format("{}: cannot write (disk full?)", path.string()));
@@ -246,15 +264,8 @@ Status readTexturePlan(const fs::path& dir, tiles::TextureIndex* texture_index, 
         for (const int32_t t : index) texture_index->push_back(t);
         return Status::Ok();
     }
-    uint64_t n = 0;
-    if (!f.read(reinterpret_cast<char*>(&n), sizeof n) || n > (uint64_t{1} << 32)) return bad;
-    std::vector<int32_t> block;
-    for (uint64_t first = 0; first < n; first += block.size()) {
-        block.resize(static_cast<size_t>(std::min<uint64_t>(n - first, 1 << 16)));
-        if (!f.read(reinterpret_cast<char*>(block.data()), static_cast<std::streamsize>(block.size() * sizeof(int32_t))))
-            return bad;
-        for (const int32_t t : block) texture_index->push_back(t);
-    }
+    if (!readColumn(f, texture_index)) return bad;
+    const uint64_t n = texture_index->size();
     if (promote) return readVector(f, promote) && promote->size() == n ? Status::Ok() : bad;
     uint64_t promotions = 0;  // their count must agree, and the file hold them
     if (!f.read(reinterpret_cast<char*>(&promotions), sizeof promotions) || promotions != n) return bad;
