@@ -247,10 +247,8 @@ double maxDistance(size_t count, const PointAt& point, const TriangleGrid& grid,
     return over.load() ? kInf : worst.load();
 }
 
-// Which features to leave out (simplify.h drop_features_below_m): those whose
-// extent's diagonal is below `below_m`, smallest first (ties by id), until the
-// drawn triangles are at most `target_triangles`, never the last one drawn.
-// `largest` gets the largest diagonal left out.
+}  // namespace
+
 std::unordered_set<uint32_t> featuresToLeaveOut(const std::unordered_map<uint32_t, Box3d>& extent,
                                                 const std::unordered_map<uint32_t, size_t>& drawn, double below_m,
                                                 size_t target_triangles, double* largest) {
@@ -274,8 +272,6 @@ std::unordered_set<uint32_t> featuresToLeaveOut(const std::unordered_map<uint32_
     }
     return out;
 }
-
-}  // namespace
 
 SimplifyInput weldTriangles(const std::vector<Triangle>& triangles) {
     SimplifyInput out;

@@ -36,6 +36,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "ingest/scene.h"
@@ -110,6 +112,17 @@ struct SimplifyResult {
 /// Preconditions (asserted): indices.size() % 3 == 0, every index <
 /// positions.size(), feature_id empty or positions.size() long. Deterministic.
 SimplifyResult simplifyMesh(const SimplifyInput& in, size_t target_triangles, double max_error_m);
+
+/// Which features to leave out of a mesh whose features have these extents
+/// and these triangle counts: those whose extent's diagonal is below
+/// `below_m`, smallest first (ties by id), until the triangles left are at
+/// most `target_triangles`, never the last one drawn.
+/// `largest` gets the largest diagonal left out (unchanged when none is).
+/// simplifyMesh's rule (SimplifyInput::drop_features_below_m), and the
+/// merge's cap (tiles/node_geometry.h) with no size limit.
+std::unordered_set<uint32_t> featuresToLeaveOut(const std::unordered_map<uint32_t, Box3d>& extent,
+                                                const std::unordered_map<uint32_t, size_t>& drawn, double below_m,
+                                                size_t target_triangles, double* largest);
 
 /// Welds a triangle soup (3 vertices per triangle) by exact position equality
 /// (+0 and -0 are one position); the vertex order is that of first
