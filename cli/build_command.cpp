@@ -337,7 +337,9 @@ int finishBuild(const BuildRecord& rec, const TextureTable& textures,
                         {"textures_unreadable", ts.textures_unreadable},
                         {"feature_tables", ts.feature_tables},
                         {"triangles_written", ts.triangles_written},
-                        {"node_layers_simplified", ts.nodes_simplified}};
+                        {"node_layers_simplified", ts.nodes_simplified},
+                        {"node_layers_capped", ts.nodes_capped},
+                        {"buildings_left_out_over_cap", ts.buildings_left_out_over_cap}};
     const uint64_t total = ts.bytes_geometry + ts.bytes_atlases + ts.bytes_textures + ts.bytes_features + ts.bytes_tileset;
     report["bytes"] = {{"geometry", ts.bytes_geometry},  {"atlases", ts.bytes_atlases},
                        {"textures", ts.bytes_textures},  {"features", ts.bytes_features},
@@ -497,6 +499,13 @@ int finishBuild(const BuildRecord& rec, const TextureTable& textures,
                     : fmt::format(" ({} dropped below its geometric error; listed in tileset.json)",
                                   ts.root_features_dropped.size())
                           .c_str());
+    if (ts.nodes_capped > 0)
+        std::printf("  merges capped: %llu node layers left out %llu buildings larger than their texel (a merge takes "
+                    "at most %zu triangles: memory); those tiles' geometricError covers them and their children draw "
+                    "them (README: Memory)\n",
+                    static_cast<unsigned long long>(ts.nodes_capped),
+                    static_cast<unsigned long long>(ts.buildings_left_out_over_cap),
+                    static_cast<size_t>(ts.merge_triangles_max));
     if (ts.blockmaps.tried)
         std::printf("  BlockMaps: %llu of %llu nodes tried (%llu larger than their node, %llu beyond the grid limit), "
                     "%s, %.1f s\n",

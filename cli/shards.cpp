@@ -424,6 +424,7 @@ json recordJson(const tiles::NodeRecord& r) {
                           {"position_bits", l.position_bits},
                           {"uv_original_bits", l.uv_original_bits},
                           {"simplified", l.simplified},
+                          {"left_out_over_cap", l.left_out_over_cap},
                           {"atlas_uri", l.atlas_uri},
                           {"atlas_bytes", l.atlas_bytes},
                           {"atlas_mips", l.atlas_mips},
@@ -449,6 +450,7 @@ tiles::NodeRecord recordFrom(const json& j) {
         l.position_bits = x.at("position_bits");
         l.uv_original_bits = x.at("uv_original_bits");
         l.simplified = x.at("simplified");
+        l.left_out_over_cap = x.at("left_out_over_cap");
         l.atlas_uri = x.at("atlas_uri");
         l.atlas_bytes = x.at("atlas_bytes");
         l.atlas_mips = x.at("atlas_mips");

@@ -161,6 +161,7 @@ LayerEntry readLayer(const json& L, const std::string& lw) {
     l.position_bits = optSmall(L, "position_bits", lw);
     l.uv_atlas_error_texels = optNumber(L, "uv_atlas_error_texels", lw, 0);
     l.simplified = optFlag(L, "simplified", lw);
+    l.left_out_over_cap = optCount(L, "left_out_over_cap", lw);
     l.geometry = fileEntry(member(L, "geometry", lw), lw + " geometry");
     const json& a = member(L, "atlas", lw);
     if (!a.is_null()) {
@@ -415,6 +416,7 @@ json layerJson(const LayerEntry& l) {
               {"uv_atlas_error_texels", l.uv_atlas_error_texels},
               {"simplified", l.simplified},
               {"atlas", atlas}};
+    if (l.left_out_over_cap > 0) j["left_out_over_cap"] = l.left_out_over_cap;
     if (l.uv_original_error_texels) {
         j["uv_original_error_texels"] = *l.uv_original_error_texels;
         j["uv_original_bits"] = l.uv_original_bits;

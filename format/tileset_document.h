@@ -60,6 +60,7 @@ struct LayerEntry {
     int position_bits = 0;
     double uv_atlas_error_texels = 0;
     bool simplified = false;
+    uint64_t left_out_over_cap = 0;  ///< buildings the merge left out over its cap (written when > 0)
     std::optional<AtlasEntry> atlas;                  ///< absent: the layer draws with material colours
     std::optional<double> uv_original_error_texels;   ///< leaves with original uvs only
     int uv_original_bits = 0;                         ///< with uv_original_error_texels

@@ -278,6 +278,7 @@ struct Layer {
     std::string geometry_uri;
     int64_t geometry_bytes = 0, triangles = 0;
     double geometric_error_m = 0;
+    int64_t left_out_over_cap = 0;  // buildings its merge left out over the cap (tiles/node_geometry.h)
     bool has_atlas = false;
     std::string atlas_uri, atlas_format;
     int64_t atlas_bytes = 0, atlas_w = 0, atlas_h = 0, atlas_mips = 0;
@@ -333,6 +334,7 @@ void readNode(const json& tile, Node& n) {
         l.geometry_bytes = static_cast<int64_t>(e->geometry.bytes);
         l.triangles = static_cast<int64_t>(e->triangles);
         l.geometric_error_m = e->geometric_error_m;
+        l.left_out_over_cap = static_cast<int64_t>(e->left_out_over_cap);
         if (e->atlas) {
             l.has_atlas = true;
             l.atlas_uri = e->atlas->file.uri;
@@ -541,9 +543,16 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
         if (n.id >= static_cast<int64_t>(nodes.size())) bad(fmt::format("id outside 0..{}", nodes.size() - 1));
         if (!ids.insert(n.id).second) bad("id used twice");
         const double focal = ix.focal_px, texel_focal = ix.focal_px * ix.corner_factor;
-        if (!near(n.geometric_error, n.min_distance_m / focal))
-            bad(fmt::format("geometricError {} != min_distance_m / focal_px = {}", n.geometric_error,
-                            n.min_distance_m / focal));
+        // A layer whose merge was capped has an error above the texel, which
+        // the tile's covers (in the texel's units: error * corner_factor).
+        double expected_error = n.min_distance_m / focal;
+        for (const Layer& l : n.layers) expected_error = std::max(expected_error, l.geometric_error_m * ix.corner_factor);
+        if (!near(n.geometric_error, expected_error))
+            bad(fmt::format("geometricError {} != min_distance_m / focal_px = {}{}", n.geometric_error,
+                            n.min_distance_m / focal,
+                            expected_error > n.min_distance_m / focal
+                                ? fmt::format(" raised to its layers' error * corner_factor = {}", expected_error)
+                                : std::string()));
         if (!near(n.world_texel_m, n.min_distance_m / texel_focal))
             bad(fmt::format("world_texel_m {} != min_distance_m / (focal_px * corner_factor) = {}", n.world_texel_m,
                             n.min_distance_m / texel_focal));
@@ -558,9 +567,10 @@ void checkTree(const std::vector<Node>& nodes, const Index& ix, Defects& d) {
             checkComputedLayer(l, ix, computed_sums, bad);
             bytes += l.geometry_bytes + (l.has_atlas ? l.atlas_bytes : 0);
             layer_uris.insert(l.geometry_uri);
-            if (l.geometric_error_m > 0 && l.geometric_error_m >= n.world_texel_m)
-                bad(fmt::format("{} geometric_error_m {} is not below world_texel_m {}", l.name, l.geometric_error_m,
-                                n.world_texel_m));
+            if (l.geometric_error_m > 0 && l.geometric_error_m >= n.world_texel_m && l.left_out_over_cap == 0)
+                bad(fmt::format("{} geometric_error_m {} is not below world_texel_m {} (and no building left out over "
+                                "the merge's cap)",
+                                l.name, l.geometric_error_m, n.world_texel_m));
         }
         if (bytes != n.bytes) bad(fmt::format("bytes {} != its geometry and atlases ({})", n.bytes, bytes));
         if (n.contents.size() != n.layers.size() || std::set(n.contents.begin(), n.contents.end()) != layer_uris)
@@ -1004,8 +1014,13 @@ InspectResult inspectTileFolder(const fs::path& folder, int threads) {
         return r;
     }
     try {
-        if (!near(number(ts, "geometricError"), 2 * number(member(ts, "root"), "geometricError")))
-            d.push_back("tileset.json: /geometricError: not twice the root's");
+        // Twice the root's, or the root's where its layers' error raised it above that.
+        const double root_error = number(member(ts, "root"), "geometricError");
+        const double root_base =
+            number(member(member(member(ts, "root"), "extras"), "cityatlas"), "min_distance_m") / ix.focal_px;
+        if (!near(number(ts, "geometricError"), std::max(2 * root_base, root_error)))
+            d.push_back("tileset.json: /geometricError: not twice the root's min_distance_m / focal_px (nor the root's "
+                        "where that is more)");
         // The root's transform is local_to_ecef (absent when not georeferenced); no other tile has one.
         const json& to_ecef = member(member(*ca, "georeference"), "local_to_ecef");
         const json& root = member(ts, "root");

@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "tiles/simplify.h"
 #include "tiles/texture_tiles.h"
@@ -130,6 +133,29 @@ constexpr size_t kMergeBytesPerTriangle = 480;
 // ready at once (400,000 buildings at the default d_min: the level-1 merges,
 // ~2 M triangles each: two at once took the merge to 1.54-1.73 GB).
 constexpr size_t kMergeBudgetBytes = size_t{1} << 30;
+// The cap on one merge (node_geometry.h): 2^21 triangles take ~0.96 GB at
+// the estimate above, within the gate's budget.
+constexpr size_t kMergeBudgetsAtMost = 64;
+constexpr size_t kMergeTrianglesAtMost = size_t{1} << 21;
+
+// Whole buildings to leave out of a merge of these children above `cap`
+// triangles, before it is built: smallest first, whatever their size
+// (featuresToLeaveOut without a size limit). A triangle is its first
+// corner's feature's, as in the simplifier; extents over every corner.
+std::unordered_set<uint32_t> featuresOverTheCap(const std::array<std::unique_ptr<NodeGeometry>, 4>& children,
+                                                size_t cap, double* largest_diagonal_m) {
+    std::unordered_map<uint32_t, Box3d> extent;
+    std::unordered_map<uint32_t, size_t> drawn;
+    for (const auto& c : children) {
+        if (!c) continue;
+        const TileMesh& m = c->mesh;
+        for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+            ++drawn[m.feature_id[m.indices[t]]];
+            for (size_t k = 0; k < 3; ++k) extent[m.feature_id[m.indices[t + k]]].extend(m.positions[m.indices[t + k]]);
+        }
+    }
+    return featuresToLeaveOut(extent, drawn, std::numeric_limits<double>::infinity(), cap, largest_diagonal_m);
+}
 
 // Only referenced vertices, in first-reference order.
 TileMesh compactMesh(const TileMesh& in, const std::vector<uint32_t>& indices) {
@@ -210,11 +236,15 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
     return g;
 }
 
+size_t mergeMaxTriangles(size_t budget) {
+    return std::max(budget, std::min(budget * kMergeBudgetsAtMost, kMergeTrianglesAtMost));
+}
+
 size_t mergeEstimateBytes(const std::array<std::unique_ptr<NodeGeometry>, 4>& children, size_t budget) {
     size_t incoming = 0;
     for (const auto& c : children)
         if (c) incoming += c->mesh.indices.size() / 3;
-    return incoming <= budget ? 0 : incoming * kMergeBytesPerTriangle;
+    return incoming <= budget ? 0 : std::min(incoming, mergeMaxTriangles(budget)) * kMergeBytesPerTriangle;
 }
 
 MemoryGate& mergeGate() {
@@ -226,6 +256,14 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
                            std::array<std::unique_ptr<NodeGeometry>, 4> children, size_t budget, double world_texel_m) {
     const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
     NodeGeometry g;
+    size_t incoming = 0;
+    for (const auto& c : children)
+        if (c) incoming += c->mesh.indices.size() / 3;
+    std::unordered_set<uint32_t> left_out;
+    double left_out_diagonal_m = 0;
+    if (incoming > mergeMaxTriangles(budget))
+        left_out = featuresOverTheCap(children, mergeMaxTriangles(budget), &left_out_diagonal_m);
+    g.left_out_over_cap = left_out.size();
     MeshBuilder b(false);
     double child_error = 0;
     size_t merged = 0;
@@ -237,7 +275,6 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
         const atlas::NodeLayer& cl = cn.layers[static_cast<size_t>(layer)];
         g.triangles_source += c->triangles_source;
         child_error = std::max(child_error, c->geometric_error_m);
-        merged += c->mesh.indices.size() / 3;
         // child texel = root * A * 2^(k+1) - offset_c, so the parent's texel is
         // (child texel + offset_c) / 2 - offset_p (atlas/atlas_tree.h).
         auto toParent = [&](const Vec2d& uv) {
@@ -248,6 +285,8 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
         };
         const TileMesh& m = c->mesh;
         for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+            if (!left_out.empty() && left_out.count(m.feature_id[m.indices[t]])) continue;
+            ++merged;
             std::array<Vertex, 3> tri;
             for (size_t k = 0; k < 3; ++k) {
                 tri[k] = vertexOf(m, m.indices[t + k]);
@@ -259,7 +298,8 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
         children[q].reset();
     }
     g.mesh = b.take();
-    g.geometric_error_m = child_error;
+    // A building left out over the cap is missing here: its error is its size.
+    g.geometric_error_m = std::max(child_error, left_out_diagonal_m);
     if (merged <= budget || g.mesh.indices.empty()) return g;
 
     // The mesh's own arrays are lent to the simplifier, not copied (the
@@ -282,7 +322,7 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
         g.simplified = true;
     }
     // A left-out building's error is its size; the drawn ones' add up along the path.
-    g.geometric_error_m = std::max(child_error + r.geometric_error_m, r.left_out_diagonal_m);
+    g.geometric_error_m = std::max({child_error + r.geometric_error_m, r.left_out_diagonal_m, left_out_diagonal_m});
     return g;
 }
 

@@ -24,6 +24,20 @@
 /// as dropped. This is what
 /// keeps the levels above a whole city's shards small (a 100,000-building
 /// root: 32,767 instead of 984,421 triangles).
+///
+/// What a merge holds grows with what it merges (~0.5 kB a triangle while
+/// it is simplified), and where a node's texel is near its buildings' size
+/// (the levels just above the shards at the default d_min) most buildings
+/// are larger than the texel and stay. So a merge takes at most
+/// mergeMaxTriangles(budget) triangles: above that, whole buildings are left
+/// out before the merge is built, smallest first, whatever their size (the
+/// same rule without the texel), until the rest fits. Such a node is drawn
+/// with buildings of a few pixels missing; its error is their largest
+/// diagonal, above its texel, and the tileset says so (the layer's
+/// `left_out_over_cap`, the tile's geometricError raised to cover it), so a
+/// client refines it sooner and the children draw them. Dense cities only:
+/// at the default budget the cap is 2,097,152 triangles (~1 GB to simplify),
+/// and the synthetic towns' largest merge takes ~2.08 M.
 
 #include <array>
 #include <cstdint>
@@ -47,6 +61,9 @@ struct NodeGeometry {
     size_t triangles_source = 0;    ///< tree triangles of the subtree this stands for
     double geometric_error_m = 0;   ///< bound on the distance to the original surface
     bool simplified = false;        ///< this node's own merge was simplified
+    /// Buildings this node's merge left out over its cap (mergeMaxTriangles),
+    /// not for their size; 0 for almost every node.
+    size_t left_out_over_cap = 0;
     bool empty() const { return mesh.indices.empty(); }
 };
 
@@ -66,9 +83,16 @@ NodeGeometry leafGeometry(const Scene& scene, const atlas::AtlasTree& tree, int3
 /// `budget` triangles when larger, at a bound of `world_texel_m` minus the
 /// children's error. uv_original is dropped. The children's geometry is
 /// taken and freed once merged, before the simplification (near the root
-/// they are the build's largest meshes).
+/// they are the build's largest meshes). Children of more than
+/// mergeMaxTriangles(budget) triangles together lose whole buildings,
+/// smallest first, before they are merged (the file comment).
 NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::Layer layer,
                            std::array<std::unique_ptr<NodeGeometry>, 4> children, size_t budget, double world_texel_m);
+/// The most triangles one merge takes: 64 budgets (2,097,152 at the default
+/// 32,768: about 1 GB while simplified, the gate's budget below), never
+/// more than 2,097,152 (a larger --node-triangles keeps the memory bound)
+/// nor less than the budget itself.
+size_t mergeMaxTriangles(size_t budget);
 /// What merging these children (innerGeometry), simplifying and encoding the
 /// result holds at most, bytes; 0 when there is nothing to simplify (at most
 /// `budget` triangles: a small merge).

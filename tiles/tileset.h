@@ -74,7 +74,7 @@ namespace cityatlas::tiles {
 
 /// Bumped whenever the writer's output changes for the same inputs and
 /// parameters, so `cityatlas build` does not take an older folder as up to date.
-inline constexpr int kWriterRevision = 10;  // 10: originals of more than two atlases split into overlapping tiles (9: sub-texel buildings left out before simplifying, features/bounds/<k>.bin (8: position bits no finer than float32 resolves at the node (7: above the node budget, buildings smaller than a texel left out; 6: tileset textures numbered by scene order))
+inline constexpr int kWriterRevision = 11;  // 11: a merge above mergeMaxTriangles leaves whole buildings out first (10: originals of more than two atlases split into overlapping tiles (9: sub-texel buildings left out before simplifying, features/bounds/<k>.bin (8: position bits no finer than float32 resolves at the node (7: above the node budget, buildings smaller than a texel left out; 6: tileset textures numbered by scene order))
 
 struct TilesParams {
     DracoSettings draco;                  ///< position_bits 14 (the minimum), uv_bits 12 by default
@@ -129,10 +129,13 @@ struct TilesStats {
     uint64_t bytes_geometry = 0, bytes_atlases = 0, bytes_textures = 0, bytes_features = 0, bytes_tileset = 0;
     uint64_t triangles_written = 0;        ///< over all geometry files
     uint64_t nodes_simplified = 0;         ///< node layers whose geometry was simplified
+    uint64_t nodes_capped = 0;             ///< node layers whose merge left buildings out over its cap
+    uint64_t buildings_left_out_over_cap = 0;  ///< over those node layers (a building once per node layer)
+    uint64_t merge_triangles_max = 0;      ///< the cap: mergeMaxTriangles(node_triangles)
     double max_position_error_m = 0;       ///< Draco quantization, measured, over all nodes
     int position_bits_min = 0, position_bits_max = 0;  ///< as used over node layers
     double max_geometric_error_m = 0;      ///< simplification, measured, over all nodes
-    double max_geometric_error_fraction = 0;  ///< geometric_error / world_texel, largest over nodes (< 1)
+    double max_geometric_error_fraction = 0;  ///< geometric_error / world_texel, largest over nodes (< 1 but where a merge was capped)
     double max_uv_atlas_error_texels = 0;  ///< quantization of atlas coordinates, in atlas texels
     double max_uv_original_error_texels = 0;  ///< leaves' original coordinates, in texels of their textures
     int uv_original_bits_max = 0;             ///< most bits given to a leaf's original coordinates
@@ -209,6 +212,7 @@ struct LayerRecord {
     double uv_original_error_texels = -1;  // -1: no original uvs (inner nodes)
     int position_bits = 0, uv_original_bits = 0;
     bool simplified = false;
+    size_t left_out_over_cap = 0;  // buildings the merge left out over its cap (node_geometry.h)
     std::string atlas_uri;  // empty: no atlas
     uint64_t atlas_bytes = 0;
     int atlas_mips = 0;

@@ -291,6 +291,7 @@ Status writeNodeFiles(const Scene& scene, const AtlasTree& tree, const fs::path&
             lr.triangles_source = g->triangles_source;
             lr.geometric_error_m = g->geometric_error_m;
             lr.simplified = g->simplified;
+            lr.left_out_over_cap = g->left_out_over_cap;
             lr.position_error_m = glb.max_position_error_m;
             lr.position_bits = draco.position_bits;
             lr.uv_atlas_error_texels = glb.max_uv_atlas_error * std::max(node.layers[static_cast<size_t>(li)].width,
@@ -740,6 +741,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
             le.position_bits = lr.position_bits;
             le.uv_atlas_error_texels = lr.uv_atlas_error_texels;
             le.simplified = lr.simplified;
+            le.left_out_over_cap = lr.left_out_over_cap;
             if (lr.uv_original_error_texels >= 0) {
                 le.uv_original_error_texels = lr.uv_original_error_texels;
                 le.uv_original_bits = lr.uv_original_bits;
@@ -755,6 +757,15 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
             stats.bytes_geometry += lr.geometry_bytes;
             stats.triangles_written += lr.triangles;
             stats.nodes_simplified += lr.simplified ? 1 : 0;
+            stats.nodes_capped += lr.left_out_over_cap > 0 ? 1 : 0;
+            stats.buildings_left_out_over_cap += lr.left_out_over_cap;
+            // A merge capped for memory misses buildings larger than the texel
+            // (node_geometry.h), and its error passes up the path: the tile's
+            // error covers the layer's (in the texel's units, min_distance /
+            // focal = texel * corner factor), so a client refines it where they
+            // would show, and a parent's stays at least its child's. Everywhere
+            // else a layer's error is below the texel: this changes nothing.
+            t.geometric_error = std::max(t.geometric_error, lr.geometric_error_m * ppm / focal);
             stats.max_position_error_m = std::max(stats.max_position_error_m, lr.position_error_m);
             stats.position_bits_min =
                 stats.position_bits_min ? std::min(stats.position_bits_min, lr.position_bits) : lr.position_bits;
@@ -842,6 +853,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     b.originals = params.all_originals ? "all" : "needed";
     b.d_min_chosen_by = tree.stats.d_min_choice.rule;
     b.node_triangles = params.node_triangles;
+    stats.merge_triangles_max = mergeMaxTriangles(params.node_triangles);
     b.geometry_encoder =
         fmt::format("Draco {} (KHR_draco_mesh_compression, speed {})", draco::kDracoVersion, params.draco.speed);
     b.texture_encoder = params.bc_quality == BcQuality::Fast ? "stb_dxt (STB_DXT_HIGHQUAL)" : "libsquish (cluster fit)";
@@ -861,7 +873,7 @@ Status writeTileset(const Scene& scene, const AtlasTree& tree, const fs::path& a
     doc.build.blockmaps = std::string(blockMapModeName(params.blockmaps));
     doc.generator = fmt::format("cityatlas {}", kCityAtlasVersion);
     doc.tileset_version = build_hash;
-    doc.geometric_error = 2.0 * tree.nodes[0].min_distance_m / focal;
+    doc.geometric_error = std::max(2.0 * tree.nodes[0].min_distance_m / focal, doc.tiles[0].geometric_error);
     {
         // Written as it is made: at a million buildings the text is ~300 MB.
         const fs::path path = out_dir / "tileset.json";
