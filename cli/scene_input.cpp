@@ -171,7 +171,7 @@ Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState&
     // With several inputs, every building passes the overlap watch on its way
     // to the caller's sink (one input cannot overlap another: nothing held).
     SceneSink* sink = state.sink;
-    OverlapWatch overlap(*sink);
+    OverlapWatch overlap(*sink, state.options.scratch_dir);
     if (files->size() > 1) state.sink = &overlap;
     for (file_index = 0; file_index < files->size(); ++file_index) {
         const fs::path& f = (*files)[file_index];
@@ -185,8 +185,7 @@ Status readInputs(const SceneInputOptions& opt, Progress& progress, IngestState&
     }
     state.progress = nullptr;
     state.sink = sink;
-    overlap.report(state.diagnostics);
-    return Status::Ok();
+    return overlap.report(state.diagnostics);
 }
 
 std::optional<GeorefSummary> attachGeoreference(IngestState& state, const Box3d& bounds_local, Georeference current,

@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <map>
-#include <unordered_map>
+
+#include "core/external_sort.h"
 
 #include <fmt/format.h>
 
@@ -16,19 +18,21 @@ uint32_t OverlapWatch::addFeature(Feature f) {
     const uint32_t file = files_.empty() ? 0 : static_cast<uint32_t>(files_.size() - 1);
     // Building parts count with their building (the parent was added before them).
     const bool part = f.parent >= 0 && static_cast<size_t>(f.parent) < building_of_.size();
-    const uint32_t building = part ? building_of_[static_cast<size_t>(f.parent)] : static_cast<uint32_t>(buildings_.size());
-    if (!part)
-        buildings_.push_back({.id_hash = std::hash<std::string>{}(f.gml_id), .file = file, .has_id = !f.gml_id.empty()});
+    const uint32_t building =
+        part ? building_of_.get(static_cast<size_t>(f.parent)) : static_cast<uint32_t>(building_count_);
+    if (!part) {
+        buildings_.at(building_count_++) = {
+            .id_hash = std::hash<std::string>{}(f.gml_id), .file = file, .has_id = !f.gml_id.empty()};
+    }
     const uint32_t index = inner_.addFeature(std::move(f));
-    if (building_of_.size() <= index) building_of_.resize(index + 1, 0);
-    building_of_[index] = building;
+    building_of_.at(index) = building;
     return index;
 }
 
 void OverlapWatch::addTriangles(std::vector<Triangle>& triangles) {
     for (const Triangle& t : triangles) {
         if (t.feature >= building_of_.size()) continue;
-        Building& b = buildings_[building_of_[t.feature]];
+        Building& b = buildings_.at(building_of_.get(t.feature));
         for (const Vec3d& p : t.position_local) {
             const auto x = static_cast<float>(p.x), y = static_cast<float>(p.y);
             b.min_x = std::min(b.min_x, x), b.max_x = std::max(b.max_x, x);
@@ -49,52 +53,141 @@ bool OverlapWatch::near(const Building& a, const Building& b) {
     return dx * dx + dy * dy <= kSameIdDistance_m * kSameIdDistance_m;
 }
 
-void OverlapWatch::report(Diagnostics& diagnostics) const {
-    if (files_.size() < 2) return;
-    std::vector<uint64_t> per_file(files_.size(), 0);
-    for (const Building& b : buildings_) per_file[b.file]++;
+namespace {
 
-    // Shared buildings per pair of files (first file, later file).
-    std::map<std::pair<uint32_t, uint32_t>, uint64_t> by_id, by_footprint;
-    // The same gml:id counts where the two lie near each other: numbered ids
-    // ("BLDG_1") repeat across tiles of other places.
-    std::unordered_map<uint64_t, uint32_t> first_with_id;
-    for (uint32_t i = 0; i < buildings_.size(); ++i) {
-        const Building& b = buildings_[i];
-        if (!b.has_id) continue;
-        auto [it, inserted] = first_with_id.emplace(b.id_hash, i);
-        const Building& o = buildings_[it->second];
-        if (!inserted && o.file != b.file && near(o, b)) by_id[{o.file, b.file}]++;
+// A building in the order of its id's hash, with what the comparison needs
+// (so the sorted pass looks nothing up).
+struct ById {
+    uint64_t id_hash = 0;
+    uint32_t index = 0, file = 0;
+    float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+    bool operator<(const ById& o) const { return id_hash != o.id_hash ? id_hash < o.id_hash : index < o.index; }
+};
+
+// A building in the order of its ground plan's cell: rows (y), then columns (x).
+struct ByCell {
+    int64_t row = 0, column = 0;
+    uint32_t index = 0, file = 0;
+    float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+    bool operator<(const ByCell& o) const {
+        return row != o.row ? row < o.row : column != o.column ? column < o.column : index < o.index;
     }
-    // Footprint boxes hashed by their centre on a grid of the tolerance; a
-    // match is in the same or a neighbouring cell with every edge within it.
-    auto cell = [](double v) { return static_cast<int64_t>(std::floor(v / kOverlapTolerance_m)); };
-    std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
-    auto key = [](int64_t x, int64_t y) { return (static_cast<uint64_t>(x) * 0x9E3779B97F4A7C15ull) ^ static_cast<uint64_t>(y); };
-    for (uint32_t i = 0; i < buildings_.size(); ++i) {
-        const Building& b = buildings_[i];
+};
+
+// Footprint boxes by their centre on a grid of the tolerance: two boxes with
+// every edge within it have centres in the same or a neighbouring cell.
+int64_t cellOf(double v) { return static_cast<int64_t>(std::floor(v / kOverlapTolerance_m)); }
+
+}  // namespace
+
+// The same gml:id counts where the two lie near each other (numbered ids,
+// "BLDG_1", repeat across tiles of other places): each building against the
+// first one with its id.
+Status OverlapWatch::sharedById(PairCounts* by_id) {
+    ExternalSorter<ById> sorter(scratch_dir_, sort_bytes_);
+    for (size_t i = 0; i < building_count_; ++i) {
+        const Building b = buildings_.get(i);
+        if (b.has_id)
+            if (Status s = sorter.push({b.id_hash, static_cast<uint32_t>(i), b.file, b.min_x, b.min_y, b.max_x, b.max_y});
+                !s.ok())
+                return s;
+    }
+    Building first;
+    bool any = false;
+    return sorter.forEachSorted([&](const ById& k) {
+        const Building b{.id_hash = k.id_hash, .file = k.file, .has_id = true,
+                         .min_x = k.min_x, .min_y = k.min_y, .max_x = k.max_x, .max_y = k.max_y};
+        if (!any || k.id_hash != first.id_hash) {
+            first = b;
+            any = true;
+            return;
+        }
+        if (first.file != b.file && near(first, b)) (*by_id)[{first.file, b.file}]++;
+    });
+}
+
+// Each building against the earlier ones (lower index) of another file whose
+// box matches within the tolerance, each other file once: the cells in
+// sorted order, a row of cells (1 m) at a time, three rows in memory.
+Status OverlapWatch::sharedByFootprint(PairCounts* by_footprint) {
+    ExternalSorter<ByCell> sorter(scratch_dir_, sort_bytes_);
+    for (size_t i = 0; i < building_count_; ++i) {
+        const Building b = buildings_.get(i);
         if (b.min_x > b.max_x) continue;  // no geometry
-        const int64_t cx = cell((double{b.min_x} + b.max_x) / 2), cy = cell((double{b.min_y} + b.max_y) / 2);
-        std::vector<uint32_t> matched_files;  // each other file once per building
-        for (int64_t dx = -1; dx <= 1; ++dx)
-            for (int64_t dy = -1; dy <= 1; ++dy) {
-                auto it = grid.find(key(cx + dx, cy + dy));
-                if (it == grid.end()) continue;
-                for (uint32_t j : it->second) {
-                    const Building& o = buildings_[j];
-                    if (o.file == b.file ||
+        if (Status s = sorter.push({cellOf((double{b.min_y} + b.max_y) / 2), cellOf((double{b.min_x} + b.max_x) / 2),
+                                    static_cast<uint32_t>(i), b.file, b.min_x, b.min_y, b.max_x, b.max_y});
+            !s.ok())
+            return s;
+    }
+    struct Row {
+        int64_t row = 0;
+        std::vector<ByCell> cells;  // by column, then index
+        bool done = false;
+    };
+    std::deque<Row> rows;  // complete rows, ascending
+    Row building;          // the row being read (its cells come in order)
+    bool started = false;
+    const auto within = [](float u, float v) { return std::abs(double{u} - v) <= kOverlapTolerance_m; };
+    auto processRow = [&](Row& r) {
+        std::vector<uint32_t> matched_files;
+        for (const ByCell& b : r.cells) {
+            matched_files.clear();
+            for (const Row& q : rows) {
+                if (q.row < r.row - 1 || q.row > r.row + 1) continue;
+                auto it = std::lower_bound(q.cells.begin(), q.cells.end(), b.column - 1,
+                                           [](const ByCell& c, int64_t column) { return c.column < column; });
+                for (; it != q.cells.end() && it->column <= b.column + 1; ++it) {
+                    const ByCell& o = *it;
+                    if (o.index >= b.index || o.file == b.file ||
                         std::find(matched_files.begin(), matched_files.end(), o.file) != matched_files.end())
                         continue;
-                    const auto within = [](float u, float v) { return std::abs(double{u} - v) <= kOverlapTolerance_m; };
                     if (within(o.min_x, b.min_x) && within(o.max_x, b.max_x) && within(o.min_y, b.min_y) &&
                         within(o.max_y, b.max_y)) {
-                        by_footprint[{o.file, b.file}]++;
+                        (*by_footprint)[{o.file, b.file}]++;
                         matched_files.push_back(o.file);
                     }
                 }
             }
-        grid[key(cx, cy)].push_back(i);
-    }
+        }
+        r.done = true;
+    };
+    // Once row `next` is being read, the rows below next - 1 have both
+    // neighbours complete: compared, then the ones no row left to compare
+    // needs let go.
+    auto processBelow = [&](int64_t next, bool end) {
+        for (Row& r : rows)
+            if (!r.done && (end || r.row + 1 < next)) processRow(r);
+        while (!rows.empty() && rows.front().done &&
+               (rows.size() < 2 || rows[1].done || rows[1].row > rows.front().row + 1))
+            rows.pop_front();
+    };
+    Status s = sorter.forEachSorted([&](const ByCell& c) {
+        if (started && c.row != building.row) {
+            rows.push_back(std::move(building));
+            building = Row{};
+            processBelow(c.row, false);
+        }
+        started = true;
+        building.row = c.row;
+        building.cells.push_back(c);
+    });
+    if (!s.ok()) return s;
+    if (started) rows.push_back(std::move(building));
+    processBelow(0, true);
+    return Status::Ok();
+}
+
+Status OverlapWatch::report(Diagnostics& diagnostics) {
+    if (files_.size() < 2) return Status::Ok();
+    std::vector<uint64_t> per_file(files_.size(), 0);
+    for (size_t i = 0; i < building_count_; ++i) per_file[buildings_.get(i).file]++;
+
+    // Shared buildings per pair of files (first file, later file).
+    PairCounts by_id, by_footprint;
+    if (Status s = sharedById(&by_id); !s.ok()) return s;
+    if (Status s = sharedByFootprint(&by_footprint); !s.ok()) return s;
+    if (!buildings_.status().ok()) return buildings_.status();
+    if (!building_of_.status().ok()) return building_of_.status();
 
     std::map<std::pair<uint32_t, uint32_t>, std::pair<uint64_t, uint64_t>> pairs;  // (ids, footprints)
     for (const auto& [p, n] : by_id) pairs[p].first = n;
@@ -109,6 +202,7 @@ void OverlapWatch::report(Diagnostics& diagnostics) const {
                                       "they are read twice and drawn twice; pass only one of the two files",
                                       shared, per_file[p.second], files_[p.first], n.first, n.second, kOverlapTolerance_m)});
     }
+    return Status::Ok();
 }
 
 }  // namespace cityatlas
