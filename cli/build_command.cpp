@@ -443,10 +443,15 @@ int finishBuild(const BuildRecord& rec, const TextureTable& textures,
         return fail(progress, s);
     };
     // The texture digests (a million at city scale) as text, not as a DOM.
-    std::vector<uint32_t> listed;  // 4 bytes a texture of the city, at the merge's end
-    forEachFingerprintTexture(textures, texture_digest, [&](size_t t) {
-        if (!isGenerated(textures.path(t), rec.working)) listed.push_back(static_cast<uint32_t>(t));
-    });
+    // Their numbers wait in a column (4 bytes a texture: in memory up to 16
+    // MiB, a scratch file past it, read back in order as the report goes out).
+    PagedColumn<uint32_t> listed(tmp, "the report's textures", TextureTable::defaultMemoryBytes() / 4);
+    forEachFingerprintTexture(
+        textures, texture_digest,
+        [&](size_t t) {
+            if (!isGenerated(textures.path(t), rec.working)) listed.push_back(static_cast<uint32_t>(t));
+        },
+        tmp);
     const size_t count = listed.size() + rec.source_textures.size();
     const auto element = [&](size_t i) {
         if (i >= listed.size()) {
@@ -693,7 +698,7 @@ int runBuild(const BuildCliOptions& opt_in) {
     // The textures' digests wait in a scratch file (16 bytes a texture of
     // the city): read in order for the hash, the plan's table and the report.
     RecordFile<TextureDigest> texture_digests(plan_dir, "the textures' digests");
-    if (Status s = digestTextures(scene.textures, &texture_digests); !s.ok()) return abandon(s);
+    if (Status s = digestTextures(scene.textures, &texture_digests, plan_dir); !s.ok()) return abandon(s);
     const DigestAt digest_in_order = [&](size_t t) { return texture_digests.get(t); };
     const DigestAt digest_alone = [&](size_t t) { return texture_digests.read(t); };  // the shards' keys: by shard
     std::vector<FileDigest> source_textures;

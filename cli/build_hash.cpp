@@ -66,29 +66,34 @@ std::vector<fs::path> withSidecars(const std::vector<fs::path>& inputs) {
     return unique;
 }
 
-Status digestTextures(const TextureTable& textures, RecordFile<TextureDigest>* out) {
-    const std::vector<uint32_t> first = textures.firstOfPath();
-    for (size_t t = 0; t < textures.size(); ++t) {
+Status digestTextures(const TextureTable& textures, RecordFile<TextureDigest>* out,
+                      const std::filesystem::path& scratch_dir) {
+    Status failed;
+    textures.forEachFirstOfPath([&](size_t t, size_t first) {
+        if (!failed.ok()) return;
         TextureDigest d;
-        if (first[t] != t) {
-            d = out->read(first[t]);
+        if (first != t) {
+            d = out->read(first);
         } else {
             uint64_t bytes = 0;
             d.readable = hashFile(textures.path(t), &d.xxh3, &bytes).ok();  // unreadable ones are ingest warnings
             d.bytes = bytes;
         }
-        if (Status s = out->append(d); !s.ok()) return s;
-    }
+        failed = out->append(d);
+    }, scratch_dir);
+    if (!failed.ok()) return failed;
     return out->status();
 }
 
 std::string hexDigest(uint64_t xxh3) { return fmt::format("{:016x}", xxh3); }
 
 void forEachFingerprintTexture(const TextureTable& textures, const DigestAt& digest,
-                               const std::function<void(size_t)>& fn) {
-    const std::vector<uint32_t> first = textures.firstOfPath();
-    for (size_t t = 0; t < textures.size(); ++t)
-        if (first[t] == t && digest(t).readable) fn(t);
+                               const std::function<void(size_t)>& fn, const std::filesystem::path& scratch_dir) {
+    textures.forEachFirstOfPath(
+        [&](size_t t, size_t first) {
+            if (first == t && digest(t).readable) fn(t);
+        },
+        scratch_dir);
 }
 
 namespace {

@@ -49,14 +49,17 @@ static_assert(sizeof(TextureDigest) == 16);
 using DigestAt = std::function<TextureDigest(size_t)>;
 /// Hashes every texture file once (a path that several entries share is read
 /// once) into `out`, by texture (16 bytes each, on disk: the read's and the
-/// plan's share of a city's textures); an error if the file fails.
-Status digestTextures(const TextureTable& textures, RecordFile<TextureDigest>* out);
+/// plan's share of a city's textures); an error if the file fails. Repeated
+/// paths are found by sorting, on disk in `scratch_dir` past 32 MB.
+Status digestTextures(const TextureTable& textures, RecordFile<TextureDigest>* out,
+                      const std::filesystem::path& scratch_dir = {});
 /// The digest as FileDigest::xxh3 writes it (16 hex digits).
 std::string hexDigest(uint64_t xxh3);
 /// The readable textures as the build fingerprint lists them: each path once,
-/// in first use order (`fn(index of its first entry)`).
+/// in first use order (`fn(index of its first entry)`); sorts on disk in
+/// `scratch_dir` past 32 MB (TextureTable::forEachFirstOfPath).
 void forEachFingerprintTexture(const TextureTable& textures, const DigestAt& digest,
-                               const std::function<void(size_t)>& fn);
+                               const std::function<void(size_t)>& fn, const std::filesystem::path& scratch_dir = {});
 /// The build hash: hashStrings of the inputs key and every fingerprint texture
 /// as "path=xxh3" (the path as `path_as` writes it, when given), without
 /// making that list.

@@ -102,48 +102,68 @@ TextureRef TextureTable::ref(size_t i) const {
     return {path(i), t.width_px, t.height_px, t.channels, t.wrap};
 }
 
-std::vector<uint32_t> TextureTable::firstOfPath(const std::filesystem::path& scratch_dir, size_t memory_bytes) const {
+void TextureTable::forEachFirstOfPath(const std::function<void(size_t t, size_t first)>& fn,
+                                      const std::filesystem::path& scratch_dir, size_t memory_bytes) const {
     // (path hash, entry) pairs sorted on disk beyond 32 MB: a hash map of the
     // paths took ~44 bytes a texture (its buckets and nodes), and the sorted
-    // pairs in memory 16: the most a merge held per texture at its end.
+    // pairs in memory 16. The answers come in hash order and go back to
+    // texture order through a second sort, so nothing a texture is held.
     struct Keyed {
         uint64_t hash;
         uint32_t t;
         bool operator<(const Keyed& o) const { return hash != o.hash ? hash < o.hash : t < o.t; }
     };
-    std::vector<uint32_t> first(size());
+    struct Answer {
+        uint32_t t, first;
+        bool operator<(const Answer& o) const { return t < o.t; }
+    };
     // Entries of one hash come in ascending order: each is the first of its
     // path or repeats an earlier one (paths compared whole: exact).
     uint64_t group_hash = 0;
     bool in_group = false;
     std::vector<std::pair<std::string, uint32_t>> seen;  // the group's distinct paths so far, lazily
     uint32_t group_first = 0;
-    const auto visit = [&](const Keyed& k) {
+    const auto firstOf = [&](const Keyed& k) -> uint32_t {
         if (!in_group || k.hash != group_hash) {
             in_group = true, group_hash = k.hash, group_first = k.t;
             seen.clear();
-            first[k.t] = k.t;
-            return;
+            return k.t;
         }
         if (seen.empty()) seen.emplace_back(path(group_first), group_first);  // only a hash that repeats needs paths
         std::string p = path(k.t);
         const auto it = std::find_if(seen.begin(), seen.end(), [&](const auto& s) { return s.first == p; });
-        first[k.t] = it != seen.end() ? it->second : k.t;
-        if (it == seen.end()) seen.emplace_back(std::move(p), k.t);
+        if (it != seen.end()) return it->second;
+        seen.emplace_back(std::move(p), k.t);
+        return k.t;
     };
     const auto keyOf = [&](size_t t) { return Keyed{std::hash<std::string>{}(path(t)), static_cast<uint32_t>(t)}; };
-    ExternalSorter<Keyed> sorter(scratch_dir, memory_bytes);
-    Status sorted;
-    for (size_t t = 0; t < size() && sorted.ok(); ++t) sorted = sorter.push(keyOf(t));
-    if (sorted.ok()) sorted = sorter.forEachSorted(visit);
-    if (sorted.ok()) return first;
-    // No room for the runs (a full disk): the same in memory.
+    size_t done = 0;  // textures handed to fn: 0 .. done - 1
+    {
+        ExternalSorter<Keyed> by_path(scratch_dir, memory_bytes / 2);
+        ExternalSorter<Answer> by_texture(scratch_dir, memory_bytes / 2);
+        Status sorted;
+        for (size_t t = 0; t < size() && sorted.ok(); ++t) sorted = by_path.push(keyOf(t));
+        if (sorted.ok())
+            sorted = by_path.forEachSorted([&](const Keyed& k) {
+                if (sorted.ok()) sorted = by_texture.push({k.t, firstOf(k)});
+            });
+        if (sorted.ok()) {
+            sorted = by_texture.forEachSorted([&](const Answer& a) {
+                fn(a.t, a.first);
+                ++done;
+            });
+            if (sorted.ok()) return;
+        }
+    }
+    // No room for the runs (a full disk), or one that could not be read
+    // back: the same in memory, from the first texture not yet handed over.
     std::vector<Keyed> keyed(size());
     for (size_t t = 0; t < size(); ++t) keyed[t] = keyOf(t);
     std::sort(keyed.begin(), keyed.end());
+    std::vector<uint32_t> first(size());
     in_group = false;
-    for (const Keyed& k : keyed) visit(k);
-    return first;
+    for (const Keyed& k : keyed) first[k.t] = firstOf(k);
+    for (size_t t = done; t < first.size(); ++t) fn(t, first[t]);
 }
 
 size_t TextureTable::bytes() const {

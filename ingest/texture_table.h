@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -85,12 +86,16 @@ public:
     /// std::runtime_error if the file cannot be read back (a failing disk).
     std::string path(size_t i) const;
     TextureRef ref(size_t i) const;
-    /// Per texture, the first texture with the same path (entries differ by
-    /// wrap mode too, so a path can repeat). Sorts on disk beyond
-    /// `memory_bytes`, in `scratch_dir` (empty: the system's temporary
-    /// folder; one that cannot take the file: in memory).
-    std::vector<uint32_t> firstOfPath(const std::filesystem::path& scratch_dir = {},
-                                      size_t memory_bytes = size_t{32} << 20) const;
+    /// Calls fn(t, first) for every texture t in ascending order, `first`
+    /// the first texture with the same path (entries differ by wrap mode
+    /// too, so a path can repeat). Sorts on disk beyond `memory_bytes` (twice:
+    /// by path hash, then back by texture), in `scratch_dir` (empty: the
+    /// system's temporary folder; one that cannot take the file: in memory,
+    /// 8 bytes a texture). Until stop 55 this was a vector filled in hash
+    /// order, 4 bytes a texture of the city in the read and the merge.
+    void forEachFirstOfPath(const std::function<void(size_t t, size_t first)>& fn,
+                            const std::filesystem::path& scratch_dir = {},
+                            size_t memory_bytes = size_t{32} << 20) const;
     /// Replaces texture i (its old path's bytes stay where they were, unused).
     void set(size_t i, const TextureRef& texture);
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The scene's texture table (ingest/texture_table.h): every path and field
 // comes back as added, whatever the folder, across its name chunks and after
-// set(); firstOfPath finds repeated paths exactly; and a city's table costs a
+// set(); forEachFirstOfPath finds repeated paths exactly; and a city's table costs a
 // fraction of what the vector of TextureRefs it replaced did.
 #include "ingest/texture_table.h"
 
@@ -165,11 +165,24 @@ TEST(TextureTable, SetReplacesOneEntryAndKeepsTheOthers) {
     for (size_t i = 0; i < want.size(); ++i) expectSame(table, i, i == 3 ? stylised : want[i]);
 }
 
+// forEachFirstOfPath's answers as a vector, checking they come in texture order.
+std::vector<uint32_t> firstOfPath(const TextureTable& table, const std::filesystem::path& dir = {},
+                                  size_t memory_bytes = size_t{32} << 20) {
+    std::vector<uint32_t> first;
+    table.forEachFirstOfPath(
+        [&](size_t t, size_t f) {
+            EXPECT_EQ(t, first.size()) << "not in texture order";
+            first.push_back(static_cast<uint32_t>(f));
+        },
+        dir, memory_bytes);
+    return first;
+}
+
 TEST(TextureTable, FirstOfPathFindsEachRepeatedPathsFirstEntry) {
     TextureTable table;
     for (const TextureRef& t : samples()) table.push_back(t);
     table.push_back({"/data/other/tex0001.jpg", 64, 64, 3, WrapMode::Mirror});
-    const std::vector<uint32_t> first = table.firstOfPath();
+    const std::vector<uint32_t> first = firstOfPath(table);
     const std::vector<uint32_t> want{0, 1, 2, 3, 4, 5, 0, 7, 8, 9, 7};
     EXPECT_EQ(first, want);
 }
@@ -188,9 +201,9 @@ TEST(TextureTable, FirstOfPathAgreesWithAMapOfPathsOnACity) {
         table.push_back({path, 64, 64, 3, rng() % 2 ? WrapMode::Wrap : WrapMode::Clamp});
         want.push_back(first_seen.emplace(path, t).first->second);
     }
-    EXPECT_EQ(table.firstOfPath(), want);
-    EXPECT_EQ(table.firstOfPath({}, 4096), want) << "sorted on disk, 256 pairs a run";
-    EXPECT_EQ(table.firstOfPath("/nonexistent/folder", 4096), want) << "no room for the runs: in memory";
+    EXPECT_EQ(firstOfPath(table), want);
+    EXPECT_EQ(firstOfPath(table, {}, 4096), want) << "sorted on disk, 128 pairs a run";
+    EXPECT_EQ(firstOfPath(table, "/nonexistent/folder", 4096), want) << "no room for the runs: in memory";
 }
 
 }  // namespace
