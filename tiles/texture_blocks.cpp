@@ -186,7 +186,8 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
     b.split = split;
     b.written = RecordFile<WrittenTexture>(scratch_dir, "the written textures' entries");
     b.node_blocks.resize(tree.nodes.size());
-    b.node_textures.resize(tree.nodes.size());
+    b.node_textures = PagedColumn<int32_t>(scratch_dir, "the leaves' needed originals", TextureBlocks::columnBytes());
+    b.node_texture_first.assign(tree.nodes.size() + 1, 0);
     const uint64_t block_texels = static_cast<uint64_t>(tree.params.atlas_size_px) * tree.params.atlas_size_px;
     uint64_t current_texels = 0;
     int32_t current = -1;
@@ -215,6 +216,7 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
     // a block holds the originals of neighbouring leaves.
     for (size_t ni = 0; ni < tree.nodes.size(); ++ni) {
         const atlas::AtlasNode& node = tree.nodes[ni];
+        b.node_texture_first[ni + 1] = b.node_texture_first[ni];
         if (!node.leaf()) continue;
         std::vector<uint32_t>& mine = b.node_blocks[ni];
         // The tileset textures this leaf needs: the whole texture, or the
@@ -253,8 +255,9 @@ TextureBlocks planTextureBlocks(const Scene& scene, const atlas::AtlasTree& tree
             }
             const auto ub = static_cast<uint32_t>(blk);
             if (std::find(mine.begin(), mine.end(), ub) == mine.end()) mine.push_back(ub);
-            b.node_textures[ni].push_back(ti);
+            b.node_textures.push_back(ti);
         }
+        b.node_texture_first[ni + 1] = b.node_textures.size();
         std::sort(mine.begin(), mine.end());
     }
     return b;
@@ -505,8 +508,8 @@ Status writeTextureBlocks(const Scene& scene, BcQuality quality, const fs::path&
     // for another leaf's texture.
     for (size_t n = 0; n < blocks->node_blocks.size(); ++n) {
         std::vector<uint32_t> kept;
-        for (const int32_t t : blocks->node_textures[n])
-            if (const int32_t blk = blocks->block[static_cast<size_t>(t)]; blk >= 0)
+        for (uint64_t k = blocks->node_texture_first[n]; k < blocks->node_texture_first[n + 1]; ++k)
+            if (const int32_t blk = blocks->block[static_cast<size_t>(blocks->node_textures[k])]; blk >= 0)
                 kept.push_back(static_cast<uint32_t>(blk));
         std::sort(kept.begin(), kept.end());
         kept.erase(std::unique(kept.begin(), kept.end()), kept.end());

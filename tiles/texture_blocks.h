@@ -76,7 +76,13 @@ struct TextureBlocks {
     bool split = false;
     std::vector<uint64_t> block_bytes;        ///< per block; the file is textures/<block>.bin
     std::vector<std::vector<uint32_t>> node_blocks;  ///< per node (leaves only), ascending
-    std::vector<std::vector<int32_t>> node_textures; ///< per node (leaves only): the tileset textures it needs originals of
+    /// The tileset textures each leaf needs originals of, leaf after leaf
+    /// (node n's: node_texture_first[n] .. node_texture_first[n + 1] - 1): a
+    /// column, as they are written and read in node order (4 bytes a needed
+    /// texture, past columnBytes() in a scratch file; until stop 55 a
+    /// vector per node).
+    PagedColumn<int32_t> node_textures{{}, "the leaves' needed originals", columnBytes()};
+    std::vector<uint64_t> node_texture_first;  ///< per node, and one past the last
     uint64_t texels_encoded = 0;              ///< all mip levels
     double encode_seconds = 0;                ///< summed over threads
     RecordFile<WrittenTexture> written;       ///< by tileset number (writeTextureBlocks)
