@@ -450,7 +450,7 @@ tiles::NodeRecord recordFrom(const json& j) {
         l.position_bits = x.at("position_bits");
         l.uv_original_bits = x.at("uv_original_bits");
         l.simplified = x.at("simplified");
-        l.left_out_over_cap = x.at("left_out_over_cap");
+        l.left_out_over_cap = x.value("left_out_over_cap", size_t{0});  // absent before writer revision 11
         l.atlas_uri = x.at("atlas_uri");
         l.atlas_bytes = x.at("atlas_bytes");
         l.atlas_mips = x.at("atlas_mips");
