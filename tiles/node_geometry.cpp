@@ -133,10 +133,17 @@ constexpr size_t kMergeBytesPerTriangle = 480;
 // ready at once (400,000 buildings at the default d_min: the level-1 merges,
 // ~2 M triangles each: two at once took the merge to 1.54-1.73 GB).
 constexpr size_t kMergeBudgetBytes = size_t{1} << 30;
-// The cap on one merge (node_geometry.h): 2^21 triangles take ~0.96 GB at
-// the estimate above, within the gate's budget.
+// The cap on one merge (node_geometry.h): 2^21 triangles take ~1.0 GB
+// (0.94 GiB) at the estimate above, within the gate's budget.
 constexpr size_t kMergeBudgetsAtMost = 64;
 constexpr size_t kMergeTrianglesAtMost = size_t{1} << 21;
+
+size_t incomingTriangles(const std::array<std::unique_ptr<NodeGeometry>, 4>& children) {
+    size_t n = 0;
+    for (const auto& c : children)
+        if (c) n += c->mesh.indices.size() / 3;
+    return n;
+}
 
 // Whole buildings to leave out of a merge of these children above `cap`
 // triangles, before it is built: smallest first, whatever their size
@@ -241,9 +248,7 @@ size_t mergeMaxTriangles(size_t budget) {
 }
 
 size_t mergeEstimateBytes(const std::array<std::unique_ptr<NodeGeometry>, 4>& children, size_t budget) {
-    size_t incoming = 0;
-    for (const auto& c : children)
-        if (c) incoming += c->mesh.indices.size() / 3;
+    const size_t incoming = incomingTriangles(children);
     return incoming <= budget ? 0 : std::min(incoming, mergeMaxTriangles(budget)) * kMergeBytesPerTriangle;
 }
 
@@ -256,12 +261,9 @@ NodeGeometry innerGeometry(const atlas::AtlasTree& tree, int32_t node, atlas::La
                            std::array<std::unique_ptr<NodeGeometry>, 4> children, size_t budget, double world_texel_m) {
     const atlas::AtlasNode& n = tree.nodes[static_cast<size_t>(node)];
     NodeGeometry g;
-    size_t incoming = 0;
-    for (const auto& c : children)
-        if (c) incoming += c->mesh.indices.size() / 3;
     std::unordered_set<uint32_t> left_out;
     double left_out_diagonal_m = 0;
-    if (incoming > mergeMaxTriangles(budget))
+    if (incomingTriangles(children) > mergeMaxTriangles(budget))
         left_out = featuresOverTheCap(children, mergeMaxTriangles(budget), &left_out_diagonal_m);
     g.left_out_over_cap = left_out.size();
     MeshBuilder b(false);
