@@ -505,9 +505,9 @@ int finishBuild(const BuildRecord& rec, const TextureTable& textures,
                                   ts.root_features_dropped.size())
                           .c_str());
     if (ts.nodes_capped > 0)
-        std::printf("  merges capped: %llu node layers left out %llu buildings larger than their texel (a merge takes "
-                    "at most %zu triangles: memory); those tiles' geometricError covers them and their children draw "
-                    "them (README: Memory)\n",
+        std::printf("  merges capped: %llu node layers left out %llu buildings, smallest first (a merge takes at "
+                    "most %zu triangles: memory); their children draw them, and where they are larger than the "
+                    "texel the tiles' geometricError covers them (README: Memory)\n",
                     static_cast<unsigned long long>(ts.nodes_capped),
                     static_cast<unsigned long long>(ts.buildings_left_out_over_cap),
                     static_cast<size_t>(ts.merge_triangles_max));

@@ -31,13 +31,15 @@
 /// are larger than the texel and stay. So a merge takes at most
 /// mergeMaxTriangles(budget) triangles: above that, whole buildings are left
 /// out before the merge is built, smallest first, whatever their size (the
-/// same rule without the texel), until the rest fits. Such a node is drawn
-/// with buildings of a few pixels missing; its error is their largest
-/// diagonal, above its texel, and the tileset says so (the layer's
-/// `left_out_over_cap`, the tile's geometricError raised to cover it), so a
-/// client refines it sooner and the children draw them. Dense cities only:
-/// at the default budget the cap is 2,097,152 triangles (~1 GB to simplify),
-/// and the synthetic towns' largest merge takes ~2.08 M.
+/// same rule without the texel), until the rest fits. Its error covers
+/// their largest diagonal and the tileset says so (the layer's
+/// `left_out_over_cap`). Where that is below the texel (the texel rule
+/// would have left them out anyway: the 400,000-building town's root, the
+/// one merge of these towns over the default cap) nothing shows; where it
+/// is above, the node misses buildings of a few pixels, its tile's
+/// geometricError is raised to cover them, a client refines it sooner and
+/// the children draw them. At the default budget the cap is 2,097,152
+/// triangles (~1 GB to simplify).
 
 #include <array>
 #include <cstdint>
