@@ -43,17 +43,11 @@ void OverlapWatch::addTriangles(std::vector<Triangle>& triangles) {
 }
 
 namespace {
+
 constexpr double kSameIdDistance_m = 50.0;  // centres of two copies of one building, at most
-}
 
-bool OverlapWatch::near(const Building& a, const Building& b) {
-    if (a.min_x > a.max_x || b.min_x > b.max_x) return false;
-    const double dx = (double{a.min_x} + a.max_x - b.min_x - b.max_x) / 2,
-                 dy = (double{a.min_y} + a.max_y - b.min_y - b.max_y) / 2;
-    return dx * dx + dy * dy <= kSameIdDistance_m * kSameIdDistance_m;
-}
-
-namespace {
+// Pairs of files (first file, later file) -> buildings they share.
+using PairCounts = std::map<std::pair<uint32_t, uint32_t>, uint64_t>;
 
 // A building in the order of its id's hash, with what the comparison needs
 // (so the sorted pass looks nothing up).
@@ -63,6 +57,13 @@ struct ById {
     float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
     bool operator<(const ById& o) const { return id_hash != o.id_hash ? id_hash < o.id_hash : index < o.index; }
 };
+
+bool near(const ById& a, const ById& b) {
+    if (a.min_x > a.max_x || b.min_x > b.max_x) return false;  // no geometry
+    const double dx = (double{a.min_x} + a.max_x - b.min_x - b.max_x) / 2,
+                 dy = (double{a.min_y} + a.max_y - b.min_y - b.max_y) / 2;
+    return dx * dx + dy * dy <= kSameIdDistance_m * kSameIdDistance_m;
+}
 
 // A building in the order of its ground plan's cell: rows (y), then columns (x).
 struct ByCell {
@@ -78,26 +79,14 @@ struct ByCell {
 // every edge within it have centres in the same or a neighbouring cell.
 int64_t cellOf(double v) { return static_cast<int64_t>(std::floor(v / kOverlapTolerance_m)); }
 
-}  // namespace
-
 // The same gml:id counts where the two lie near each other (numbered ids,
 // "BLDG_1", repeat across tiles of other places): each building against the
 // first one with its id.
-Status OverlapWatch::sharedById(PairCounts* by_id) {
-    ExternalSorter<ById> sorter(scratch_dir_, sort_bytes_);
-    for (size_t i = 0; i < building_count_; ++i) {
-        const Building b = buildings_.get(i);
-        if (b.has_id)
-            if (Status s = sorter.push({b.id_hash, static_cast<uint32_t>(i), b.file, b.min_x, b.min_y, b.max_x, b.max_y});
-                !s.ok())
-                return s;
-    }
-    Building first;
+Status sharedById(ExternalSorter<ById>& sorter, PairCounts* by_id) {
+    ById first;
     bool any = false;
-    return sorter.forEachSorted([&](const ById& k) {
-        const Building b{.id_hash = k.id_hash, .file = k.file, .has_id = true,
-                         .min_x = k.min_x, .min_y = k.min_y, .max_x = k.max_x, .max_y = k.max_y};
-        if (!any || k.id_hash != first.id_hash) {
+    return sorter.forEachSorted([&](const ById& b) {
+        if (!any || b.id_hash != first.id_hash) {
             first = b;
             any = true;
             return;
@@ -109,16 +98,7 @@ Status OverlapWatch::sharedById(PairCounts* by_id) {
 // Each building against the earlier ones (lower index) of another file whose
 // box matches within the tolerance, each other file once: the cells in
 // sorted order, a row of cells (1 m) at a time, three rows in memory.
-Status OverlapWatch::sharedByFootprint(PairCounts* by_footprint) {
-    ExternalSorter<ByCell> sorter(scratch_dir_, sort_bytes_);
-    for (size_t i = 0; i < building_count_; ++i) {
-        const Building b = buildings_.get(i);
-        if (b.min_x > b.max_x) continue;  // no geometry
-        if (Status s = sorter.push({cellOf((double{b.min_y} + b.max_y) / 2), cellOf((double{b.min_x} + b.max_x) / 2),
-                                    static_cast<uint32_t>(i), b.file, b.min_x, b.min_y, b.max_x, b.max_y});
-            !s.ok())
-            return s;
-    }
+Status sharedByFootprint(ExternalSorter<ByCell>& sorter, PairCounts* by_footprint) {
     struct Row {
         int64_t row = 0;
         std::vector<ByCell> cells;  // by column, then index
@@ -177,15 +157,30 @@ Status OverlapWatch::sharedByFootprint(PairCounts* by_footprint) {
     return Status::Ok();
 }
 
+}  // namespace
+
 Status OverlapWatch::report(Diagnostics& diagnostics) {
     if (files_.size() < 2) return Status::Ok();
+    // One pass over the buildings (in order: the file a block at a time)
+    // counts them per file and feeds both sorts.
     std::vector<uint64_t> per_file(files_.size(), 0);
-    for (size_t i = 0; i < building_count_; ++i) per_file[buildings_.get(i).file]++;
-
-    // Shared buildings per pair of files (first file, later file).
+    ExternalSorter<ById> ids(scratch_dir_, sort_bytes_);
+    ExternalSorter<ByCell> cells(scratch_dir_, sort_bytes_);
+    for (size_t i = 0; i < building_count_; ++i) {
+        const Building b = buildings_.get(i);
+        per_file[b.file]++;
+        const auto index = static_cast<uint32_t>(i);
+        if (b.has_id)
+            if (Status s = ids.push({b.id_hash, index, b.file, b.min_x, b.min_y, b.max_x, b.max_y}); !s.ok()) return s;
+        if (b.min_x > b.max_x) continue;  // no geometry
+        if (Status s = cells.push({cellOf((double{b.min_y} + b.max_y) / 2), cellOf((double{b.min_x} + b.max_x) / 2),
+                                   index, b.file, b.min_x, b.min_y, b.max_x, b.max_y});
+            !s.ok())
+            return s;
+    }
     PairCounts by_id, by_footprint;
-    if (Status s = sharedById(&by_id); !s.ok()) return s;
-    if (Status s = sharedByFootprint(&by_footprint); !s.ok()) return s;
+    if (Status s = sharedById(ids, &by_id); !s.ok()) return s;
+    if (Status s = sharedByFootprint(cells, &by_footprint); !s.ok()) return s;
     if (!buildings_.status().ok()) return buildings_.status();
     if (!building_of_.status().ok()) return building_of_.status();
 

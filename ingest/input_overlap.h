@@ -21,9 +21,7 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <map>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "core/status.h"
@@ -69,11 +67,6 @@ private:
         float min_x = 1e30f, min_y = 1e30f, max_x = -1e30f, max_y = -1e30f;
     };
     static_assert(sizeof(Building) == 32);
-    static bool near(const Building& a, const Building& b);
-    // The two passes of report(): pairs of files -> buildings they share.
-    using PairCounts = std::map<std::pair<uint32_t, uint32_t>, uint64_t>;
-    Status sharedById(PairCounts* by_id);
-    Status sharedByFootprint(PairCounts* by_footprint);
     SceneSink& inner_;
     std::filesystem::path scratch_dir_;
     size_t sort_bytes_;
